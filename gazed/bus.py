@@ -1,0 +1,316 @@
+"""The zenoh bus: sessions from the rig's [bus], typed publish/subscribe, liveliness.
+
+Topology (DESIGN §3): the supervisor opens a router-mode session listening on the rig's loopback
+endpoint; every process and tool connects to it as a client. Multicast and gossip scouting are off
+everywhere, so nothing is announced and nothing listens beyond the configured endpoints.
+
+Subscriptions decode and validate each sample as it arrives (in zenoh's receive thread, so no
+hidden queue builds up behind a slow process) into a bounded deque; frame topics keep only the
+newest frame. A payload that fails validation is dropped and counted, never raised.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import threading
+import time
+from collections import Counter, deque
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any, Generic, TypeVar
+
+import numpy as np
+import zenoh
+from pydantic import ValidationError
+
+from gazed.config import BusSection, Rig
+from gazed.messages import FrameHeader, Message
+from gazed.topics import Topic, alive_key
+
+M = TypeVar("M", bound=Message)
+
+JSON = "application/json"
+OCTETS = "application/octet-stream"
+
+_log_initialised = False
+
+
+class BusError(ConnectionError):
+    """The bus cannot be reached or a session cannot be opened."""
+
+
+def session_config(bus: BusSection, *, router: bool) -> zenoh.Config:
+    """A zenoh config for this rig: the router listens on `bus.listen`; clients connect to
+    `bus.client_endpoints`. Scouting is off; `bus.zenoh_config_path` (auth, TLS, ACL) is the base."""
+    config = (
+        zenoh.Config.from_file(str(bus.zenoh_config_path))
+        if bus.zenoh_config_path
+        else zenoh.Config()
+    )
+    config.insert_json5("mode", json.dumps("router" if router else "client"))
+    config.insert_json5("scouting/multicast/enabled", "false")
+    config.insert_json5("scouting/gossip/enabled", "false")
+    config.insert_json5("listen/endpoints", json.dumps(list(bus.listen) if router else []))
+    config.insert_json5("connect/endpoints", json.dumps([] if router else bus.client_endpoints))
+    config.insert_json5("transport/link/tx/lease", str(bus.lease_ms))
+    config.insert_json5("adminspace/enabled", "false")
+    return config
+
+
+def open_session(bus: BusSection, *, router: bool = False) -> zenoh.Session:
+    """Open a session or raise `BusError` saying which endpoints did not answer."""
+    global _log_initialised
+    if not _log_initialised:
+        zenoh.init_log_from_env_or("error")
+        _log_initialised = True
+    try:
+        return zenoh.open(session_config(bus, router=router))
+    except zenoh.ZError as exc:
+        where = ", ".join(bus.listen if router else bus.client_endpoints)
+        verb = "listen on" if router else "reach the rig's bus at"
+        raise BusError(f"cannot {verb} {where}: {exc}") from exc
+
+
+@dataclass(frozen=True)
+class Frame:
+    """A frame as received: its header (stamps, size, encoding) and pixels."""
+
+    header: FrameHeader
+    pixels: np.ndarray
+
+
+class Stats:
+    """Counters of one process's bus traffic (thread-safe)."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self.counters: Counter[str] = Counter()
+        self.received: Counter[str] = Counter()
+        self.last_malformed: str | None = None
+
+    def count(self, name: str, n: int = 1) -> None:
+        with self._lock:
+            self.counters[name] += n
+
+    def receive(self, suffix: str) -> None:
+        with self._lock:
+            self.received[suffix] += 1
+
+    def snapshot(self) -> tuple[dict[str, int], dict[str, int]]:
+        with self._lock:
+            return dict(self.counters), dict(self.received)
+
+
+class Subscription(Generic[M]):
+    """Messages of one topic, decoded and validated as they arrive.
+
+    `take()` returns everything received since the last call (oldest first, at most `capacity`:
+    older ones are dropped and counted); frame topics keep only the newest.
+    """
+
+    def __init__(self, bus: Bus, topic: Topic, capacity: int) -> None:
+        self.topic = topic
+        self._bus = bus
+        self._items: deque[Any] = deque(maxlen=1 if topic.frames else capacity)
+        self._subscriber = bus.session.declare_subscriber(
+            topic.key(bus.rig.name), zenoh.handlers.Callback(self._on_sample, indirect=False)
+        )
+
+    def _on_sample(self, sample: zenoh.Sample) -> None:
+        if sample.kind != zenoh.SampleKind.PUT:
+            return
+        item = decode_sample(self.topic, sample, self._bus.stats)
+        if item is None:
+            return
+        if len(self._items) == self._items.maxlen:
+            self._bus.stats.count("replaced" if self.topic.frames else "dropped")
+        self._items.append(item)
+        self._bus.stats.receive(self.topic.suffix)
+        self._bus.notify()
+
+    def take(self) -> list[Any]:
+        items = []
+        while self._items:
+            items.append(self._items.popleft())
+        return items
+
+    def latest(self) -> Any | None:
+        """The newest item, discarding older ones; None if nothing arrived since the last call."""
+        items = self.take()
+        return items[-1] if items else None
+
+    def close(self) -> None:
+        self._subscriber.undeclare()
+
+
+def decode_sample(topic: Topic, sample: zenoh.Sample, stats: Stats) -> Any | None:
+    """A sample's payload as its topic's model (or `Frame`); None, counted, if malformed."""
+    try:
+        if topic.frames:
+            return _decode_frame(topic, sample)
+        _check_schema(str(sample.encoding), topic.model)
+        return topic.model.model_validate_json(sample.payload.to_bytes())
+    except (ValidationError, ValueError) as exc:
+        stats.count("malformed")
+        stats.count(f"malformed:{topic.suffix}")
+        stats.last_malformed = f"{topic.suffix}: {str(exc).splitlines()[0]}"
+        return None
+
+
+def _check_schema(encoding: str, model: type[Message]) -> None:
+    _, _, schema = encoding.partition(";")
+    if schema and schema != model.schema_id():
+        raise ValueError(f"schema {schema!r}, expected {model.schema_id()!r}")
+
+
+def _decode_frame(topic: Topic, sample: zenoh.Sample) -> Frame:
+    if sample.attachment is None:
+        raise ValueError("frame without header attachment")
+    header = topic.model.model_validate_json(sample.attachment.to_bytes())
+    assert isinstance(header, FrameHeader)
+    data = sample.payload.to_bytes()
+    if len(data) != header.nbytes:
+        raise ValueError(f"frame has {len(data)} bytes, header says {header.nbytes}")
+    return Frame(header, np.frombuffer(data, dtype=np.uint8).reshape(header.shape))
+
+
+class Publisher(Generic[M]):
+    """Publishes one topic's messages, checking each is of the topic's model."""
+
+    def __init__(self, bus: Bus, topic: Topic) -> None:
+        self.topic = topic
+        encoding = zenoh.Encoding(OCTETS if topic.frames else JSON).with_schema(
+            topic.model.schema_id()
+        )
+        self._publisher = bus.session.declare_publisher(
+            topic.key(bus.rig.name),
+            encoding=encoding,
+            congestion_control=zenoh.CongestionControl.DROP,
+            express=True,
+        )
+
+    def put(self, message: M) -> None:
+        if not isinstance(message, self.topic.model) or self.topic.frames:
+            raise TypeError(
+                f"{self.topic.suffix} carries {self.topic.model.__name__}, not {type(message).__name__}"
+            )
+        self._publisher.put(message.to_json())
+
+    def put_frame(self, header: FrameHeader, pixels: np.ndarray) -> None:
+        if not self.topic.frames:
+            raise TypeError(f"{self.topic.suffix} is not a frame topic")
+        if pixels.dtype != np.uint8 or pixels.shape != header.shape:
+            raise ValueError(
+                f"pixels {pixels.dtype}{pixels.shape} do not match header {header.shape}"
+            )
+        self._publisher.put(np.ascontiguousarray(pixels).tobytes(), attachment=header.to_json())
+
+    def close(self) -> None:
+        self._publisher.undeclare()
+
+
+class Bus:
+    """One process's session on the rig's bus; use as a context manager.
+
+    >>> with Bus(rig, "vision") as bus:
+    ...     detections = bus.publisher(VISION_DETECTION)
+    ...     odometry = bus.subscribe(SERVO_ODOMETRY)
+    ...     bus.declare_alive()
+    """
+
+    def __init__(self, rig: Rig, process: str, *, router: bool = False) -> None:
+        self.rig = rig
+        self.process = process
+        self.router = router
+        self.stats = Stats()
+        self._session: zenoh.Session | None = None
+        self._arrived = threading.Event()
+        self._closables: list[Any] = []
+        self.started_monotonic_s = time.monotonic()
+
+    def __enter__(self) -> Bus:
+        self.open()
+        return self
+
+    def __exit__(self, *_exc: object) -> None:
+        self.close()
+
+    def open(self) -> None:
+        if self._session is None:
+            self._session = open_session(self.rig.bus, router=self.router)
+
+    def close(self) -> None:
+        for item in reversed(self._closables):
+            with contextlib.suppress(zenoh.ZError):
+                item.undeclare() if hasattr(item, "undeclare") else item.close()
+        self._closables.clear()
+        if self._session is not None:
+            self._session.close()
+            self._session = None
+
+    @property
+    def session(self) -> zenoh.Session:
+        if self._session is None:
+            raise BusError("the bus session is not open (use `with Bus(...)`)")
+        return self._session
+
+    def key(self, topic: Topic) -> str:
+        return topic.key(self.rig.name)
+
+    def publisher(self, topic: Topic) -> Publisher[Any]:
+        publisher: Publisher[Any] = Publisher(self, topic)
+        self._closables.append(publisher)
+        return publisher
+
+    def subscribe(self, topic: Topic, *, capacity: int = 256) -> Subscription[Any]:
+        subscription: Subscription[Any] = Subscription(self, topic, capacity)
+        self._closables.append(subscription)
+        return subscription
+
+    def subscribe_raw(self, key_expr: str, callback: Callable[[zenoh.Sample], None]) -> None:
+        """Every sample on a key expression, undecoded (for the bus tools)."""
+        self._closables.append(
+            self.session.declare_subscriber(
+                key_expr, zenoh.handlers.Callback(callback, indirect=False)
+            )
+        )
+
+    def declare_alive(self) -> None:
+        """Declare `gazed/<rig>/alive/<process>`; it vanishes when the session closes or dies."""
+        self._closables.append(
+            self.session.liveliness().declare_token(alive_key(self.rig.name, self.process))
+        )
+
+    def alive(self, timeout_s: float = 1.0) -> set[str]:
+        """Names of the rig's processes whose liveliness tokens are present now."""
+        replies = self.session.liveliness().get(alive_key(self.rig.name), timeout=timeout_s)
+        names = set()
+        for reply in replies:
+            if reply.ok is not None:
+                names.add(str(reply.ok.key_expr).rsplit("/", 1)[-1])
+        return names
+
+    def watch_alive(self, callback: Callable[[str, bool], None]) -> None:
+        """Call `callback(process, alive)` as tokens appear and vanish (present ones first)."""
+
+        def on_sample(sample: zenoh.Sample) -> None:
+            callback(str(sample.key_expr).rsplit("/", 1)[-1], sample.kind == zenoh.SampleKind.PUT)
+            self.notify()
+
+        self._closables.append(
+            self.session.liveliness().declare_subscriber(
+                alive_key(self.rig.name),
+                zenoh.handlers.Callback(on_sample, indirect=False),
+                history=True,
+            )
+        )
+
+    def notify(self) -> None:
+        self._arrived.set()
+
+    def wait(self, timeout_s: float) -> bool:
+        """Block until something arrives on any subscription (or `notify()`), at most `timeout_s`."""
+        arrived = self._arrived.wait(max(0.0, timeout_s))
+        self._arrived.clear()
+        return arrived

@@ -1,0 +1,726 @@
+"""The rig description: one TOML file, one pydantic model per section.
+
+`load_rig(path)` returns a validated, frozen `Rig` or raises `RigError` carrying every problem
+found, each as `FILE: KEY.PATH: what was wrong (expected …)`. Unknown keys are errors with a
+"did you mean" suggestion; TOML syntax errors carry line and column.
+
+Units are in the key names (`_deg`, `_m`, `_ms`, `_hz`); the `Rig` keeps them as written, and
+the properties that end in `_rad` / `_s` give SI values to the code inside.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+import re
+import tomllib
+from pathlib import Path
+from typing import Annotated, Any, Literal, get_args, get_origin
+
+from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError, model_validator
+from pydantic.fields import FieldInfo
+
+__all__ = [
+    "SERVICE_NAMES",
+    "Rig",
+    "RigError",
+    "load_rig",
+    "parse_rig",
+    "sections_read_by",
+]
+
+ENDPOINT_PATTERN = r"^(tcp|udp|tls|quic|ws|unixsock-stream)/.+$"
+
+
+class Section(BaseModel):
+    """Base of every section: unknown keys are errors, values are frozen after loading."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True)
+
+
+class RigSection(Section):
+    name: str = Field(
+        pattern=r"^[A-Za-z0-9_-]+$",
+        description="Rig name; every bus key is gazed/<name>/..., so two rigs can share a bus.",
+    )
+    description: str = Field(
+        "", description="Free text for people: where the rig is, what it watches."
+    )
+
+
+class BusSection(Section):
+    listen: list[Annotated[str, Field(pattern=ENDPOINT_PATTERN)]] = Field(
+        default_factory=lambda: ["tcp/127.0.0.1:7447"],
+        description="zenoh endpoints the supervisor's router listens on. Loopback only by default.",
+    )
+    connect: list[Annotated[str, Field(pattern=ENDPOINT_PATTERN)]] = Field(
+        default_factory=list,
+        description="Endpoints the processes and tools connect to; empty means the listen endpoints.",
+    )
+    router: bool = Field(
+        True,
+        description="The supervisor hosts the zenoh router. False when a router runs elsewhere "
+        "(multi-host rigs); processes then connect to `connect`.",
+    )
+    lease_ms: int = Field(
+        1000,
+        ge=100,
+        le=60000,
+        description="zenoh link lease: a frozen process is declared dead after ~3/4 of it.",
+    )
+    zenoh_config_path: Path | None = Field(
+        None,
+        description="JSON5 zenoh config merged under gazed's settings (user/password, TLS, access "
+        "control) for rigs that span hosts. Relative paths are from the rig file.",
+    )
+
+    @model_validator(mode="after")
+    def _connectable(self) -> BusSection:
+        if not self.router and not self.connect:
+            raise ValueError(
+                "connect: must name the router's endpoint(s) when router = false (expected a list of endpoints)"
+            )
+        return self
+
+    @property
+    def client_endpoints(self) -> list[str]:
+        """Where processes and tools connect: `connect`, or the router's listen endpoints with
+        unspecified addresses replaced by loopback."""
+        if self.connect:
+            return list(self.connect)
+        return [e.replace("0.0.0.0", "127.0.0.1").replace("[::]", "[::1]") for e in self.listen]
+
+
+class CameraSection(Section):
+    source: str = Field(
+        "sim",
+        description="'sim' (frames from the simulator on the bus), a device index such as '0', "
+        "a video file path, or an rtsp:// / http:// URL.",
+    )
+    width_px: int = Field(640, ge=16, le=8192, description="Image width in pixels.")
+    height_px: int = Field(480, ge=16, le=8192, description="Image height in pixels.")
+    rate_hz: float = Field(25.0, gt=0, le=1000, description="Frame rate the camera delivers.")
+    hfov_deg: float | None = Field(
+        60.0,
+        gt=0,
+        lt=180,
+        description="Horizontal field of view; used when fx_px/fy_px are not given.",
+    )
+    fx_px: float | None = Field(
+        None, gt=0, description="Focal length along u in pixels (overrides hfov_deg)."
+    )
+    fy_px: float | None = Field(
+        None, gt=0, description="Focal length along v in pixels (defaults to fx_px)."
+    )
+    cx_px: float | None = Field(
+        None, description="Principal point u in pixels (default: image centre)."
+    )
+    cy_px: float | None = Field(
+        None, description="Principal point v in pixels (default: image centre)."
+    )
+    distortion: list[float] = Field(
+        default_factory=list,
+        max_length=8,
+        description="OpenCV distortion coefficients k1, k2, p1, p2[, k3…]; empty for none.",
+    )
+
+    @model_validator(mode="after")
+    def _focal_length(self) -> CameraSection:
+        if self.fx_px is None and self.hfov_deg is None:
+            raise ValueError("hfov_deg: missing (expected hfov_deg or fx_px, the focal length)")
+        if self.fy_px is not None and self.fx_px is None:
+            raise ValueError("fx_px: missing (expected fx_px whenever fy_px is given)")
+        return self
+
+    @property
+    def frame_period_s(self) -> float:
+        return 1.0 / self.rate_hz
+
+
+class HeadSection(Section):
+    kinematics: Literal["pan-tilt", "tilt-pan"] = Field(
+        "pan-tilt",
+        description="'pan-tilt': pan is the outer axis (most PTUs and PTZ cameras); "
+        "'tilt-pan': tilt is the outer axis (the paper's head).",
+    )
+    pan_sign: Literal[1, -1] = Field(
+        1, description="+1 if the device's pan grows to the right, -1 if to the left."
+    )
+    tilt_sign: Literal[1, -1] = Field(
+        1, description="+1 if the device's tilt grows upwards, -1 if downwards."
+    )
+    pan_zero_deg: float = Field(
+        0.0, ge=-180, le=180, description="Device pan reading when the gaze is at rest."
+    )
+    tilt_zero_deg: float = Field(
+        0.0, ge=-90, le=90, description="Device tilt reading when the gaze is level."
+    )
+    pan_min_deg: float = Field(
+        -170.0, ge=-360, le=360, description="Lowest pan the head may be sent to."
+    )
+    pan_max_deg: float = Field(
+        170.0, ge=-360, le=360, description="Highest pan the head may be sent to."
+    )
+    tilt_min_deg: float = Field(
+        -90.0, ge=-180, le=180, description="Lowest tilt (down) the head may be sent to."
+    )
+    tilt_max_deg: float = Field(
+        30.0, ge=-180, le=180, description="Highest tilt (up) the head may be sent to."
+    )
+    pan_rate_max_deg_s: float = Field(120.0, gt=0, le=3600, description="Pan speed limit.")
+    tilt_rate_max_deg_s: float = Field(90.0, gt=0, le=3600, description="Tilt speed limit.")
+    pan_accel_max_deg_s2: float = Field(600.0, gt=0, le=1e6, description="Pan acceleration limit.")
+    tilt_accel_max_deg_s2: float = Field(
+        600.0, gt=0, le=1e6, description="Tilt acceleration limit."
+    )
+    park_pan_deg: float = Field(0.0, description="Pan the head returns to when parked.")
+    park_tilt_deg: float = Field(0.0, description="Tilt the head returns to when parked.")
+
+    @model_validator(mode="after")
+    def _limits(self) -> HeadSection:
+        if self.pan_min_deg >= self.pan_max_deg:
+            raise ValueError(
+                "pan_max_deg: must be above pan_min_deg (expected pan_min_deg < pan_max_deg)"
+            )
+        if self.tilt_min_deg >= self.tilt_max_deg:
+            raise ValueError(
+                "tilt_max_deg: must be above tilt_min_deg (expected tilt_min_deg < tilt_max_deg)"
+            )
+        if not self.pan_min_deg <= self.park_pan_deg <= self.pan_max_deg:
+            raise ValueError(
+                "park_pan_deg: outside the pan limits (expected pan_min_deg <= park_pan_deg <= pan_max_deg)"
+            )
+        if not self.tilt_min_deg <= self.park_tilt_deg <= self.tilt_max_deg:
+            raise ValueError(
+                "park_tilt_deg: outside the tilt limits (expected tilt_min_deg <= park_tilt_deg <= tilt_max_deg)"
+            )
+        return self
+
+    @property
+    def pan_limits_rad(self) -> tuple[float, float]:
+        return math.radians(self.pan_min_deg), math.radians(self.pan_max_deg)
+
+    @property
+    def tilt_limits_rad(self) -> tuple[float, float]:
+        return math.radians(self.tilt_min_deg), math.radians(self.tilt_max_deg)
+
+    @property
+    def rate_max_rad_s(self) -> tuple[float, float]:
+        return math.radians(self.pan_rate_max_deg_s), math.radians(self.tilt_rate_max_deg_s)
+
+    @property
+    def accel_max_rad_s2(self) -> tuple[float, float]:
+        return math.radians(self.pan_accel_max_deg_s2), math.radians(self.tilt_accel_max_deg_s2)
+
+    @property
+    def park_rad(self) -> tuple[float, float]:
+        return math.radians(self.park_pan_deg), math.radians(self.park_tilt_deg)
+
+
+class ServoLink(Section):
+    """Keys shared by every protocol: the serial link and the servo process's timing."""
+
+    port: str = Field(
+        "/tmp/gazed-sim-head",
+        description="pyserial URL: /dev/ttyUSB0, a pty path, socket://host:port, spy://…, loop://.",
+    )
+    baud: int = Field(9600, gt=0, description="Serial speed in baud.")
+    timeout_ms: float = Field(100.0, gt=0, le=10000, description="How long to wait for a reply.")
+    command_timeout_ms: float = Field(
+        500.0,
+        gt=0,
+        le=60000,
+        description="No fresh demand for this long -> the servo process holds position.",
+    )
+    odometry_rate_hz: float = Field(
+        50.0, gt=0, le=1000, description="How often the head's position is polled."
+    )
+    reconnect_max_s: float = Field(
+        10.0, gt=0, le=600, description="Longest wait between reconnection attempts."
+    )
+
+
+class PelcoDServo(ServoLink):
+    protocol: Literal["pelco-d"] = Field(
+        description="Pelco-D over RS-485 with extended position commands."
+    )
+    address: int = Field(1, ge=1, le=255, description="Receiver address of the camera.")
+    position_feedback: bool = Field(
+        True,
+        description="The unit answers the 0x51/0x53 position queries; otherwise odometry is dead-reckoned.",
+    )
+
+
+class ViscaServo(ServoLink):
+    protocol: Literal["visca"] = Field(description="Sony VISCA over RS-232/422.")
+    address: int = Field(1, ge=1, le=7, description="Camera address on the VISCA chain.")
+    pan_deg_per_unit: float = Field(0.075, gt=0, description="Degrees per VISCA pan position unit.")
+    tilt_deg_per_unit: float = Field(
+        0.075, gt=0, description="Degrees per VISCA tilt position unit."
+    )
+    pan_speed: int = Field(24, ge=1, le=24, description="Pan speed byte of absolute moves (1-24).")
+    tilt_speed: int = Field(
+        20, ge=1, le=20, description="Tilt speed byte of absolute moves (1-20)."
+    )
+
+
+class FlirPtuServo(ServoLink):
+    protocol: Literal["flir-ptu"] = Field(
+        description="FLIR / Directed Perception PTU ASCII protocol."
+    )
+    pan_arcsec_per_position: float = Field(
+        46.2857, gt=0, description="Pan resolution (arc seconds per position)."
+    )
+    tilt_arcsec_per_position: float = Field(
+        46.2857, gt=0, description="Tilt resolution (arc seconds per position)."
+    )
+
+
+class DynamixelServo(ServoLink):
+    protocol: Literal["dynamixel"] = Field(description="Two Dynamixel X servos, protocol 2.0.")
+    pan_id: int = Field(1, ge=0, le=252, description="Dynamixel ID of the pan servo.")
+    tilt_id: int = Field(2, ge=0, le=252, description="Dynamixel ID of the tilt servo.")
+    center: int = Field(2048, ge=0, description="Position value of the joint's zero.")
+    units_per_rev: int = Field(4096, gt=0, description="Position units per revolution.")
+
+    @model_validator(mode="after")
+    def _distinct_ids(self) -> DynamixelServo:
+        if self.pan_id == self.tilt_id:
+            raise ValueError("tilt_id: same as pan_id (expected two distinct servo IDs)")
+        return self
+
+
+ServoSection = Annotated[
+    PelcoDServo | ViscaServo | FlirPtuServo | DynamixelServo, Field(discriminator="protocol")
+]
+SERVO_LINK_KEYS = frozenset(ServoLink.model_fields)
+
+
+class CalibrationSection(Section):
+    homography: list[Annotated[list[float], Field(min_length=3, max_length=3)]] | None = Field(
+        None,
+        min_length=3,
+        max_length=3,
+        description="3x3 matrix M (rows) mapping frontal-plane points to ground XY, M33 = 1; "
+        "written by `gazed calibrate --write`.",
+    )
+    camera_xyz_m: tuple[float, float, float] | None = Field(
+        None,
+        description="Camera rotation centre on the ground plane (X, Y) and its height Z, for height correction.",
+    )
+    target_height_m: float = Field(
+        0.0,
+        ge=0,
+        le=100,
+        description="Height above the ground of the tracked point (a torso: about 1 m).",
+    )
+
+    @model_validator(mode="after")
+    def _homography(self) -> CalibrationSection:
+        if self.homography is not None:
+            values = [v for row in self.homography for v in row]
+            if not all(math.isfinite(v) for v in values):
+                raise ValueError("homography: not finite (expected 3 rows of 3 finite numbers)")
+        if self.target_height_m > 0 and self.camera_xyz_m is None:
+            raise ValueError(
+                "camera_xyz_m: missing (expected [X, Y, Z] when target_height_m > 0, for the height correction)"
+            )
+        return self
+
+
+class VisionSection(Section):
+    detector: Literal["flow", "pyramid", "background"] = Field(
+        "flow",
+        description="'flow' foveal normal flow, 'pyramid' motion-energy pyramid, 'background' subtraction.",
+    )
+    fovea_deg: float = Field(
+        6.0, gt=0, le=90, description="Side of the square foveal window (the paper's ~6°)."
+    )
+    candidates: bool = Field(
+        True, description="Publish whole-frame motion candidates for saccades."
+    )
+
+
+class EstimatorSection(Section):
+    filter: Literal["imm", "innovation", "alphabeta", "image-cv"] = Field(
+        "imm",
+        description="'imm' CSD/CS/CD EKFs on the ground plane; 'innovation' CP/CV/CA selection; "
+        "'alphabeta' adaptive alpha-beta; 'image-cv' constant velocity on gaze angles (2D baseline).",
+    )
+    stay_probability: float = Field(
+        0.96, gt=0, lt=1, description="IMM switching matrix diagonal J_d (the paper's 0.96)."
+    )
+    position_noise_m: float = Field(
+        0.05, gt=0, description="Std of a ground-plane position measurement."
+    )
+    velocity_noise_m_s: float = Field(
+        0.2, gt=0, description="Std of a ground-plane velocity measurement."
+    )
+    gate_probability: float = Field(
+        0.999, gt=0.5, lt=1, description="Chi-square gate: measurements outside it are outliers."
+    )
+    reinit_after_misses: int = Field(
+        5,
+        ge=1,
+        le=1000,
+        description="Re-initialise the filter after this many consecutive gate failures.",
+    )
+    coast_max_ms: float = Field(
+        2000.0,
+        gt=0,
+        description="Predict without measurements for at most this long, then drop the track.",
+    )
+
+
+class GazeSection(Section):
+    control: Literal["pursuit", "look-and-move"] = Field(
+        "pursuit",
+        description="'pursuit': continuous smooth pursuit (dynamic look-and-move); 'look-and-move': "
+        "move, settle, then look (PTZ cameras that cannot image while moving).",
+    )
+    rate_hz: float = Field(
+        50.0, gt=0, le=1000, description="Rate of the gaze controller's demands."
+    )
+    fovea_half_angle_deg: float = Field(
+        3.0,
+        gt=0,
+        le=45,
+        description="Target within this angle of the optical axis counts as foveated.",
+    )
+    settle_ms: float = Field(
+        80.0, ge=0, description="After a saccade, detections are ignored for this long."
+    )
+    lost_after_ms: float = Field(
+        600.0,
+        gt=0,
+        description="No detection for this long in pursuit -> lost (coast on prediction).",
+    )
+    search_after_ms: float = Field(
+        3000.0, gt=0, description="Lost for this long -> back to search."
+    )
+
+
+class SimSection(Section):
+    seed: int = Field(1, ge=0, description="Seed of everything random in the simulated world.")
+    trajectory: str = Field(
+        "oval",
+        description="rounded-square, oval, stop-and-go, figure-eight, random, or file:PATH[#ped_id].",
+    )
+    camera_xyz_m: tuple[float, float, float] = Field(
+        (0.0, -6.0, 4.0), description="True camera rotation centre (X, Y on the ground, Z height)."
+    )
+    camera_yaw_deg: float = Field(
+        90.0,
+        ge=-180,
+        le=180,
+        description="Ground-plane heading of the head's rest gaze, from +X towards +Y.",
+    )
+    visual_latency_ms: float = Field(
+        150.0,
+        ge=0,
+        le=2000,
+        description="Delay between capture and a frame reaching the bus (the paper: 100-200).",
+    )
+
+
+class ServiceSpec(Section):
+    enabled: bool = Field(True, description="Start this process.")
+    module: str | None = Field(
+        None,
+        pattern=r"^[A-Za-z_][A-Za-z0-9_.]*$",
+        description="Python module run as `python -m MODULE --rig RIG` (default services.<name>).",
+    )
+
+
+SERVICE_NAMES = ("sim", "servo", "vision", "estimator", "gaze")
+
+# The rig sections each process reads besides [rig] and [bus]: a SIGHUP that changes one of
+# them restarts that process only. A process not listed here is restarted on any change.
+SECTIONS_READ_BY: dict[str, tuple[str, ...]] = {
+    "sim": ("camera", "head", "servo", "sim", "calibration"),
+    "servo": ("head", "servo"),
+    "vision": ("camera", "head", "vision"),
+    "estimator": ("camera", "head", "calibration", "estimator"),
+    "gaze": ("camera", "head", "calibration", "gaze"),
+}
+
+
+class ServicesSection(Section):
+    sim: ServiceSpec = Field(
+        default_factory=ServiceSpec, description="The simulated world and head emulator."
+    )
+    servo: ServiceSpec = Field(
+        default_factory=ServiceSpec, description="The serial link to the head."
+    )
+    vision: ServiceSpec = Field(
+        default_factory=ServiceSpec, description="Camera source and detector."
+    )
+    estimator: ServiceSpec = Field(
+        default_factory=ServiceSpec, description="Ground-plane filter and prediction."
+    )
+    gaze: ServiceSpec = Field(
+        default_factory=ServiceSpec, description="Saccade/pursuit state machine."
+    )
+    restart_max: int = Field(
+        5,
+        ge=1,
+        le=1000,
+        description="Restarts of one process within restart_window_s before the supervisor gives up.",
+    )
+    restart_window_s: float = Field(60.0, gt=0, description="Window of the restart intensity.")
+    backoff_initial_s: float = Field(
+        0.5, ge=0, le=60, description="First restart delay; doubles on each restart."
+    )
+    backoff_max_s: float = Field(10.0, gt=0, le=600, description="Longest restart delay.")
+    stop_grace_s: float = Field(
+        3.0, gt=0, le=120, description="SIGTERM to SIGKILL grace period on stop."
+    )
+    ready_timeout_s: float = Field(
+        30.0,
+        gt=0,
+        le=600,
+        description="A started process that shows no liveliness within this is restarted.",
+    )
+
+    def spec(self, name: str) -> ServiceSpec:
+        return getattr(self, name)
+
+
+class Rig(Section):
+    rig: RigSection
+    bus: BusSection = Field(default_factory=BusSection)
+    camera: CameraSection = Field(default_factory=CameraSection)
+    head: HeadSection = Field(default_factory=HeadSection)
+    servo: ServoSection = Field(default_factory=lambda: PelcoDServo(protocol="pelco-d"))
+    calibration: CalibrationSection = Field(default_factory=CalibrationSection)
+    vision: VisionSection = Field(default_factory=VisionSection)
+    estimator: EstimatorSection = Field(default_factory=EstimatorSection)
+    gaze: GazeSection = Field(default_factory=GazeSection)
+    sim: SimSection = Field(default_factory=SimSection)
+    services: ServicesSection = Field(default_factory=ServicesSection)
+
+    _source_path: Path | None = PrivateAttr(None)
+
+    @property
+    def source_path(self) -> Path | None:
+        """The file this rig was loaded from (None for a rig built in code)."""
+        return self._source_path
+
+    @property
+    def name(self) -> str:
+        return self.rig.name
+
+    def servo_params(self) -> dict[str, Any]:
+        """The protocol-specific [servo] keys: the keyword arguments of `make_codec`."""
+        return {
+            k: v
+            for k, v in self.servo.model_dump().items()
+            if k not in SERVO_LINK_KEYS and k != "protocol"
+        }
+
+
+def sections_read_by(process: str) -> tuple[str, ...] | None:
+    """Rig sections a process reads (besides rig/bus), or None if unknown (read everything)."""
+    return SECTIONS_READ_BY.get(process)
+
+
+class RigError(Exception):
+    """A rig that cannot be loaded; `problems` holds one `FILE: KEY.PATH: …` line each."""
+
+    def __init__(self, problems: list[str]) -> None:
+        super().__init__("\n".join(problems))
+        self.problems = problems
+
+
+def load_rig(path: str | Path) -> Rig:
+    """Read and validate a rig file; raises `RigError` listing every problem."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise RigError([f"{path}: cannot read: {exc.strerror or exc}"]) from exc
+    except UnicodeDecodeError as exc:
+        raise RigError([f"{path}: not UTF-8 text: {exc}"]) from exc
+    return parse_rig(text, path)
+
+
+def parse_rig(text: str, path: str | Path = "<rig>") -> Rig:
+    """Validate rig TOML text; `path` names the file in errors and anchors relative paths."""
+    path = Path(path)
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise RigError([f"{path}: TOML syntax error: {_syntax_message(exc)}"]) from exc
+    try:
+        rig = Rig.model_validate(data)
+    except ValidationError as exc:
+        raise RigError([f"{path}: {line}" for line in _describe_errors(exc, data)]) from exc
+    zenoh_config = rig.bus.zenoh_config_path
+    if zenoh_config is not None and not zenoh_config.is_absolute():
+        bus = rig.bus.model_copy(update={"zenoh_config_path": path.parent / zenoh_config})
+        rig = rig.model_copy(update={"bus": bus})
+    rig._source_path = path
+    return rig
+
+
+def _syntax_message(exc: tomllib.TOMLDecodeError) -> str:
+    """tomllib says '… (at line 3, column 7)'; keep that and make sure line/column are present."""
+    message = str(exc)
+    if re.search(r"line \d+, column \d+", message):
+        return message
+    lineno = getattr(exc, "lineno", None)
+    colno = getattr(exc, "colno", None)
+    return f"{message} (at line {lineno}, column {colno})"
+
+
+def _describe_errors(exc: ValidationError, data: dict[str, Any]) -> list[str]:
+    lines = []
+    for error in exc.errors(include_url=False):
+        loc = _strip_tags(error["loc"])
+        kind = error["type"]
+        if kind == "value_error":
+            # cross-field checks name their key first: "pan_max_deg: must be above …"
+            message = str(error["msg"]).removeprefix("Value error, ")
+            key, sep, rest = message.partition(": ")
+            if sep and re.fullmatch(r"[a-z_0-9]+", key):
+                loc, message = (*loc, key), rest
+            lines.append(f"{_key_path(loc)}: {message}")
+            continue
+        field = _field_at(loc, data)
+        if kind == "extra_forbidden":
+            parent = _model_at(loc[:-1], data)
+            known = list(parent.model_fields) if parent is not None else []
+            close = difflib.get_close_matches(str(loc[-1]), known, n=1, cutoff=0.6)
+            hint = (
+                f"did you mean '{close[0]}'?" if close else "expected one of: " + ", ".join(known)
+            )
+            lines.append(f"{_key_path(loc)}: unknown key ({hint})")
+        elif kind == "missing":
+            what = "missing item" if isinstance(loc[-1], int) else "missing required key"
+            lines.append(f"{_key_path(loc)}: {what} (expected {_expected(field)})")
+        elif kind in ("union_tag_invalid", "union_tag_not_found"):
+            tags = ", ".join(repr(t) for t in _SERVO_MODELS)
+            got = _value_at(data, (*loc, "protocol"))
+            what = "missing" if kind == "union_tag_not_found" else f"unknown protocol {got!r}"
+            lines.append(f"{_key_path(loc)}.protocol: {what} (expected one of {tags})")
+        else:
+            message = error["msg"][0].lower() + error["msg"][1:]
+            got = error.get("input")
+            lines.append(f"{_key_path(loc)}: {message}, got {got!r} (expected {_expected(field)})")
+    return lines
+
+
+def _key_path(loc: tuple[Any, ...]) -> str:
+    """('calibration', 'homography', 0) -> 'calibration.homography[0]'."""
+    text = ""
+    for part in loc:
+        text += f"[{part}]" if isinstance(part, int) else (f".{part}" if text else str(part))
+    return text or "(top level)"
+
+
+_SERVO_MODELS: dict[str, type[BaseModel]] = {
+    get_args(m.model_fields["protocol"].annotation)[0]: m
+    for m in get_args(get_args(ServoSection)[0])
+}
+
+
+def _strip_tags(loc: tuple[Any, ...]) -> tuple[Any, ...]:
+    """Drop the discriminator tag pydantic inserts into locations (servo.pelco-d.address)."""
+    if len(loc) >= 2 and loc[0] == "servo" and loc[1] in _SERVO_MODELS:
+        return (loc[0], *loc[2:])
+    return loc
+
+
+def _model_at(loc: tuple[Any, ...], data: dict[str, Any]) -> type[BaseModel] | None:
+    """The section model at a location; the servo union is resolved by the file's protocol."""
+    model: Any = Rig
+    for depth, part in enumerate(loc):
+        if isinstance(part, int):
+            continue
+        if not (isinstance(model, type) and issubclass(model, BaseModel)):
+            return None
+        info = model.model_fields.get(str(part))
+        if info is None:
+            return None
+        if model is Rig and part == "servo":
+            protocol = _value_at(data, ("servo", "protocol"))
+            model = _SERVO_MODELS.get(protocol, PelcoDServo) if depth == len(loc) - 1 else None
+            if model is None:
+                return None
+            continue
+        model = _model_of(info.annotation)
+    return model if isinstance(model, type) and issubclass(model, BaseModel) else None
+
+
+def _model_of(annotation: Any) -> Any:
+    if get_origin(annotation) is Annotated:
+        annotation = get_args(annotation)[0]
+    models = [a for a in get_args(annotation) if isinstance(a, type) and issubclass(a, BaseModel)]
+    return models[0] if models else annotation
+
+
+def _field_at(loc: tuple[Any, ...], data: dict[str, Any]) -> FieldInfo | None:
+    names = [p for p in loc if not isinstance(p, int)]
+    if not names:
+        return None
+    parent_loc = loc[: len(loc) - loc[::-1].index(names[-1]) - 1]
+    parent = _model_at(parent_loc, data)
+    return parent.model_fields.get(str(names[-1])) if parent is not None else None
+
+
+def _expected(field: FieldInfo | None) -> str:
+    """A human description of what a field accepts: type, bounds, and its description."""
+    if field is None:
+        return "a valid value"
+    bounds = []
+    for meta in field.metadata:
+        for attr, sign in (("gt", ">"), ("ge", ">="), ("lt", "<"), ("le", "<=")):
+            value = getattr(meta, attr, None)
+            if value is not None:
+                bounds.append(f"{sign} {value}")
+    text = _type_name(field.annotation)
+    if bounds:
+        text += " " + " and ".join(bounds)
+    if field.description:
+        text += f" — {field.description}"
+    return text
+
+
+def _type_name(annotation: Any, plural: bool = False) -> str:
+    origin = get_origin(annotation)
+    if origin is Annotated:
+        return _type_name(get_args(annotation)[0], plural)
+    if origin is Literal:
+        return "one of " + ", ".join(repr(a) for a in get_args(annotation))
+    if origin in (list, tuple):
+        args = [a for a in get_args(annotation) if a is not Ellipsis]
+        count = f"{len(args)} " if origin is tuple else ""
+        inner = _type_name(args[0], plural=True) if args else "values"
+        return ("lists of " if plural else "a list of ") + count + inner
+    args = get_args(annotation)
+    if args:
+        names = [_type_name(a, plural) for a in args if a is not type(None)]
+        suffix = " (or omitted)" if type(None) in args else ""
+        return " or ".join(names) + suffix
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        return "tables" if plural else "a table"
+    names = {
+        bool: "true or false",
+        int: "integer",
+        float: "number",
+        str: "string",
+        Path: "file path",
+    }
+    name = names.get(annotation, getattr(annotation, "__name__", str(annotation)))
+    if annotation is bool:
+        return name
+    return f"{name}s" if plural else f"a{'n' if name[0] in 'aeiou' else ''} {name}"
+
+
+def _value_at(data: Any, loc: tuple[Any, ...]) -> Any:
+    for part in loc:
+        if isinstance(data, dict):
+            data = data.get(part)
+        else:
+            return None
+    return data

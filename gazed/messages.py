@@ -1,0 +1,259 @@
+"""Wire schemas: every message on the bus is one of these pydantic models, sent as JSON with the
+zenoh encoding `application/json;gazed.<Name>/<version>`.
+
+Every message carries `t_capture_ns` (when the light hit the sensor, or the source time of the
+data it derives from; wall clock, integer ns) and `stamps`, a list of `(stage, t_ns)` pairs that
+each process appends as the data passes through it. `gazed latency` reads them.
+
+Angles are radians, positions metres, rates per second. Non-finite numbers are refused at
+validation, so a NaN never crosses the bus.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import ClassVar, Literal, Self
+
+from pydantic import BaseModel, ConfigDict, Field
+
+Stamp = tuple[str, int]
+
+
+class Message(BaseModel):
+    """Base of every wire message."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, frozen=True)
+    SCHEMA: ClassVar[str] = "gazed.Message"
+    VERSION: ClassVar[int] = 1
+
+    t_capture_ns: int = Field(ge=0, description="Source time of the data (wall clock ns).")
+    stamps: tuple[Stamp, ...] = Field(
+        default=(), description="(stage, t_ns) appended at every hop."
+    )
+
+    @classmethod
+    def schema_id(cls) -> str:
+        """`gazed.Detection/1`: the schema part of the zenoh encoding."""
+        return f"{cls.SCHEMA}/{cls.VERSION}"
+
+    def stamped(self, stage: str, t_ns: int | None = None) -> Self:
+        """A copy with `(stage, t_ns)` appended (now if not given)."""
+        t = time.time_ns() if t_ns is None else t_ns
+        return self.model_copy(update={"stamps": (*self.stamps, (stage, t))})
+
+    def to_json(self) -> bytes:
+        return self.model_dump_json().encode()
+
+
+class HeadPose(BaseModel):
+    """Head joint angles and rates at one instant."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, frozen=True)
+    pan_rad: float
+    tilt_rad: float
+    pan_rate_rad_s: float = 0.0
+    tilt_rate_rad_s: float = 0.0
+
+
+class FrameHeader(Message):
+    """Header of a raw frame; travels in the zenoh attachment, pixels in the payload."""
+
+    SCHEMA: ClassVar[str] = "gazed.Frame"
+    seq: int = Field(ge=0)
+    width: int = Field(gt=0, le=16384)
+    height: int = Field(gt=0, le=16384)
+    encoding: Literal["gray8", "bgr8", "rgb8"] = "bgr8"
+
+    @property
+    def channels(self) -> int:
+        return 1 if self.encoding == "gray8" else 3
+
+    @property
+    def nbytes(self) -> int:
+        return self.width * self.height * self.channels
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return (self.height, self.width) if self.channels == 1 else (self.height, self.width, 3)
+
+
+class Detection(Message):
+    """The target as the detector saw it in one frame (pixels, image coordinates: u right, v down)."""
+
+    SCHEMA: ClassVar[str] = "gazed.Detection"
+    seq: int = Field(ge=0, description="Frame sequence number.")
+    detector: str
+    found: bool
+    u_px: float = 0.0
+    v_px: float = 0.0
+    du_px_s: float = 0.0
+    dv_px_s: float = 0.0
+    area_px: float = 0.0
+    confidence: float = Field(0.0, ge=0, le=1)
+    width_px: int = Field(gt=0)
+    height_px: int = Field(gt=0)
+    processing_ms: float = Field(0.0, ge=0)
+    head: HeadPose | None = Field(
+        None, description="Head pose at capture time, None without odometry."
+    )
+
+
+class Candidate(BaseModel):
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, frozen=True)
+    u_px: float
+    v_px: float
+    du_px_s: float = 0.0
+    dv_px_s: float = 0.0
+    area_px: float = Field(ge=0)
+    energy: float = Field(ge=0)
+    score: float
+
+
+class Candidates(Message):
+    """Whole-frame motion regions, ranked, for saccades."""
+
+    SCHEMA: ClassVar[str] = "gazed.Candidates"
+    seq: int = Field(ge=0)
+    width_px: int = Field(gt=0)
+    height_px: int = Field(gt=0)
+    candidates: tuple[Candidate, ...] = ()
+    head: HeadPose | None = None
+
+
+class Odometry(Message):
+    """Head position as read from the device; `t_capture_ns` is when the reply was read."""
+
+    SCHEMA: ClassVar[str] = "gazed.Odometry"
+    pan_rad: float
+    tilt_rad: float
+    pan_rate_rad_s: float = 0.0
+    tilt_rate_rad_s: float = 0.0
+    dead_reckoned: bool = Field(
+        False, description="Computed from commands: the device cannot report position."
+    )
+
+
+class ServoStatus(Message):
+    SCHEMA: ClassVar[str] = "gazed.ServoStatus"
+    protocol: str
+    port: str
+    link: Literal["connected", "connecting", "down"]
+    holding: bool = Field(False, description="No fresh demand: holding position.")
+    errors: int = Field(0, ge=0)
+    clamps: int = Field(0, ge=0, description="Demands clamped to joint or rate limits.")
+    refused: int = Field(0, ge=0, description="Demands refused (non-finite).")
+    reconnects: int = Field(0, ge=0)
+    last_error: str | None = None
+
+
+class GazeDemand(Message):
+    """Where the head should be: position, plus feed-forward rates for pursuit."""
+
+    SCHEMA: ClassVar[str] = "gazed.GazeDemand"
+    kind: Literal["position", "pursuit", "hold", "park"]
+    pan_rad: float
+    tilt_rad: float
+    pan_rate_rad_s: float = 0.0
+    tilt_rate_rad_s: float = 0.0
+
+
+GazeStateName = Literal["park", "search", "saccade", "pursuit", "lost", "trace"]
+
+
+class GazeState(Message):
+    SCHEMA: ClassVar[str] = "gazed.GazeState"
+    state: GazeStateName
+    previous: GazeStateName | None = None
+    reason: str = ""
+
+
+class EstimatorState(Message):
+    SCHEMA: ClassVar[str] = "gazed.EstimatorState"
+    filter: str
+    x: tuple[float, ...] = Field(
+        description="Combined state vector (its layout depends on the filter)."
+    )
+    P: tuple[tuple[float, ...], ...] = Field(description="Its covariance.")
+    model_probabilities: dict[str, float] = Field(default_factory=dict)
+    most_likely: str = ""
+    ground_xy_m: tuple[float, float] | None = None
+    ground_velocity_m_s: tuple[float, float] | None = None
+    coasting: bool = False
+
+
+class Prediction(Message):
+    """Where the target will be when the next demand takes effect."""
+
+    SCHEMA: ClassVar[str] = "gazed.Prediction"
+    filter: str
+    t_effect_ns: int = Field(ge=0, description="The instant the prediction is for.")
+    horizon_s: float
+    pan_rad: float
+    tilt_rad: float
+    pan_rate_rad_s: float
+    tilt_rate_rad_s: float
+    ground_xy_m: tuple[float, float] | None = None
+    ground_velocity_m_s: tuple[float, float] | None = None
+    position_cov_m2: tuple[tuple[float, float], tuple[float, float]] | None = None
+    visual_latency_s: float = Field(ge=0)
+    actuation_latency_s: float = Field(ge=0)
+    coasting: bool = False
+
+
+class ManeuverEvent(Message):
+    """The most likely motion model changed: the motion signature of the segment that ended."""
+
+    SCHEMA: ClassVar[str] = "gazed.ManeuverEvent"
+    model: str
+    previous_model: str
+    t_start_ns: int = Field(ge=0)
+    previous_duration_s: float = Field(ge=0)
+    mean_s_dot_m_s2: float
+    mean_theta_dot_rad_s: float
+
+
+class SimTruth(Message):
+    SCHEMA: ClassVar[str] = "gazed.SimTruth"
+    seq: int = Field(ge=0)
+    target_xy_m: tuple[float, float]
+    target_velocity_m_s: tuple[float, float]
+    target_height_m: float = Field(ge=0)
+    head: HeadPose
+
+
+class Health(Message):
+    """About once a second from every process."""
+
+    SCHEMA: ClassVar[str] = "gazed.Health"
+    process: str
+    pid: int = Field(ge=0)
+    uptime_s: float = Field(ge=0)
+    counters: dict[str, int] = Field(
+        default_factory=dict, description="dropped, malformed, … since start."
+    )
+    rates_hz: dict[str, float] = Field(
+        default_factory=dict, description="Messages per second received by key."
+    )
+    stage_ms: dict[str, float] = Field(
+        default_factory=dict, description="Time spent in this process's stage."
+    )
+    notes: dict[str, str] = Field(default_factory=dict, description="State worth a person's eye.")
+
+
+class ProcessStatus(BaseModel):
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, frozen=True)
+    name: str
+    state: Literal["starting", "running", "backoff", "stopped", "missing", "disabled", "failed"]
+    pid: int | None = None
+    alive: bool = False
+    restarts: int = Field(0, ge=0)
+    last_exit: int | None = None
+    message: str = ""
+
+
+class SupervisorStatus(Message):
+    SCHEMA: ClassVar[str] = "gazed.SupervisorStatus"
+    state: Literal["starting", "running", "reloading", "stopping", "failed"]
+    rig_path: str
+    processes: tuple[ProcessStatus, ...] = ()
+    message: str = ""
