@@ -1,0 +1,1 @@
+"""Geometry: camera model, head kinematics, frontal plane, homography, calibration."""

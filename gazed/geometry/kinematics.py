@@ -1,0 +1,123 @@
+"""Head kinematics: joint angles -> camera orientation -> gaze rays and frontal-plane points.
+
+Conventions (stated once, used everywhere):
+
+- Head base frame: x to the right, y up, z along the rest gaze (pan = tilt = 0).
+- Joint angles are gazed's, not the device's: pan > 0 turns the gaze to the right (towards +x),
+  tilt > 0 raises it (towards +y). `device_from_joint` / `joint_from_device` apply the rig's
+  `[head]` signs and zero offsets at the servo edge; everything on the bus is in joint angles.
+- `pan-tilt` heads have pan as the outer axis: R = Ry(pan) · Rx(-tilt).
+  `tilt-pan` heads have tilt as the outer axis: R = Rx(-tilt) · Ry(pan).
+  R maps directions from the rotated camera's frame (x right, y up, z forward) to the base frame.
+- Frontal plane: z = 1 in the base frame. The gaze meets it at
+  pan-tilt: (tan p, tan t · sec p, 1); tilt-pan: (tan p · sec t, tan t, 1)   (DESIGN §4).
+- A pixel's ray: base = R · diag(1, -1, 1) · K^-1 (u, v, 1) (the camera's y axis points down).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+
+from gazed.config import HeadSection
+
+Kinematics = Literal["pan-tilt", "tilt-pan"]
+
+# OpenCV camera frame (y down) -> gazed camera frame (y up).
+FLIP_Y = np.diag([1.0, -1.0, 1.0])
+
+
+def rot_x(angle_rad: float) -> np.ndarray:
+    c, s = math.cos(angle_rad), math.sin(angle_rad)
+    return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+
+
+def rot_y(angle_rad: float) -> np.ndarray:
+    c, s = math.cos(angle_rad), math.sin(angle_rad)
+    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+
+
+@dataclass(frozen=True)
+class HeadKinematics:
+    """The two-axis head: rotations, frontal-plane mapping and its inverse, with Jacobians."""
+
+    kinematics: Kinematics = "pan-tilt"
+
+    @classmethod
+    def from_section(cls, head: HeadSection) -> HeadKinematics:
+        return cls(head.kinematics)
+
+    def rotation(self, pan_rad: float, tilt_rad: float) -> np.ndarray:
+        """R: camera frame (x right, y up, z forward) -> head base frame."""
+        if self.kinematics == "pan-tilt":
+            return rot_y(pan_rad) @ rot_x(-tilt_rad)
+        return rot_x(-tilt_rad) @ rot_y(pan_rad)
+
+    def camera_to_base(self, pan_rad: float, tilt_rad: float) -> np.ndarray:
+        """Directions in the OpenCV camera frame (y down) -> head base frame."""
+        return self.rotation(pan_rad, tilt_rad) @ FLIP_Y
+
+    def gaze(self, pan_rad: float, tilt_rad: float) -> np.ndarray:
+        """Unit optical-axis direction in the base frame."""
+        return self.rotation(pan_rad, tilt_rad)[:, 2].copy()
+
+    def frontal_from_angles(self, pan_rad: float, tilt_rad: float) -> tuple[float, float]:
+        """Where the optical axis meets the frontal plane z = 1."""
+        if math.cos(pan_rad) <= 0 or math.cos(tilt_rad) <= 0:
+            raise ValueError("gaze does not meet the frontal plane (|pan| or |tilt| >= 90°)")
+        if self.kinematics == "pan-tilt":
+            return math.tan(pan_rad), math.tan(tilt_rad) / math.cos(pan_rad)
+        return math.tan(pan_rad) / math.cos(tilt_rad), math.tan(tilt_rad)
+
+    def angles_from_frontal(self, x: float, y: float) -> tuple[float, float]:
+        """Joint angles that centre the frontal-plane point (x, y) (the inverse of the above)."""
+        if self.kinematics == "pan-tilt":
+            pan = math.atan(x)
+            return pan, math.atan(y / math.sqrt(1.0 + x * x))
+        tilt = math.atan(y)
+        return math.atan(x / math.sqrt(1.0 + y * y)), tilt
+
+    def frontal_jacobian(self, pan_rad: float, tilt_rad: float) -> np.ndarray:
+        """d(x, y)/d(pan, tilt) of `frontal_from_angles`, 2x2."""
+        p, t = pan_rad, tilt_rad
+        sec_p, sec_t = 1.0 / math.cos(p), 1.0 / math.cos(t)
+        if self.kinematics == "pan-tilt":
+            # x = tan p, y = tan t sec p
+            return np.array(
+                [[sec_p**2, 0.0], [math.tan(t) * sec_p * math.tan(p), sec_t**2 * sec_p]]
+            )
+        # x = tan p sec t, y = tan t
+        return np.array([[sec_p**2 * sec_t, math.tan(p) * sec_t * math.tan(t)], [0.0, sec_t**2]])
+
+    def angles_jacobian(self, x: float, y: float) -> np.ndarray:
+        """d(pan, tilt)/d(x, y) of `angles_from_frontal`, 2x2 (angular rates from frontal rates)."""
+        if self.kinematics == "pan-tilt":
+            # pan = atan x, tilt = atan(y / r), r = sqrt(1 + x²)
+            r2 = 1.0 + x * x
+            r = math.sqrt(r2)
+            d = 1.0 / (1.0 + y * y / r2)
+            return np.array([[1.0 / r2, 0.0], [d * (-y * x / (r2 * r)), d / r]])
+        # tilt = atan y, pan = atan(x / r), r = sqrt(1 + y²)
+        r2 = 1.0 + y * y
+        r = math.sqrt(r2)
+        d = 1.0 / (1.0 + x * x / r2)
+        return np.array([[d / r, d * (-x * y / (r2 * r))], [0.0, 1.0 / r2]])
+
+
+def joint_from_device(
+    head: HeadSection, pan_device_rad: float, tilt_device_rad: float
+) -> tuple[float, float]:
+    """Device angles (as the protocol reports them) -> gazed joint angles."""
+    pan = head.pan_sign * (pan_device_rad - math.radians(head.pan_zero_deg))
+    tilt = head.tilt_sign * (tilt_device_rad - math.radians(head.tilt_zero_deg))
+    return pan, tilt
+
+
+def device_from_joint(head: HeadSection, pan_rad: float, tilt_rad: float) -> tuple[float, float]:
+    """gazed joint angles -> device angles (the inverse of `joint_from_device`)."""
+    pan = head.pan_sign * pan_rad + math.radians(head.pan_zero_deg)
+    tilt = head.tilt_sign * tilt_rad + math.radians(head.tilt_zero_deg)
+    return pan, tilt
