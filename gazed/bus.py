@@ -186,7 +186,8 @@ class Publisher(Generic[M]):
         self._publisher = bus.session.declare_publisher(
             topic.key(bus.rig.name),
             encoding=encoding,
-            congestion_control=zenoh.CongestionControl.DROP,
+            # a late frame is worth nothing, a lost demand or detection is worth a lot
+            congestion_control=zenoh.CongestionControl.DROP if topic.frames else zenoh.CongestionControl.BLOCK,
             express=True,
         )
 
@@ -205,6 +206,10 @@ class Publisher(Generic[M]):
                 f"pixels {pixels.dtype}{pixels.shape} do not match header {header.shape}"
             )
         self._publisher.put(np.ascontiguousarray(pixels).tobytes(), attachment=header.to_json())
+
+    def matched(self) -> bool:
+        """True when at least one subscriber matches this key."""
+        return bool(self._publisher.matching_status.matching)
 
     def close(self) -> None:
         self._publisher.undeclare()

@@ -18,6 +18,7 @@ a process whose step fails persistently exits non-zero so the supervisor restart
 from __future__ import annotations
 
 import argparse
+import ctypes
 import logging
 import os
 import signal
@@ -32,9 +33,11 @@ from typing import Protocol
 from gazed.bus import Bus, BusError
 from gazed.config import Rig, RigError, load_rig
 from gazed.messages import Health
+from gazed.supervisor import ENV_SUPERVISOR_PID
 from gazed.topics import health as health_topic
 
 HEALTH_PERIOD_S = 1.0
+PR_SET_PDEATHSIG = 1  # linux/prctl.h
 MAX_CONSECUTIVE_STEP_FAILURES = 50
 
 log = logging.getLogger("gazed.service")
@@ -78,6 +81,7 @@ def parse_args(name: str, argv: list[str] | None = None) -> argparse.Namespace:
 def main(name: str, build: Callable[[Rig, Bus], Service], argv: list[str] | None = None) -> int:
     """Entry point of a process: exit 2 on a bad rig, 1 on a bus or persistent step failure."""
     logging.basicConfig(level=logging.INFO, format=f"%(levelname)s {name}: %(message)s")
+    die_with_supervisor()
     args = parse_args(name, argv)
     try:
         rig = load_rig(args.rig)
@@ -92,6 +96,21 @@ def main(name: str, build: Callable[[Rig, Bus], Service], argv: list[str] | None
     except BusError as exc:
         print(f"{name}: {exc}", file=sys.stderr)
         return 1
+
+
+def die_with_supervisor() -> None:
+    """Under `gazed run`, ask the kernel for SIGTERM when the supervisor dies, so no process
+    outlives it even if it is SIGKILLed; exit at once if it is already gone."""
+    supervisor_pid = os.environ.get(ENV_SUPERVISOR_PID, "")
+    if not supervisor_pid.isdigit():
+        return
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(PR_SET_PDEATHSIG, signal.SIGTERM)
+    except (OSError, AttributeError):
+        log.warning("cannot ask to die with the supervisor (no prctl)")
+    if os.getppid() != int(supervisor_pid):
+        raise SystemExit("the supervisor is gone")
 
 
 def _install_signals(stop: threading.Event, bus: Bus) -> None:

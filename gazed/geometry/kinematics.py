@@ -40,6 +40,23 @@ def rot_y(angle_rad: float) -> np.ndarray:
     return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
 
 
+def rot_z(angle_rad: float) -> np.ndarray:
+    c, s = math.cos(angle_rad), math.sin(angle_rad)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def _rot_x_derivative(angle_rad: float) -> np.ndarray:
+    """d rot_x / d angle."""
+    c, s = math.cos(angle_rad), math.sin(angle_rad)
+    return np.array([[0.0, 0.0, 0.0], [0.0, -s, -c], [0.0, c, -s]])
+
+
+def _rot_y_derivative(angle_rad: float) -> np.ndarray:
+    """d rot_y / d angle."""
+    c, s = math.cos(angle_rad), math.sin(angle_rad)
+    return np.array([[-s, 0.0, c], [0.0, 0.0, 0.0], [-c, 0.0, -s]])
+
+
 @dataclass(frozen=True)
 class HeadKinematics:
     """The two-axis head: rotations, frontal-plane mapping and its inverse, with Jacobians."""
@@ -55,6 +72,18 @@ class HeadKinematics:
         if self.kinematics == "pan-tilt":
             return rot_y(pan_rad) @ rot_x(-tilt_rad)
         return rot_x(-tilt_rad) @ rot_y(pan_rad)
+
+    def rotation_derivatives(self, pan_rad: float, tilt_rad: float) -> tuple[np.ndarray, np.ndarray]:
+        """(dR/dpan, dR/dtilt) of `rotation`, each 3x3."""
+        if self.kinematics == "pan-tilt":
+            return (
+                _rot_y_derivative(pan_rad) @ rot_x(-tilt_rad),
+                -rot_y(pan_rad) @ _rot_x_derivative(-tilt_rad),
+            )
+        return (
+            rot_x(-tilt_rad) @ _rot_y_derivative(pan_rad),
+            -_rot_x_derivative(-tilt_rad) @ rot_y(pan_rad),
+        )
 
     def camera_to_base(self, pan_rad: float, tilt_rad: float) -> np.ndarray:
         """Directions in the OpenCV camera frame (y down) -> head base frame."""
@@ -74,37 +103,42 @@ class HeadKinematics:
 
     def angles_from_frontal(self, x: float, y: float) -> tuple[float, float]:
         """Joint angles that centre the frontal-plane point (x, y) (the inverse of the above)."""
-        if self.kinematics == "pan-tilt":
-            pan = math.atan(x)
-            return pan, math.atan(y / math.sqrt(1.0 + x * x))
-        tilt = math.atan(y)
-        return math.atan(x / math.sqrt(1.0 + y * y)), tilt
-
-    def frontal_jacobian(self, pan_rad: float, tilt_rad: float) -> np.ndarray:
-        """d(x, y)/d(pan, tilt) of `frontal_from_angles`, 2x2."""
-        p, t = pan_rad, tilt_rad
-        sec_p, sec_t = 1.0 / math.cos(p), 1.0 / math.cos(t)
-        if self.kinematics == "pan-tilt":
-            # x = tan p, y = tan t sec p
-            return np.array(
-                [[sec_p**2, 0.0], [math.tan(t) * sec_p * math.tan(p), sec_t**2 * sec_p]]
-            )
-        # x = tan p sec t, y = tan t
-        return np.array([[sec_p**2 * sec_t, math.tan(p) * sec_t * math.tan(t)], [0.0, sec_t**2]])
+        pan, tilt = self.angles_from_direction(np.array([x, y, 1.0]))
+        return float(pan), float(tilt)
 
     def angles_jacobian(self, x: float, y: float) -> np.ndarray:
         """d(pan, tilt)/d(x, y) of `angles_from_frontal`, 2x2 (angular rates from frontal rates)."""
+        return self.direction_angles_jacobian(np.array([x, y, 1.0]))[:, :2]
+
+    def angles_from_direction(self, direction: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Joint angles that point the optical axis along base-frame direction(s) (..., 3).
+
+        Any length and any direction, also behind the frontal plane (z <= 0):
+        pan-tilt: pan = atan2(x, z), tilt = atan2(y, hypot(x, z)), tilt in [-90°, 90°];
+        tilt-pan: tilt = atan2(y, z), pan = atan2(x, hypot(y, z)), pan in [-90°, 90°].
+        For z = 1 these are `angles_from_frontal` (seed 000 §3, inverse of its eq. for x)."""
+        d = np.asarray(direction, dtype=float)
+        x, y, z = d[..., 0], d[..., 1], d[..., 2]
         if self.kinematics == "pan-tilt":
-            # pan = atan x, tilt = atan(y / r), r = sqrt(1 + x²)
-            r2 = 1.0 + x * x
+            return np.arctan2(x, z), np.arctan2(y, np.hypot(x, z))
+        return np.arctan2(x, np.hypot(y, z)), np.arctan2(y, z)
+
+    def direction_angles_jacobian(self, direction: np.ndarray) -> np.ndarray:
+        """d(pan, tilt)/d(direction) of `angles_from_direction` for one direction, 2x3."""
+        x, y, z = (float(c) for c in direction)
+        if self.kinematics == "pan-tilt":
+            # pan = atan2(x, z); tilt = atan2(y, r), r = hypot(x, z)
+            r2 = x * x + z * z
             r = math.sqrt(r2)
-            d = 1.0 / (1.0 + y * y / r2)
-            return np.array([[1.0 / r2, 0.0], [d * (-y * x / (r2 * r)), d / r]])
-        # tilt = atan y, pan = atan(x / r), r = sqrt(1 + y²)
-        r2 = 1.0 + y * y
+            n2 = r2 + y * y
+            return np.array(
+                [[z / r2, 0.0, -x / r2], [-y * x / (r * n2), r / n2, -y * z / (r * n2)]]
+            )
+        # tilt = atan2(y, z); pan = atan2(x, r), r = hypot(y, z)
+        r2 = y * y + z * z
         r = math.sqrt(r2)
-        d = 1.0 / (1.0 + x * x / r2)
-        return np.array([[d / r, d * (-x * y / (r2 * r))], [0.0, 1.0 / r2]])
+        n2 = r2 + x * x
+        return np.array([[r / n2, -x * y / (r * n2), -x * z / (r * n2)], [0.0, z / r2, -y / r2]])
 
 
 def joint_from_device(

@@ -1,0 +1,451 @@
+"""The interface every filter mode shares, and the track bookkeeping they have in common.
+
+A `TrackEstimator` holds N independent tracks (N = 1 for the live process). It takes
+timestamped measurements — a position and optionally a velocity, each with its covariance, on
+the ground plane (metres) or, for `image-cv`, in gaze angles (radians) — and does for every mode:
+
+- validation: a non-finite time, value or covariance, or a covariance that is not positive
+  definite, is rejected and counted (the track coasts to that time if the time is usable);
+- ordering: a measurement not later than the track's state is dropped and counted;
+- initiation: a measurement with velocity starts a track at once; a position alone is held
+  until the next one gives a velocity by differencing (two-point initiation);
+- predict-only steps (`coast`) for missing data, and a track that has coasted longer than
+  `coast_max_s` is dropped;
+- chi-square gating: a measurement outside the gate of every model is an outlier, counted,
+  and the track coasts; after `reinit_after_misses` outliers in a row the track restarts
+  from the latest measurement;
+- maneuver events when the most likely model changes (see `events`).
+
+Subclasses implement the filter: `_initialise`, `_predict`, `_innovate`, `_correct`,
+`_forecast`, `_probabilities` and, with more than one model, `_rates`.
+The single-track calls (`update`, `coast`, `predict`, ...) act on track 0; the batch calls
+(`step`, `forecast`) take one row per track.
+"""
+
+from __future__ import annotations
+
+import math
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+from enum import IntEnum
+from typing import Any, ClassVar, Literal
+
+import numpy as np
+from scipy.stats import chi2
+
+from gazed.estimation.events import ManeuverEvent, ManeuverTracker
+
+Space = Literal["ground", "gaze"]
+
+EMPTY, PENDING, TRACKING = 0, 1, 2
+
+
+class Outcome(IntEnum):
+    """What one step did to one track."""
+
+    IDLE = 0  # nothing to do (no measurement and no track, or a coast into the past)
+    PENDING = 1  # first position held until a second gives a velocity
+    INITIALISED = 2
+    ACCEPTED = 3
+    COASTED = 4  # predict-only step
+    NONFINITE = 5  # measurement rejected: not finite or covariance not positive definite
+    OUT_OF_ORDER = 6  # measurement not later than the track's state: dropped
+    GATED = 7  # outlier: outside the chi-square gate of every model
+    REINITIALISED = 8  # restarted after `reinit_after_misses` outliers in a row
+    DROPPED = 9  # coasted longer than coast_max_s: track forgotten
+
+
+COUNTED = (
+    Outcome.ACCEPTED,
+    Outcome.COASTED,
+    Outcome.NONFINITE,
+    Outcome.OUT_OF_ORDER,
+    Outcome.GATED,
+    Outcome.REINITIALISED,
+    Outcome.DROPPED,
+)
+
+
+@dataclass(frozen=True)
+class Measurement:
+    """One observation of the target at `t_s` (seconds, any consistent clock).
+
+    In the filter's plane: ground modes take metres and m/s, `image-cv` takes (pan, tilt) in
+    radians and rad/s. Covariances are 2x2. Use `ground(...)` or `gaze(...)` to build one.
+    """
+
+    t_s: float
+    position: np.ndarray
+    position_cov: np.ndarray
+    velocity: np.ndarray | None = None
+    velocity_cov: np.ndarray | None = None
+
+    @classmethod
+    def ground(
+        cls,
+        t_s: float,
+        xy_m: Any,
+        xy_cov_m2: Any,
+        velocity_m_s: Any = None,
+        velocity_cov_m2_s2: Any = None,
+    ) -> Measurement:
+        return cls._build(t_s, xy_m, xy_cov_m2, velocity_m_s, velocity_cov_m2_s2)
+
+    @classmethod
+    def gaze(
+        cls,
+        t_s: float,
+        pan_tilt_rad: Any,
+        pan_tilt_cov_rad2: Any,
+        rates_rad_s: Any = None,
+        rates_cov_rad2_s2: Any = None,
+    ) -> Measurement:
+        return cls._build(t_s, pan_tilt_rad, pan_tilt_cov_rad2, rates_rad_s, rates_cov_rad2_s2)
+
+    @classmethod
+    def _build(cls, t_s: float, p: Any, p_cov: Any, v: Any, v_cov: Any) -> Measurement:
+        if (v is None) != (v_cov is None):
+            raise ValueError("a velocity needs its covariance (and a covariance its velocity)")
+        return cls(
+            float(t_s),
+            _array(p, (2,), "position"),
+            _array(p_cov, (2, 2), "position covariance"),
+            None if v is None else _array(v, (2,), "velocity"),
+            None if v_cov is None else _array(v_cov, (2, 2), "velocity covariance"),
+        )
+
+    @property
+    def z(self) -> np.ndarray:
+        """[p, v] or [p]: (4,) or (2,)."""
+        return self.position if self.velocity is None else np.concatenate([self.position, self.velocity])
+
+    @property
+    def R(self) -> np.ndarray:
+        """Block-diagonal covariance of z: (4, 4) or (2, 2)."""
+        if self.velocity_cov is None:
+            return self.position_cov
+        R = np.zeros((4, 4))
+        R[:2, :2] = self.position_cov
+        R[2:, 2:] = self.velocity_cov
+        return R
+
+
+def _array(value: Any, shape: tuple[int, ...], what: str) -> np.ndarray:
+    a = np.asarray(value, dtype=float)
+    if a.shape != shape:
+        raise ValueError(f"{what}: expected shape {shape}, got {a.shape}")
+    return a
+
+
+@dataclass(frozen=True)
+class PredictedState:
+    """Position, velocity and the covariance of [p, v] at `t_s` (one track)."""
+
+    t_s: float
+    position: np.ndarray  # (2,) m (ground) or rad (gaze)
+    velocity: np.ndarray  # (2,) per second
+    covariance: np.ndarray  # (4, 4) over [px, py, vx, vy]
+
+
+@dataclass(frozen=True)
+class Forecast:
+    """`PredictedState` for N tracks; rows of tracks that do not exist are NaN, valid False."""
+
+    t_s: np.ndarray  # (N,)
+    position: np.ndarray  # (N, 2)
+    velocity: np.ndarray  # (N, 2)
+    covariance: np.ndarray  # (N, 4, 4)
+    valid: np.ndarray  # (N,) bool
+
+
+def _select(mask: np.ndarray) -> slice | np.ndarray:
+    """Index of the True rows: a slice when it is all of them (views, no copies)."""
+    return slice(None) if mask.all() else np.flatnonzero(mask)
+
+
+class TrackEstimator(ABC):
+    """N tracks of one filter mode; see the module docstring for what every mode does."""
+
+    filter_name: ClassVar[str]
+    space: ClassVar[Space] = "ground"
+
+    def __init__(
+        self,
+        model_names: tuple[str, ...],
+        n_tracks: int = 1,
+        *,
+        gate_probability: float = 0.999,
+        reinit_after_misses: int = 5,
+        coast_max_s: float = 2.0,
+        initial_speed_std: float = 2.0,
+    ) -> None:
+        if n_tracks < 1:
+            raise ValueError(f"n_tracks must be >= 1, got {n_tracks}")
+        self.model_names = model_names
+        self.n_tracks = n_tracks
+        self.reinit_after_misses = reinit_after_misses
+        self.coast_max_s = coast_max_s
+        self.initial_speed_std = initial_speed_std
+        self._gate = {m: float(chi2.ppf(gate_probability, m)) for m in (2, 4)}
+        self.status = np.zeros(n_tracks, dtype=np.int8)
+        self.t_s = np.full(n_tracks, math.nan)  # time of the filter state
+        self.t_measured_s = np.full(n_tracks, math.nan)  # last accepted measurement
+        self.misses = np.zeros(n_tracks, dtype=np.int64)
+        self._pending_z = np.zeros((n_tracks, 2))
+        self._pending_R = np.zeros((n_tracks, 2, 2))
+        self.counts = np.zeros((n_tracks, len(Outcome)), dtype=np.int64)
+        self._maneuvers = ManeuverTracker(n_tracks, model_names)
+
+    # ----------------------------------------------------------------- single track (track 0)
+
+    def update(self, measurement: Measurement) -> Outcome:
+        """Filter one measurement of track 0."""
+        m = measurement
+        return Outcome(self.step(np.array([m.t_s]), m.z[None], m.R[None])[0])
+
+    def coast(self, t_s: float) -> Outcome:
+        """Predict-only step of track 0 to t_s (a frame without a detection)."""
+        z = np.zeros((1, 2))
+        return Outcome(self.step(np.array([t_s]), z, np.eye(2)[None], np.zeros(1, bool))[0])
+
+    def predict(self, t_s: float) -> PredictedState | None:
+        """Track 0 predicted to t_s (>= its state time), or None if there is no track."""
+        f = self.forecast(np.array([t_s]))
+        if not f.valid[0]:
+            return None
+        return PredictedState(float(t_s), f.position[0], f.velocity[0], f.covariance[0])
+
+    def model_probabilities(self) -> dict[str, float]:
+        """Track 0's probability of each model (one-hot where the mode selects, not weighs)."""
+        return dict(zip(self.model_names, map(float, self.probabilities[0]), strict=True))
+
+    def most_likely(self) -> str:
+        return self.model_names[int(self.most_likely_index[0])]
+
+    def drain_events(self) -> list[ManeuverEvent]:
+        """Maneuver events since the last call (all tracks)."""
+        return self._maneuvers.drain()
+
+    def health(self) -> dict[str, int]:
+        """Counters over all tracks: accepted, coasted, nonfinite, out_of_order, gated, ..."""
+        totals = self.counts.sum(axis=0)
+        return {o.name.lower(): int(totals[o]) for o in COUNTED}
+
+    @property
+    def tracking(self) -> bool:
+        return bool(self.status[0] != EMPTY)
+
+    # --------------------------------------------------------------------------------- batch
+
+    @property
+    def probabilities(self) -> np.ndarray:
+        """(N, M) model probabilities; uniform for tracks that are not running."""
+        p = np.full((self.n_tracks, len(self.model_names)), 1.0 / len(self.model_names))
+        running = self.status == TRACKING
+        if running.any():
+            idx = _select(running)
+            p[idx] = self._probabilities(idx)
+        return p
+
+    @property
+    def most_likely_index(self) -> np.ndarray:
+        return np.argmax(self.probabilities, axis=-1)
+
+    def step(
+        self,
+        t_s: np.ndarray,
+        z: np.ndarray,
+        R: np.ndarray,
+        present: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """One step of every track: a measurement where `present` (default all), else coast.
+
+        t_s (N,); z (N, m) with m = 2 (position) or 4 (position, velocity); R (N, m, m).
+        Returns the `Outcome` of each track (N,) int.
+        """
+        n = self.n_tracks
+        t = np.broadcast_to(np.asarray(t_s, dtype=float), (n,))
+        z = np.asarray(z, dtype=float)
+        R = np.asarray(R, dtype=float)
+        m = z.shape[-1]
+        if z.shape != (n, m) or m not in (2, 4) or R.shape != (n, m, m):
+            raise ValueError(f"expected z (N, 2|4) and R (N, m, m) for N = {n}, got {z.shape}, {R.shape}")
+        present = np.ones(n, bool) if present is None else np.asarray(present, bool)
+        outcome = np.full(n, Outcome.IDLE, dtype=np.int64)
+
+        finite_t = np.isfinite(t)
+        good = present & finite_t & np.isfinite(z).all(axis=-1) & _positive_definite(R)
+        outcome[present & ~good] = Outcome.NONFINITE
+        running = self.status != EMPTY
+        reference_s = np.where(self.status == TRACKING, self.t_s, self.t_measured_s)
+        with np.errstate(invalid="ignore"):
+            late = running & ~(t > reference_s)
+            stale = running & ~late & (t - self.t_measured_s > self.coast_max_s)
+        outcome[good & late] = Outcome.OUT_OF_ORDER
+        good &= ~late
+
+        dropped = stale & ~good & finite_t
+        if dropped.any():
+            outcome[dropped] = Outcome.DROPPED
+            self._forget(np.flatnonzero(dropped))
+        if (stale & good).any():  # a measurement after a long gap starts afresh
+            self.counts[np.flatnonzero(stale & good), Outcome.DROPPED] += 1
+            self._forget(np.flatnonzero(stale & good))
+
+        coasting = (~good) & finite_t & (self.status == TRACKING) & ~late
+        tracked = good & (self.status == TRACKING)
+        moving = coasting | tracked
+        if moving.any():
+            idx = _select(moving)
+            self._predict(idx, t[idx] - self.t_s[idx])
+            self.t_s[idx] = t[idx]
+            outcome[coasting] = Outcome.COASTED
+        if tracked.any():
+            self._filter(np.flatnonzero(tracked), t, z, R, outcome)
+        starting = good & (self.status != TRACKING) & ~tracked
+        if starting.any():
+            self._start(np.flatnonzero(starting), t, z, R, outcome)
+
+        np.add.at(self.counts, (np.arange(n), outcome), 1)
+        stepped = np.isin(outcome, (Outcome.ACCEPTED, Outcome.COASTED, Outcome.GATED, Outcome.INITIALISED, Outcome.REINITIALISED))
+        if stepped.any() and len(self.model_names) > 1:
+            idx = np.flatnonzero(stepped)
+            sel = _select(stepped)
+            s_dot, theta_dot = self._rates(sel)
+            self._maneuvers.observe(idx, t[idx], np.argmax(self._probabilities(sel), axis=-1), s_dot, theta_dot)
+        return outcome
+
+    def forecast(self, t_s: np.ndarray) -> Forecast:
+        """Every track predicted to t_s (N,) without changing it: [p, v] and its covariance.
+
+        A track holding a single position predicts it unmoved, with the initial speed
+        uncertainty. Raises ValueError for a time before a track's state.
+        """
+        n = self.n_tracks
+        t = np.broadcast_to(np.asarray(t_s, dtype=float), (n,))
+        position = np.full((n, 2), math.nan)
+        velocity = np.full((n, 2), math.nan)
+        covariance = np.full((n, 4, 4), math.nan)
+        tracking = self.status == TRACKING
+        if tracking.any():
+            idx = _select(tracking)
+            dt = t[idx] - self.t_s[idx]
+            if np.any(dt < 0) or not np.all(np.isfinite(dt)):
+                raise ValueError("cannot forecast to a time before a track's state (or not finite)")
+            mean, cov = self._forecast(idx, dt)
+            position[idx], velocity[idx], covariance[idx] = mean[:, :2], mean[:, 2:], cov
+        pending = self.status == PENDING
+        if pending.any():
+            position[pending] = self._pending_z[pending]
+            velocity[pending] = 0.0
+            covariance[pending] = 0.0
+            covariance[pending, :2, :2] = self._pending_R[pending]
+            covariance[pending, 2, 2] = covariance[pending, 3, 3] = self.initial_speed_std**2
+        return Forecast(t.copy(), position, velocity, covariance, self.status != EMPTY)
+
+    # ------------------------------------------------------------------------------ internals
+
+    def _forget(self, idx: np.ndarray) -> None:
+        self.status[idx] = EMPTY
+        self.misses[idx] = 0
+        self._maneuvers.reset(idx)
+
+    def _filter(
+        self, idx: np.ndarray, t: np.ndarray, z: np.ndarray, R: np.ndarray, outcome: np.ndarray
+    ) -> None:
+        """Gate and update the tracks idx, already predicted to t."""
+        sel = slice(None) if len(idx) == self.n_tracks else idx
+        statistic, handle = self._innovate(sel, z[idx], R[idx])
+        inside = statistic <= self._gate[z.shape[-1]]
+        if inside.any():
+            self._correct(sel, handle, inside)
+            ok = idx[inside]
+            outcome[ok] = Outcome.ACCEPTED
+            self.misses[ok] = 0
+            self.t_measured_s[ok] = t[ok]
+        outside = idx[~inside]
+        if len(outside):
+            outcome[outside] = Outcome.GATED
+            self.misses[outside] += 1
+            restart = outside[self.misses[outside] >= self.reinit_after_misses]
+            if len(restart):
+                self.counts[restart, Outcome.GATED] += 1
+                self._forget(restart)
+                self._start(restart, t, z, R, outcome)
+                outcome[restart] = Outcome.REINITIALISED
+
+    def _start(
+        self, idx: np.ndarray, t: np.ndarray, z: np.ndarray, R: np.ndarray, outcome: np.ndarray
+    ) -> None:
+        """Initiate the tracks idx from this measurement (and a held one, if any)."""
+        m = z.shape[-1]
+        if m == 4:  # velocity measured: start at once
+            self._begin(idx, t[idx], z[idx], R[idx])
+            outcome[idx] = Outcome.INITIALISED
+            return
+        second = idx[self.status[idx] == PENDING]
+        first = idx[self.status[idx] != PENDING]
+        if len(second):  # two-point initiation: v = (z1 - z0) / dt
+            dt = (t[second] - self.t_measured_s[second])[:, None]
+            z0, R0, z1, R1 = self._pending_z[second], self._pending_R[second], z[second], R[second]
+            zv = np.concatenate([z1, (z1 - z0) / dt], axis=-1)
+            Rv = np.zeros((len(second), 4, 4))
+            Rv[:, :2, :2] = R1
+            Rv[:, :2, 2:] = Rv[:, 2:, :2] = R1 / dt[:, :, None]
+            Rv[:, 2:, 2:] = (R0 + R1) / (dt * dt)[:, :, None]
+            self._begin(second, t[second], zv, Rv)
+            outcome[second] = Outcome.INITIALISED
+        if len(first):
+            self.status[first] = PENDING
+            self.t_measured_s[first] = t[first]
+            self._pending_z[first] = z[first]
+            self._pending_R[first] = R[first]
+            outcome[first] = Outcome.PENDING
+
+    def _begin(self, idx: np.ndarray, t: np.ndarray, zv: np.ndarray, Rv: np.ndarray) -> None:
+        self._maneuvers.reset(idx)
+        self._initialise(idx, zv, Rv)
+        self.status[idx] = TRACKING
+        self.t_s[idx] = t
+        self.t_measured_s[idx] = t
+        self.misses[idx] = 0
+
+    # ------------------------------------------------------------------------ the filter part
+
+    @abstractmethod
+    def _initialise(self, idx: np.ndarray, zv: np.ndarray, Rv: np.ndarray) -> None:
+        """Start the tracks idx from position and velocity zv (K, 4) with covariance Rv."""
+
+    @abstractmethod
+    def _predict(self, idx: slice | np.ndarray, dt: np.ndarray) -> None:
+        """Predict-only step of the tracks idx over dt (K,) > 0, in place."""
+
+    @abstractmethod
+    def _innovate(
+        self, idx: slice | np.ndarray, z: np.ndarray, R: np.ndarray
+    ) -> tuple[np.ndarray, Any]:
+        """Gate statistic (K,) (the smallest NIS over models) and what `_correct` needs."""
+
+    @abstractmethod
+    def _correct(self, idx: slice | np.ndarray, handle: Any, inside: np.ndarray) -> None:
+        """Update the tracks idx[inside] with the innovations computed by `_innovate`."""
+
+    @abstractmethod
+    def _forecast(self, idx: slice | np.ndarray, dt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Mean [p, v] (K, 4) and covariance (K, 4, 4) of the tracks idx, dt (K,) >= 0 ahead."""
+
+    @abstractmethod
+    def _probabilities(self, idx: slice | np.ndarray) -> np.ndarray:
+        """(K, M) model probabilities of running tracks."""
+
+    def _rates(self, idx: slice | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """ṡ (m/s²) and θ̇ (rad/s) of the tracks idx, for the maneuver events."""
+        raise NotImplementedError(f"{type(self).__name__} has one model and no maneuver events")
+
+
+def _positive_definite(R: np.ndarray) -> np.ndarray:
+    """(N,) True where R is finite, symmetric and positive definite."""
+    finite = np.isfinite(R).all(axis=(-1, -2))
+    Rf = np.where(finite[:, None, None], R, np.eye(R.shape[-1]))
+    symmetric = np.all(np.abs(Rf - Rf.mT) <= 1e-9 * (1.0 + np.abs(Rf)), axis=(-1, -2))
+    return finite & symmetric & (np.linalg.eigvalsh(Rf)[:, 0] > 0)

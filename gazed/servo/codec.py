@@ -1,0 +1,166 @@
+"""The interface every protocol codec implements: pure bytes in and out, no I/O.
+
+A codec turns head commands into the frames the device understands (`encode_*`, angles in
+device radians, see `gazed.geometry.kinematics.device_from_joint`) and turns whatever bytes come
+back, in any chunking, into typed `Reply`s (`feed`). It keeps only what the protocol makes it
+keep: a receive buffer, and for protocols whose replies do not say what they answer (PTU lines,
+Dynamixel status packets) the queue of requests sent and not yet answered.
+
+Request/reply matching (DESIGN §8): `replies_expected(frame)` says how many synchronous replies
+a frame sent elicits; replies marked `asynchronous` (VISCA completions, PTU limit notices) are
+not counted. The driver sends a frame, waits for that many replies, then sends the next one, so
+a half-duplex bus (RS-485, Dynamixel TTL) never has two talkers.
+"""
+
+from __future__ import annotations
+
+import math
+from abc import ABC, abstractmethod
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import ClassVar, Literal
+
+ReplyKind = Literal["position", "ack", "completion", "error", "limit", "ok"]
+
+# A receive buffer that grows past this without yielding a frame is garbage: it is dropped.
+MAX_BUFFER_BYTES = 4096
+
+
+class CodecError(ValueError):
+    """A command the protocol cannot express (a value out of its range, a missing handshake)."""
+
+
+class HandshakeError(ConnectionError):
+    """The device did not answer the start-up handshake as the protocol says it must."""
+
+
+@dataclass(frozen=True)
+class Reply:
+    """One decoded reply from the device.
+
+    `pan_rad` / `tilt_rad` are device angles, None where the reply carries only one axis (or
+    none). `reason` is the device's own words for errors and notices; `value` a number the reply
+    carries that is not an angle (a PTU resolution, a Dynamixel register); `socket` the VISCA
+    command socket; `device_id` the Dynamixel ID. `asynchronous` replies (completions, limit
+    notices) do not answer the request in flight.
+    """
+
+    kind: ReplyKind
+    pan_rad: float | None = None
+    tilt_rad: float | None = None
+    reason: str | None = None
+    value: float | None = None
+    socket: int | None = None
+    device_id: int | None = None
+    asynchronous: bool = False
+    raw: bytes = b""
+
+    def describe(self) -> str:
+        """One line for people (`gazed servo jog`): kind, angles in degrees, the device's words."""
+        parts = [self.kind]
+        if self.pan_rad is not None:
+            parts.append(f"pan {math.degrees(self.pan_rad):.3f} deg")
+        if self.tilt_rad is not None:
+            parts.append(f"tilt {math.degrees(self.tilt_rad):.3f} deg")
+        if self.value is not None:
+            parts.append(f"value {self.value:g}")
+        if self.socket is not None:
+            parts.append(f"socket {self.socket}")
+        if self.device_id is not None:
+            parts.append(f"id {self.device_id}")
+        if self.reason:
+            parts.append(f"({self.reason})")
+        if self.asynchronous:
+            parts.append("[async]")
+        return " ".join(parts)
+
+
+Exchange = Callable[[bytes], list[Reply]]
+"""Send one frame and return its synchronous replies (raises on timeout): the driver's half of a
+handshake."""
+
+
+def nearest(x: float) -> int:
+    """Round half away from zero: device units are rounded, never truncated (PROTOCOLS §1)."""
+    return int(math.copysign(math.floor(abs(x) + 0.5), x))
+
+
+class Codec(ABC):
+    """One protocol. Subclasses define the frame layout and the tables; see each module."""
+
+    protocol: ClassVar[str]
+    pan_wraps: ClassVar[bool] = False
+    """True when the protocol's pan is a circle (Pelco-D 0..35999): readings are taken modulo 2π."""
+
+    def __init__(self) -> None:
+        self._buffer = bytearray()
+        self.discarded_bytes = 0
+        self.bad_frames = 0
+
+    # --- commands -------------------------------------------------------------------------
+
+    @abstractmethod
+    def encode_set_position(self, pan_rad: float, tilt_rad: float) -> list[bytes]:
+        """Frames that send both axes to absolute device angles."""
+
+    @abstractmethod
+    def encode_set_velocity(self, pan_rad_s: float, tilt_rad_s: float) -> list[bytes]:
+        """Frames that drive both axes continuously at signed device rates."""
+
+    @abstractmethod
+    def encode_stop(self) -> list[bytes]:
+        """Frames that stop both axes where they are."""
+
+    @abstractmethod
+    def encode_query_position(self) -> list[bytes]:
+        """Frames that ask for both axes' present positions."""
+
+    def replies_expected(self, frame_bytes: bytes) -> int:
+        """Synchronous replies the device sends to one of this codec's frames."""
+        del frame_bytes
+        return 0
+
+    def handshake(self, exchange: Exchange) -> None:
+        """Bring the device into the state the codec assumes; `exchange` does the I/O. Raises
+        `HandshakeError`. Protocols without a handshake do nothing."""
+        del exchange
+
+    @property
+    def can_report_position(self) -> bool:
+        return True
+
+    @property
+    def stop_needs_position(self) -> bool:
+        """True when `encode_stop` needs a present position decoded first (Dynamixel)."""
+        return False
+
+    @property
+    @abstractmethod
+    def resolution_rad(self) -> tuple[float, float]:
+        """One device unit of pan and tilt position, radians."""
+
+    # --- replies --------------------------------------------------------------------------
+
+    def feed(self, data: bytes) -> list[Reply]:
+        """Decode replies from bytes in any chunking. Garbage is skipped and counted
+        (`discarded_bytes`), frames failing their checksum or layout counted (`bad_frames`);
+        this never raises."""
+        self._buffer += data
+        replies = self._parse()
+        if len(self._buffer) > MAX_BUFFER_BYTES:
+            self.discarded_bytes += len(self._buffer)
+            self._buffer.clear()
+        return replies
+
+    @abstractmethod
+    def _parse(self) -> list[Reply]:
+        """Consume complete frames from `self._buffer`, leaving an incomplete tail."""
+
+    def reset(self) -> None:
+        """Forget buffered bytes and outstanding requests (after a timeout or a reconnect)."""
+        self._buffer.clear()
+
+    def _discard(self, n: int) -> None:
+        self.discarded_bytes += n
+        del self._buffer[:n]
+

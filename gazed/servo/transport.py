@@ -1,0 +1,99 @@
+"""The serial link: a pyserial URL, so a rig can name `/dev/ttyUSB0`, a pty path,
+`socket://host:port`, `spy:///dev/ttyUSB0` (hex dump for debugging) or `loop://` and the driver
+never knows which (STYLE 2; pyserial `serial/urlhandler/`).
+
+One lifecycle (STYLE 1): `connect()`, `disconnect()`, `is_connected`, `write()` / `read()`,
+usable as a context manager; I/O before `connect()` raises `NotConnectedError`. Every failure of
+the port (unplugged adapter, closed pty) comes out as `LinkError`.
+"""
+
+from __future__ import annotations
+
+import time
+
+import serial
+
+# Longest single blocking read; callers loop until their own deadline.
+READ_SLICE_S = 0.01
+WRITE_TIMEOUT_S = 1.0
+
+
+class LinkError(ConnectionError):
+    """The serial port cannot be opened, or failed while in use."""
+
+
+class NotConnectedError(LinkError):
+    """I/O was attempted before `connect()`."""
+
+
+class SerialTransport:
+    """A serial port opened from a pyserial URL at `baud`, 8N1."""
+
+    def __init__(self, url: str, baud: int) -> None:
+        self.url = url
+        self.baud = baud
+        self._serial: serial.SerialBase | None = None
+
+    def __enter__(self) -> SerialTransport:
+        self.connect()
+        return self
+
+    def __exit__(self, *_exc: object) -> None:
+        self.disconnect()
+
+    @property
+    def is_connected(self) -> bool:
+        return self._serial is not None
+
+    def connect(self) -> None:
+        if self._serial is not None:
+            return
+        try:
+            self._serial = serial.serial_for_url(
+                self.url,
+                baudrate=self.baud,
+                timeout=READ_SLICE_S,
+                write_timeout=WRITE_TIMEOUT_S,
+                exclusive=True,
+            )
+        except (serial.SerialException, OSError, ValueError) as exc:
+            raise LinkError(f"cannot open {self.url}: {exc}") from exc
+
+    def disconnect(self) -> None:
+        port, self._serial = self._serial, None
+        if port is not None:
+            try:
+                port.close()
+            except (serial.SerialException, OSError):
+                pass  # the port is already gone; closing is all that was asked
+
+    def _port(self) -> serial.SerialBase:
+        if self._serial is None:
+            raise NotConnectedError(f"{self.url} is not connected (call connect() first)")
+        return self._serial
+
+    def write(self, data: bytes) -> int:
+        """Write all of `data`; returns the wall-clock time (ns) just after the bytes were handed
+        to the port (DESIGN §3: the servo stamps the moment command bytes are written)."""
+        port = self._port()
+        try:
+            port.write(data)
+        except (serial.SerialException, OSError) as exc:
+            raise LinkError(f"{self.url}: write failed: {exc}") from exc
+        return time.time_ns()
+
+    def read(self, timeout_s: float) -> tuple[bytes, int]:
+        """Whatever arrives within `timeout_s` (at most `READ_SLICE_S` of blocking), and the
+        wall-clock time (ns) it was read. Returns b"" when nothing came."""
+        port = self._port()
+        try:
+            if timeout_s <= 0:
+                waiting = port.in_waiting
+                data = port.read(waiting) if waiting else b""
+            else:
+                data = port.read(max(1, port.in_waiting))
+                if data and port.in_waiting:
+                    data += port.read(port.in_waiting)
+        except (serial.SerialException, OSError) as exc:
+            raise LinkError(f"{self.url}: read failed: {exc}") from exc
+        return data, time.time_ns()

@@ -1,0 +1,230 @@
+"""Sony VISCA pan-tilt over RS-232/422 (PROTOCOLS.md §2).
+
+Packets are `8x <payload> FF` from the host (x = camera address 1..7, 88 broadcast) and
+`z0 <payload> FF` from the camera (z = address + 8). No byte but the terminator may be FF, so
+16-bit values travel as four nibbles, most significant first, each in the low half of its own
+byte: -1 -> 0F 0F 0F 0F, +2267 -> 00 08 0D 0B (Sony EVI-D70 technical manual p.42, 51).
+
+    Pan-tiltDrive     8x 01 06 01 VV WW PP TT FF           PP 01 left 02 right 03 stop,
+                                                           TT 01 up 02 down 03 stop
+    AbsolutePosition  8x 01 06 02 VV WW 0Y 0Y 0Y 0Y 0Z 0Z 0Z 0Z FF
+    Pan-tiltPosInq    8x 09 06 12 FF  ->  y0 50 0w 0w 0w 0w 0z 0z 0z 0z FF
+    IF_Clear          8x 01 00 01 FF  ->  y0 50 FF (no ACK)
+
+Every command is answered by an ACK `z0 4y FF` (accepted into socket y) or an error
+`z0 6y ee FF`, and later by a completion `z0 5y FF` when it has been executed; inquiries get
+their answer directly (Sony SRG-300H technical manual p.28). Pan is positive to the right and
+tilt positive up; units per degree depend on the model (the rig's `pan_deg_per_unit`).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import ClassVar
+
+from gazed.servo.codec import Codec, CodecError, Exchange, HandshakeError, Reply, nearest
+
+TERMINATOR = 0xFF
+MAX_PACKET = 16
+BROADCAST = 0x88
+
+CATEGORY = {"command": 0x01, "inquiry": 0x09, "interface": 0x00, "pan_tilt": 0x06}
+PAN_TILT = {"drive": 0x01, "absolute": 0x02, "relative": 0x03, "home": 0x04, "reset": 0x05}
+PAN_TILT_POSITION_INQUIRY = 0x12
+IF_CLEAR = (0x01, 0x00, 0x01)
+CANCEL = 0x20  # 8x 2y FF cancels the command in socket y
+PAN_DIRECTION = {"left": 0x01, "right": 0x02, "stop": 0x03}
+TILT_DIRECTION = {"up": 0x01, "down": 0x02, "stop": 0x03}
+PAN_SPEED_MAX = 0x18
+TILT_SPEED_MAX = 0x14
+
+# reply message types (high nibble of the second byte) and error codes (SRG-300H p.28)
+REPLY = {"ack": 0x40, "completion": 0x50, "error": 0x60}
+NETWORK_CHANGE = 0x38
+ERRORS = {
+    0x01: "message length error",
+    0x02: "syntax error",
+    0x03: "command buffer full",
+    0x04: "command cancelled",
+    0x05: "no socket",
+    0x41: "command not executable",
+}
+
+
+def to_nibbles(value: int) -> bytes:
+    """Signed 16-bit two's complement -> four bytes, one nibble each, most significant first."""
+    if not -0x8000 <= value <= 0x7FFF:
+        raise CodecError(f"{value} does not fit a signed 16-bit VISCA position")
+    word = value & 0xFFFF
+    return bytes((word >> shift) & 0x0F for shift in (12, 8, 4, 0))
+
+
+def from_nibbles(data: bytes | bytearray) -> int:
+    """Four nibble bytes -> signed 16-bit (pyvisca returns them unsigned; this sign-extends)."""
+    word = 0
+    for b in data:
+        word = (word << 4) | (b & 0x0F)
+    return word - 0x10000 if word & 0x8000 else word
+
+
+def units_from_rad(angle_rad: float, deg_per_unit: float) -> int:
+    """An angle in position units, rounded to nearest."""
+    if not math.isfinite(angle_rad):
+        raise CodecError(f"angle {angle_rad} is not finite")
+    return nearest(math.degrees(angle_rad) / deg_per_unit)
+
+
+def reply_header(address: int) -> int:
+    """The first byte of the replies of camera `address`: (address + 8) << 4."""
+    return (address + 8) << 4
+
+
+def split_packets(buffer: bytearray, is_header: bytes | bytearray) -> tuple[list[bytes], int]:
+    """Take every `header ... FF` packet (at most 16 bytes) off the front of `buffer`; `is_header`
+    lists the bytes a packet may start with. Returns the packets and the bytes dropped."""
+    packets: list[bytes] = []
+    discarded = 0
+    while buffer:
+        start = next((i for i, b in enumerate(buffer) if b in is_header), -1)
+        if start < 0:
+            discarded += len(buffer)
+            buffer.clear()
+            break
+        if start:
+            discarded += start
+            del buffer[:start]
+        end = buffer.find(TERMINATOR, 1)
+        if end < 0 and len(buffer) < MAX_PACKET:
+            break
+        if end < 0 or end + 1 > MAX_PACKET:
+            discarded += 1
+            del buffer[:1]
+            continue
+        packets.append(bytes(buffer[: end + 1]))
+        del buffer[: end + 1]
+    return packets, discarded
+
+
+class ViscaCodec(Codec):
+    """Host side of VISCA. `pan_speed`/`tilt_speed` are the speed bytes of absolute moves;
+    `pan_speed_max_deg_s`/`tilt_speed_max_deg_s` the rates of drive speeds 0x18/0x14 (drive
+    speeds are mapped linearly; the model's own table is not linear)."""
+
+    protocol: ClassVar[str] = "visca"
+
+    def __init__(
+        self,
+        address: int = 1,
+        pan_deg_per_unit: float = 0.075,
+        tilt_deg_per_unit: float = 0.075,
+        pan_speed: int = PAN_SPEED_MAX,
+        tilt_speed: int = TILT_SPEED_MAX,
+        pan_speed_max_deg_s: float = 120.0,
+        tilt_speed_max_deg_s: float = 90.0,
+    ) -> None:
+        super().__init__()
+        if not 1 <= address <= 7:
+            raise CodecError(f"address {address} outside 1..7")
+        if not (1 <= pan_speed <= PAN_SPEED_MAX and 1 <= tilt_speed <= TILT_SPEED_MAX):
+            raise CodecError(f"speeds {pan_speed}, {tilt_speed} outside 1..24, 1..20")
+        self.address = address
+        self.pan_deg_per_unit = pan_deg_per_unit
+        self.tilt_deg_per_unit = tilt_deg_per_unit
+        self.pan_speed = pan_speed
+        self.tilt_speed = tilt_speed
+        self.pan_speed_max_deg_s = pan_speed_max_deg_s
+        self.tilt_speed_max_deg_s = tilt_speed_max_deg_s
+        self._header = 0x80 | address
+        self._reply_headers = bytes((reply_header(address),))
+
+    @property
+    def resolution_rad(self) -> tuple[float, float]:
+        return math.radians(self.pan_deg_per_unit), math.radians(self.tilt_deg_per_unit)
+
+    def _packet(self, *payload: int) -> bytes:
+        return bytes((self._header, *payload, TERMINATOR))
+
+    def encode_set_position(self, pan_rad: float, tilt_rad: float) -> list[bytes]:
+        pan = to_nibbles(units_from_rad(pan_rad, self.pan_deg_per_unit))
+        tilt = to_nibbles(units_from_rad(tilt_rad, self.tilt_deg_per_unit))
+        head = (CATEGORY["command"], CATEGORY["pan_tilt"], PAN_TILT["absolute"])
+        return [self._packet(*head, self.pan_speed, self.tilt_speed, *pan, *tilt)]
+
+    def encode_set_velocity(self, pan_rad_s: float, tilt_rad_s: float) -> list[bytes]:
+        pan_speed, pan_dir = self._drive(
+            pan_rad_s, self.pan_speed_max_deg_s, PAN_SPEED_MAX, PAN_DIRECTION, "right", "left"
+        )
+        tilt_speed, tilt_dir = self._drive(
+            tilt_rad_s, self.tilt_speed_max_deg_s, TILT_SPEED_MAX, TILT_DIRECTION, "up", "down"
+        )
+        head = (CATEGORY["command"], CATEGORY["pan_tilt"], PAN_TILT["drive"])
+        return [self._packet(*head, pan_speed, tilt_speed, pan_dir, tilt_dir)]
+
+    @staticmethod
+    def _drive(
+        rate_rad_s: float,
+        speed_max_deg_s: float,
+        code_max: int,
+        directions: dict[str, int],
+        positive: str,
+        negative: str,
+    ) -> tuple[int, int]:
+        if not math.isfinite(rate_rad_s):
+            raise CodecError(f"rate {rate_rad_s} is not finite")
+        code = min(code_max, nearest(abs(math.degrees(rate_rad_s)) / speed_max_deg_s * code_max))
+        if code == 0:
+            return 1, directions["stop"]
+        return code, directions[positive if rate_rad_s > 0 else negative]
+
+    def encode_stop(self) -> list[bytes]:
+        head = (CATEGORY["command"], CATEGORY["pan_tilt"], PAN_TILT["drive"])
+        stop = (PAN_DIRECTION["stop"], TILT_DIRECTION["stop"])
+        return [self._packet(*head, self.pan_speed, self.tilt_speed, *stop)]
+
+    def encode_query_position(self) -> list[bytes]:
+        return [
+            self._packet(CATEGORY["inquiry"], CATEGORY["pan_tilt"], PAN_TILT_POSITION_INQUIRY)
+        ]
+
+    def encode_if_clear(self) -> list[bytes]:
+        """IF_Clear: empties the camera's command buffers; answered `z0 50 FF`."""
+        return [self._packet(*IF_CLEAR)]
+
+    def replies_expected(self, frame_bytes: bytes) -> int:
+        # every command, inquiry, IF_Clear and cancel gets exactly one direct answer
+        return 1 if len(frame_bytes) >= 3 and frame_bytes[0] == self._header else 0
+
+    def handshake(self, exchange: Exchange) -> None:
+        """IF_Clear, so no stale command holds a socket (Tamron MP3010M-EV manual §4.4)."""
+        replies = exchange(self.encode_if_clear()[0])
+        if not replies or replies[0].kind != "completion":
+            got = replies[0].describe() if replies else "nothing"
+            raise HandshakeError(f"VISCA IF_Clear answered {got}, expected completion")
+
+    def _parse(self) -> list[Reply]:
+        packets, discarded = split_packets(self._buffer, self._reply_headers)
+        self.discarded_bytes += discarded
+        replies = []
+        for packet in packets:
+            reply = self._decode(packet)
+            if reply is None:
+                self.bad_frames += 1
+            else:
+                replies.append(reply)
+        return replies
+
+    def _decode(self, p: bytes) -> Reply | None:
+        kind, socket = p[1] & 0xF0, p[1] & 0x0F
+        if len(p) == 3 and kind == REPLY["ack"] and socket in (1, 2):
+            return Reply("ack", socket=socket, raw=p)
+        if len(p) == 3 and kind == REPLY["completion"]:
+            return Reply("completion", socket=socket, asynchronous=socket != 0, raw=p)
+        if len(p) == 3 and p[1] == NETWORK_CHANGE:
+            return Reply("ok", reason="network change", asynchronous=True, raw=p)
+        if len(p) == 4 and kind == REPLY["error"] and p[2] in ERRORS:
+            return Reply("error", socket=socket, reason=ERRORS[p[2]], raw=p)
+        if len(p) == 11 and p[1] == REPLY["completion"] and all(b <= 0x0F for b in p[2:10]):
+            pan = math.radians(from_nibbles(p[2:6]) * self.pan_deg_per_unit)
+            tilt = math.radians(from_nibbles(p[6:10]) * self.tilt_deg_per_unit)
+            return Reply("position", pan_rad=pan, tilt_rad=tilt, raw=p)
+        return None

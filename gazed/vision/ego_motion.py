@@ -1,0 +1,160 @@
+"""The image motion the head's own rotation induces: angular velocity, rotational flow, warp.
+
+A camera that only rotates moves every static scene point the same way whatever its depth
+(seed 004 §5, eq. 11; seed 000 §2): the flow is known from the joint angles and rates alone.
+
+Frames (see `gazed.geometry.kinematics`): `C = camera_to_base(pan, tilt)` maps directions in the
+OpenCV camera frame (x right, y down, z forward) to the head base frame. A static direction `d`
+is seen at pixel `x ≃ K C^T d`, so between a capture at pose 1 and one at pose 2
+
+    x2 ≃ K C2^T C1 K^-1 x1                       (the pure-rotation warp K R K^-1)
+
+and, for a rotating camera, `dP/dt = -ω × P` in camera coordinates with `[ω]x = C^T dC/dt`;
+with normalised coordinates x = X/Z, y = Y/Z this gives the rotational part of seed 004 eq. 11,
+
+    dx/dt = x y ωx - (1 + x²) ωy + y ωz
+    dy/dt = (1 + y²) ωx - x y ωy - x ωz          (scaled by fx, fy to pixels per second).
+
+Lens distortion is not modelled here: the flow and the warp are those of the ideal pinhole `K`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from gazed.geometry.camera import CameraModel
+from gazed.geometry.kinematics import HeadKinematics
+from gazed.messages import HeadPose
+
+
+def camera_angular_velocity(
+    kinematics: HeadKinematics,
+    pan_rad: float,
+    tilt_rad: float,
+    pan_rate_rad_s: float,
+    tilt_rate_rad_s: float,
+) -> np.ndarray:
+    """ω (rad/s, shape (3,)) of the camera in its own OpenCV frame, `[ω]x = C^T dC/dt`.
+
+    pan-tilt (R = Ry(p) Rx(-t)):  ω = (ṫ, ṗ cos t, -ṗ sin t)
+    tilt-pan (R = Rx(-t) Ry(p)):  ω = (ṫ cos p, ṗ, ṫ sin p)
+    Derived from R^T dR/dt = ṗ [a_p]x + ṫ [a_t]x and the y flip `F`, `F [w]x F = -[F w]x`.
+    """
+    p, t, dp, dt = pan_rad, tilt_rad, pan_rate_rad_s, tilt_rate_rad_s
+    if kinematics.kinematics == "pan-tilt":
+        return np.array([dt, dp * math.cos(t), -dp * math.sin(t)])
+    return np.array([dt * math.cos(p), dp, dt * math.sin(p)])
+
+
+def rotational_flow(
+    K: np.ndarray, omega: np.ndarray, u_px: np.ndarray, v_px: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Image velocity (px/s) of static scene points at pixels (u, v) for camera rotation ω.
+
+    Seed 004 eq. 11, rotational part, in normalised coordinates, scaled by the focal lengths.
+    """
+    fx, fy, cx, cy = K[0, 0], K[1, 1], K[0, 2], K[1, 2]
+    x = (np.asarray(u_px, dtype=np.float64) - cx) / fx
+    y = (np.asarray(v_px, dtype=np.float64) - cy) / fy
+    wx, wy, wz = (float(w) for w in omega)
+    dx = x * y * wx - (1.0 + x * x) * wy + y * wz  # eq. 11a, rotational part
+    dy = (1.0 + y * y) * wx - x * y * wy - x * wz  # eq. 11b, rotational part
+    return fx * dx, fy * dy
+
+
+def rotation_homography(
+    K: np.ndarray, kinematics: HeadKinematics, head_from: HeadPose, head_to: HeadPose
+) -> np.ndarray:
+    """H = K C_to^T C_from K^-1 (3x3, H[2,2] = 1): a static point's pixel at `head_from` -> its
+    pixel at `head_to`. `cv2.warpPerspective(previous, H, size)` lays the previous frame over
+    the current one (seed 004 §5, "compensation of image itself")."""
+    c_from = kinematics.camera_to_base(head_from.pan_rad, head_from.tilt_rad)
+    c_to = kinematics.camera_to_base(head_to.pan_rad, head_to.tilt_rad)
+    H = K @ c_to.T @ c_from @ np.linalg.inv(K)
+    return H / H[2, 2]
+
+
+def apply_homography(H: np.ndarray, u_px: float, v_px: float) -> tuple[float, float]:
+    """Where pixel (u, v) goes under H."""
+    x, y, w = H @ np.array([u_px, v_px, 1.0])
+    return float(x / w), float(y / w)
+
+
+@dataclass(frozen=True)
+class HeadStep:
+    """The head's rotation between two captures `dt_s` apart.
+
+    `H` maps previous pixels to current ones; `omega` is the mean angular velocity over the
+    interval (from the two poses, so it stays consistent with `H` when the head accelerates and
+    when the device reports no rates), evaluated at the mid-interval pose.
+    """
+
+    H: np.ndarray
+    omega: np.ndarray
+    dt_s: float
+    K: np.ndarray
+
+    def flow(self, u_px: np.ndarray, v_px: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Rotational flow (px/s) at pixels of the current frame (seed 004 eq. 11)."""
+        return rotational_flow(self.K, self.omega, u_px, v_px)
+
+    def displacement(
+        self, u_px: np.ndarray, v_px: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """How far (px) static points now at pixels (u, v) moved over the interval: the
+        rotational flow at their mid-interval position times dt (second-order accurate)."""
+        fu, fv = self.flow(u_px, v_px)
+        half = 0.5 * self.dt_s
+        fu, fv = self.flow(u_px - fu * half, v_px - fv * half)
+        return fu * self.dt_s, fv * self.dt_s
+
+    def transport(self, u_px: float, v_px: float) -> tuple[float, float]:
+        """Where a static point at (u, v) in the previous frame appears in the current one."""
+        return apply_homography(self.H, u_px, v_px)
+
+
+class EgoMotion:
+    """Rotational ego-motion of one camera on one head (the camera's K, the head's R)."""
+
+    def __init__(self, camera: CameraModel, kinematics: HeadKinematics) -> None:
+        self.camera = camera
+        self.kinematics = kinematics
+
+    def angular_velocity(self, head: HeadPose) -> np.ndarray:
+        """ω of the camera (OpenCV frame, rad/s) at a pose with its rates."""
+        return camera_angular_velocity(
+            self.kinematics, head.pan_rad, head.tilt_rad, head.pan_rate_rad_s, head.tilt_rate_rad_s
+        )
+
+    def flow(
+        self, head: HeadPose, u_px: np.ndarray, v_px: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Rotational flow (px/s) at pixels (u, v) for the pose and rates in `head`."""
+        return rotational_flow(self.camera.K, self.angular_velocity(head), u_px, v_px)
+
+    def homography(self, head_from: HeadPose, head_to: HeadPose) -> np.ndarray:
+        return rotation_homography(self.camera.K, self.kinematics, head_from, head_to)
+
+    def step(self, head_from: HeadPose, head_to: HeadPose, dt_s: float) -> HeadStep:
+        """The rotation between two captures: warp, and mean angular velocity over the interval."""
+        if dt_s <= 0:
+            raise ValueError(f"captures must be in time order (dt = {dt_s} s)")
+        mid = HeadPose(
+            pan_rad=0.5 * (head_from.pan_rad + head_to.pan_rad),
+            tilt_rad=0.5 * (head_from.tilt_rad + head_to.tilt_rad),
+            pan_rate_rad_s=(head_to.pan_rad - head_from.pan_rad) / dt_s,
+            tilt_rate_rad_s=(head_to.tilt_rad - head_from.tilt_rad) / dt_s,
+        )
+        return HeadStep(
+            self.homography(head_from, head_to),
+            self.angular_velocity(mid),
+            dt_s,
+            self.camera.K,
+        )
+
+    def still_step(self, dt_s: float) -> HeadStep:
+        """A step for a head known (or assumed) to be still: identity warp, no flow."""
+        return HeadStep(np.eye(3), np.zeros(3), dt_s, self.camera.K)

@@ -1,0 +1,77 @@
+"""Motion energy of a frame pair and its Gaussian pyramid (seed 004 §2.1, Fig. 4; §5).
+
+The previous frame is first laid over the current one by the head's pure rotation K R K^-1
+(seed 004 §5, "compensation of image itself"), so a static background cancels in the
+difference. Then, as in seed 004 §2.1: the difference of the two frames, the level-0 band of
+its Laplacian pyramid `L0 = D - expand(reduce(D))`, its absolute value as the motion energy,
+and the Gaussian pyramid of that energy as the locally integrated measure at every resolution.
+
+Level-k pixel (i, j) is centred on level-0 pixel (2^k i, 2^k j) (OpenCV's pyrDown).
+Pixels the warped previous frame does not cover carry no energy.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+# The warp's bilinear interpolation smooths the previous frame; smoothing both frames the same
+# way first keeps that from showing up as energy on a textured background.
+PRESMOOTH_SIGMA_PX = 1.0
+# Pixels this close to the border of the warped previous frame get no energy (the Laplacian's
+# 5x5 support reaches this far).
+BORDER_MARGIN_PX = 3
+
+
+def presmooth(gray: np.ndarray) -> np.ndarray:
+    """The frame as the energy computation sees it (uint8, Gaussian σ = 1 px)."""
+    return cv2.GaussianBlur(gray, (5, 5), PRESMOOTH_SIGMA_PX)
+
+
+def energy_pyramid(
+    current: np.ndarray, previous: np.ndarray, H: np.ndarray | None, levels: int
+) -> list[np.ndarray]:
+    """Motion-energy pyramid (float32, level 0 first) of two presmoothed uint8 frames.
+
+    `H` maps previous pixels to current ones (None: the head did not move)."""
+    h, w = current.shape
+    if H is not None:
+        previous = cv2.warpPerspective(previous, H, (w, h), flags=cv2.INTER_LINEAR)
+    difference = cv2.subtract(current, previous, dtype=cv2.CV_16S).astype(np.float32)
+    band = difference - cv2.pyrUp(cv2.pyrDown(difference), dstsize=(w, h))  # L0
+    energy = np.abs(band)
+    if H is not None:
+        energy *= _covered(H, w, h)
+    pyramid = [energy]
+    for _ in range(levels - 1):
+        pyramid.append(cv2.pyrDown(pyramid[-1]))
+    return pyramid
+
+
+def _covered(H: np.ndarray, w: int, h: int) -> np.ndarray:
+    """1 where the warped previous frame has data (its image quadrilateral, shrunk), else 0."""
+    m = BORDER_MARGIN_PX
+    corners = np.array([[m, m], [w - 1 - m, m], [w - 1 - m, h - 1 - m], [m, h - 1 - m]], float)
+    warped = cv2.perspectiveTransform(corners.reshape(-1, 1, 2), H).reshape(-1, 2)
+    mask = np.zeros((h, w), np.float32)
+    cv2.fillConvexPoly(mask, np.round(warped * 16).astype(np.int32), 1.0, cv2.LINE_8, 4)
+    return mask
+
+
+class MotionEnergy:
+    """Keeps the previous presmoothed frame and turns each new frame into an energy pyramid."""
+
+    def __init__(self, levels: int) -> None:
+        self.levels = levels
+        self._previous: np.ndarray | None = None
+
+    def update(self, gray: np.ndarray, H: np.ndarray | None) -> list[np.ndarray] | None:
+        """The pyramid of (previous, this frame); None for the first frame after a reset."""
+        current = presmooth(gray)
+        previous, self._previous = self._previous, current
+        if previous is None or previous.shape != current.shape:
+            return None
+        return energy_pyramid(current, previous, H, self.levels)
+
+    def reset(self) -> None:
+        self._previous = None

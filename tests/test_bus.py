@@ -1,0 +1,171 @@
+"""The bus: typed pub/sub between real processes, frames, malformed payloads counted, liveliness,
+and sessions that announce nothing and listen only where the rig says."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+import zenoh
+from conftest import PYTHON, SUPPORT, child_env, poll_until, write_rig
+
+from gazed.bus import Bus, BusError, session_config
+from gazed.config import BusSection, load_rig
+from gazed.messages import Detection, FrameHeader, Odometry
+from gazed.topics import SERVO_ODOMETRY, SIM_FRAME, VISION_DETECTION
+
+
+@pytest.fixture
+def rig(tmp_path: Path):
+    return load_rig(write_rig(tmp_path))
+
+
+def detection(seq: int) -> Detection:
+    return Detection(
+        t_capture_ns=seq + 1, seq=seq, detector="t", found=True, width_px=64, height_px=48
+    )
+
+
+def test_pub_sub_between_two_processes(tmp_path: Path) -> None:
+    path = write_rig(tmp_path)
+    rig = load_rig(path)
+    count = 200
+    with Bus(rig, "test", router=True) as bus:
+        detections = bus.subscribe(VISION_DETECTION)
+        child = subprocess.run(
+            [
+                PYTHON,
+                str(SUPPORT / "publisher_process.py"),
+                "--rig",
+                str(path),
+                "--count",
+                str(count),
+            ],
+            env=child_env(),
+            timeout=60,
+            capture_output=True,
+            text=True,
+        )
+        assert child.returncode == 0, child.stderr
+        received: list[Detection] = []
+        poll_until(lambda: received.extend(detections.take()) or len(received) >= count, 10.0)
+    assert [d.seq for d in received] == list(range(count))
+    assert all(d.stamps[0][0] == "vision" and d.stamps[0][1] >= d.t_capture_ns for d in received)
+    assert received[7].u_px == 7.0 and received[7].v_px == 14.0
+
+
+def test_malformed_payload_is_counted_not_raised(rig) -> None:
+    with Bus(rig, "test", router=True) as bus, Bus(rig, "peer") as peer:
+        detections = bus.subscribe(VISION_DETECTION)
+        key = VISION_DETECTION.key(rig.name)
+        publisher = peer.publisher(VISION_DETECTION)
+        poll_until(publisher.matched, 5.0)
+        peer.session.put(key, b"{not json", encoding=zenoh.Encoding("application/json"))
+        peer.session.put(
+            key, b'{"t_capture_ns": 1, "seq": -1}', encoding=zenoh.Encoding("application/json")
+        )
+        peer.session.put(
+            key,
+            Odometry(t_capture_ns=1, pan_rad=0, tilt_rad=0).to_json(),
+            encoding=zenoh.Encoding("application/json").with_schema("gazed.Odometry/1"),
+        )
+        publisher.put(detection(5))
+        got = poll_until(detections.take, 5.0)
+        counters, received = bus.stats.snapshot()
+    assert [d.seq for d in got] == [5]
+    assert counters["malformed"] == 3
+    assert counters["malformed:vision/detection"] == 3
+    assert received == {"vision/detection": 1}
+
+
+def test_publisher_refuses_the_wrong_model(rig) -> None:
+    with Bus(rig, "test", router=True) as bus:
+        publisher = bus.publisher(VISION_DETECTION)
+        with pytest.raises(TypeError):
+            publisher.put(Odometry(t_capture_ns=1, pan_rad=0, tilt_rad=0))
+
+
+def test_frames_keep_only_the_newest(rig) -> None:
+    with Bus(rig, "test", router=True) as bus, Bus(rig, "sim") as sim:
+        frames = bus.subscribe(SIM_FRAME)
+        publisher = sim.publisher(SIM_FRAME)
+        poll_until(publisher.matched, 5.0)
+        rng = np.random.default_rng(1)
+        images = [rng.integers(0, 256, (48, 64, 3), dtype=np.uint8) for _ in range(5)]
+        for seq, image in enumerate(images):  # one at a time: frames are dropped under congestion
+            publisher.put_frame(FrameHeader(t_capture_ns=seq + 1, seq=seq, width=64, height=48), image)
+            poll_until(lambda n=seq + 1: bus.stats.snapshot()[1].get("sim/frame", 0) == n, 5.0)
+        frame = frames.latest()
+        assert frames.latest() is None
+        assert bus.stats.snapshot()[0]["replaced"] == 4
+    assert frame.header.seq == 4
+    np.testing.assert_array_equal(frame.pixels, images[4])
+
+
+def test_frame_with_lying_header_is_dropped(rig) -> None:
+    with Bus(rig, "test", router=True) as bus, Bus(rig, "sim") as sim:
+        frames = bus.subscribe(SIM_FRAME)
+        publisher = sim.publisher(SIM_FRAME)
+        poll_until(publisher.matched, 5.0)
+        header = FrameHeader(t_capture_ns=1, seq=0, width=64, height=48)
+        sim.session.put(SIM_FRAME.key(rig.name), b"\0" * 100, attachment=header.to_json())
+        sim.session.put(SIM_FRAME.key(rig.name), b"\0" * header.nbytes)  # no header at all
+        publisher.put_frame(header.model_copy(update={"seq": 1}), np.zeros((48, 64, 3), np.uint8))
+        frame = poll_until(frames.latest, 5.0)
+        counters, _ = bus.stats.snapshot()
+    assert frame.header.seq == 1
+    assert counters["malformed:sim/frame"] == 2
+
+
+def test_liveliness_appears_and_vanishes(rig) -> None:
+    events: list[tuple[str, bool]] = []
+    with Bus(rig, "supervisor", router=True) as bus:
+        bus.watch_alive(lambda name, alive: events.append((name, alive)))
+        with Bus(rig, "vision") as vision:
+            vision.declare_alive()
+            poll_until(lambda: ("vision", True) in events, 5.0)
+            assert bus.alive() == {"vision"}
+        poll_until(lambda: ("vision", False) in events, 5.0)
+        assert bus.alive() == set()
+
+
+def test_wait_wakes_on_arrival(rig) -> None:
+    with Bus(rig, "test", router=True) as bus, Bus(rig, "servo") as servo:
+        odometry = bus.subscribe(SERVO_ODOMETRY)
+        publisher = servo.publisher(SERVO_ODOMETRY)
+        poll_until(publisher.matched, 5.0)
+        assert bus.wait(0.0) is False or odometry.take() == []
+        publisher.put(Odometry(t_capture_ns=1, pan_rad=0.25, tilt_rad=0))
+        assert bus.wait(5.0) is True
+        assert [o.pan_rad for o in odometry.take()] == [0.25]
+
+
+def test_client_without_router_is_a_clear_error(tmp_path: Path) -> None:
+    rig = load_rig(write_rig(tmp_path))
+    with (
+        pytest.raises(BusError, match="cannot reach the rig's bus at tcp/127.0.0.1:"),
+        Bus(rig, "vision"),
+    ):
+        pass
+
+
+def test_sessions_do_not_scout_and_clients_do_not_listen() -> None:
+    bus = BusSection()
+    router = session_config(bus, router=True)
+    client = session_config(bus, router=False)
+    for config in (router, client):
+        assert json.loads(config.get_json("scouting/multicast/enabled")) is False
+        assert json.loads(config.get_json("scouting/gossip/enabled")) is False
+    assert json.loads(router.get_json("mode")) == "router"
+    assert json.loads(router.get_json("listen/endpoints")) == ["tcp/127.0.0.1:7447"]
+    assert json.loads(client.get_json("mode")) == "client"
+    assert json.loads(client.get_json("listen/endpoints")) == []
+    assert json.loads(client.get_json("connect/endpoints")) == ["tcp/127.0.0.1:7447"]
+
+
+def test_unspecified_listen_address_connects_over_loopback() -> None:
+    bus = BusSection(listen=["tcp/0.0.0.0:7447"])
+    assert bus.client_endpoints == ["tcp/127.0.0.1:7447"]

@@ -1,0 +1,217 @@
+"""Wire schemas: round trips, stamps, refusal of non-finite numbers, malformed input counted."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from pydantic import ValidationError
+
+from gazed import messages as m
+from gazed.bus import Stats, decode_sample
+from gazed.topics import TOPICS, VISION_DETECTION, health, split_key, topic_for
+
+HEAD = m.HeadPose(pan_rad=0.1, tilt_rad=-0.2, pan_rate_rad_s=0.3, tilt_rate_rad_s=-0.4)
+
+SAMPLES: list[m.Message] = [
+    m.FrameHeader(t_capture_ns=1, seq=3, width=640, height=480, encoding="bgr8"),
+    m.Detection(
+        t_capture_ns=2,
+        seq=4,
+        detector="flow",
+        found=True,
+        u_px=1.5,
+        v_px=2.5,
+        du_px_s=-3.0,
+        dv_px_s=4.0,
+        area_px=50.0,
+        confidence=0.9,
+        width_px=640,
+        height_px=480,
+        processing_ms=1.2,
+        head=HEAD,
+    ),
+    m.Candidates(
+        t_capture_ns=3,
+        seq=5,
+        width_px=640,
+        height_px=480,
+        candidates=(m.Candidate(u_px=1, v_px=2, area_px=3, energy=4, score=5),),
+        head=None,
+    ),
+    m.Odometry(t_capture_ns=4, pan_rad=0.5, tilt_rad=-0.1, pan_rate_rad_s=0.2),
+    m.ServoStatus(
+        t_capture_ns=5, protocol="pelco-d", port="/dev/ttyUSB0", link="connected", clamps=2
+    ),
+    m.GazeDemand(t_capture_ns=6, kind="pursuit", pan_rad=0.1, tilt_rad=0.2, pan_rate_rad_s=0.01),
+    m.GazeState(t_capture_ns=7, state="pursuit", previous="saccade", reason="settled"),
+    m.EstimatorState(
+        t_capture_ns=8,
+        filter="imm",
+        x=(1.0, 2.0),
+        P=((1.0, 0.0), (0.0, 1.0)),
+        model_probabilities={"CSD": 0.9, "CS": 0.05, "CD": 0.05},
+        most_likely="CSD",
+    ),
+    m.Prediction(
+        t_capture_ns=9,
+        filter="imm",
+        t_effect_ns=10,
+        horizon_s=0.2,
+        pan_rad=0.1,
+        tilt_rad=0.2,
+        pan_rate_rad_s=0.0,
+        tilt_rate_rad_s=0.0,
+        visual_latency_s=0.15,
+        actuation_latency_s=0.05,
+    ),
+    m.ManeuverEvent(
+        t_capture_ns=10,
+        model="CS",
+        previous_model="CSD",
+        t_start_ns=9,
+        previous_duration_s=2.0,
+        mean_s_dot_m_s2=0.0,
+        mean_theta_dot_rad_s=0.0,
+    ),
+    m.SimTruth(
+        t_capture_ns=11,
+        seq=1,
+        target_xy_m=(1.0, 2.0),
+        target_velocity_m_s=(0.5, 0.0),
+        target_height_m=1.0,
+        head=HEAD,
+    ),
+    m.Health(t_capture_ns=12, process="vision", pid=1, uptime_s=3.0, counters={"malformed": 1}),
+    m.SupervisorStatus(
+        t_capture_ns=13,
+        state="running",
+        rig_path="/etc/gazed/a.toml",
+        processes=(m.ProcessStatus(name="vision", state="running", pid=3, alive=True),),
+    ),
+]
+
+
+@pytest.mark.parametrize("message", SAMPLES, ids=lambda msg: type(msg).__name__)
+def test_round_trip(message: m.Message) -> None:
+    stamped = message.stamped("vision", 100).stamped("estimator", 200)
+    back = type(message).model_validate_json(stamped.to_json())
+    assert back == stamped
+    assert back.stamps == (("vision", 100), ("estimator", 200))
+
+
+def test_every_topic_model_has_a_sample() -> None:
+    assert {t.model for t in TOPICS} <= {type(s) for s in SAMPLES}
+
+
+def test_schema_id_names_model_and_version() -> None:
+    assert m.Detection.schema_id() == "gazed.Detection/1"
+
+
+def test_stamped_uses_now_by_default() -> None:
+    before = m.Odometry(t_capture_ns=1, pan_rad=0, tilt_rad=0)
+    after = before.stamped("servo")
+    assert before.stamps == ()
+    assert after.stamps[0][0] == "servo" and after.stamps[0][1] > 1_600_000_000 * 10**9
+
+
+@pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf])
+def test_non_finite_numbers_are_refused(bad: float) -> None:
+    with pytest.raises(ValidationError):
+        m.GazeDemand(t_capture_ns=1, kind="position", pan_rad=bad, tilt_rad=0.0)
+    text = b'{"t_capture_ns": 1, "kind": "position", "pan_rad": NaN, "tilt_rad": 0}'
+    with pytest.raises(ValidationError):
+        m.GazeDemand.model_validate_json(text)
+
+
+def test_unknown_fields_are_refused() -> None:
+    with pytest.raises(ValidationError):
+        m.Odometry.model_validate_json(
+            b'{"t_capture_ns": 1, "pan_rad": 0, "tilt_rad": 0, "zoom": 3}'
+        )
+
+
+def test_keys_split_and_resolve() -> None:
+    assert split_key("gazed/lab/vision/detection") == ("lab", "vision/detection")
+    assert split_key("other/lab/x") is None
+    assert topic_for("vision/detection") is VISION_DETECTION
+    assert topic_for("gaze/health") == health("gaze")
+    assert topic_for("nothing/here") is None
+
+
+class FakeSample:
+    """What `decode_sample` reads of a zenoh sample."""
+
+    def __init__(self, payload: bytes, encoding: str, attachment: bytes | None = None) -> None:
+        self.payload = FakeBytes(payload)
+        self.encoding = encoding
+        self.attachment = FakeBytes(attachment) if attachment is not None else None
+
+
+class FakeBytes:
+    def __init__(self, data: bytes) -> None:
+        self.data = data
+
+    def to_bytes(self) -> bytes:
+        return self.data
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.binary(max_size=300))
+def test_any_bytes_decode_or_are_counted(payload: bytes) -> None:
+    stats = Stats()
+    for topic in TOPICS:
+        result = decode_sample(
+            topic,
+            FakeSample(payload, f"application/json;{topic.model.schema_id()}", payload),
+            stats,
+        )
+        assert result is None
+    counters, _ = stats.snapshot()
+    assert counters["malformed"] == len(TOPICS)
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    st.dictionaries(
+        st.sampled_from(
+            ["t_capture_ns", "seq", "detector", "found", "u_px", "width_px", "height_px", "x"]
+        ),
+        st.one_of(st.integers(), st.floats(), st.text(max_size=5), st.booleans(), st.none()),
+    )
+)
+def test_random_json_objects_decode_or_are_counted(fields: dict) -> None:
+    import json
+
+    stats = Stats()
+    payload = json.dumps(fields).encode()
+    result = decode_sample(
+        VISION_DETECTION, FakeSample(payload, "application/json;gazed.Detection/1"), stats
+    )
+    counters, _ = stats.snapshot()
+    assert (result is None) == (counters.get("malformed", 0) == 1)
+    if result is not None:
+        assert isinstance(result, m.Detection)
+
+
+def test_schema_mismatch_is_malformed() -> None:
+    stats = Stats()
+    good = SAMPLES[1].to_json()
+    assert (
+        decode_sample(
+            VISION_DETECTION, FakeSample(good, "application/json;gazed.Detection/1"), stats
+        )
+        is not None
+    )
+    assert (
+        decode_sample(
+            VISION_DETECTION, FakeSample(good, "application/json;gazed.Detection/2"), stats
+        )
+        is None
+    )
+    assert decode_sample(VISION_DETECTION, FakeSample(good, "application/json"), stats) is not None
+    counters, _ = stats.snapshot()
+    assert counters["malformed"] == 1
+    assert stats.last_malformed is not None and "gazed.Detection/2" in stats.last_malformed
