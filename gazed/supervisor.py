@@ -43,6 +43,7 @@ from gazed.topics import SUPERVISOR_STATUS
 log = logging.getLogger("gazed.supervisor")
 
 STATUS_PERIOD_S = 1.0
+EXIT_GRACE_S = 0.5  # a token can vanish just before its process's exit is seen
 IDLE_WAKE_S = 0.25
 ENV_SUPERVISOR_PID = "GAZED_SUPERVISOR_PID"
 ENV_PROCESS = "GAZED_PROCESS"
@@ -70,6 +71,7 @@ class Child:
     state: State = State.STOPPED
     popen: subprocess.Popen[bytes] | None = None
     alive: bool = False
+    lost_s: float = 0.0  # when its token vanished
     started_s: float = 0.0
     up_s: float = 0.0
     restart_at_s: float = 0.0
@@ -213,7 +215,7 @@ class Supervisor:
                 self._exited(
                     child, child.popen.returncode, "no liveliness within ready_timeout_s", now_s
                 )
-            elif child.state == State.RUNNING and not child.alive:
+            elif child.state == State.RUNNING and not child.alive and now_s - child.lost_s > EXIT_GRACE_S:
                 _signal(child, signal.SIGKILL)  # frozen: its lease expired
                 child.popen.wait()
                 self._exited(child, child.popen.returncode, "liveliness lost (frozen?)", now_s)
@@ -256,6 +258,8 @@ class Supervisor:
         child = self.children.get(name)
         if child is not None:
             child.alive = alive
+            if not alive:
+                child.lost_s = time.monotonic()
             self._changed = True
 
     def _all_up(self) -> bool:

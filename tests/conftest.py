@@ -3,8 +3,11 @@
 from __future__ import annotations
 
 import os
+import signal
 import socket
+import subprocess
 import sys
+import threading
 import time
 import uuid
 from collections.abc import Callable
@@ -12,6 +15,11 @@ from pathlib import Path
 from typing import TypeVar
 
 import pytest
+
+from gazed.bus import Bus
+from gazed.config import load_rig
+from gazed.messages import SupervisorStatus
+from gazed.topics import SUPERVISOR_STATUS
 
 T = TypeVar("T")
 
@@ -75,3 +83,113 @@ def shared_data() -> Path:
             f"{SHARED_DATA} is absent (the shared data sits beside the repository only in CI)"
         )
     return SHARED_DATA
+
+
+class NotifySocket:
+    """A fake systemd: collects the datagrams a process sends to $NOTIFY_SOCKET."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        self.messages: list[str] = []
+        self._sock = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
+        self._sock.bind(str(path))
+        self._sock.settimeout(0.2)
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._read, daemon=True)
+        self._thread.start()
+
+    def _read(self) -> None:
+        while not self._stop.is_set():
+            try:
+                data = self._sock.recv(4096)
+            except OSError:
+                continue
+            self.messages.extend(data.decode().split("\n"))
+
+    def count(self, line: str) -> int:
+        return sum(1 for m in list(self.messages) if m == line)
+
+    def close(self) -> None:
+        self._stop.set()
+        self._thread.join(2.0)
+        self._sock.close()
+
+
+def pid_alive(pid: int) -> bool:
+    """True if the process exists and is not a zombie."""
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().split(") ", 1)[1][0] != "Z"
+    except (FileNotFoundError, ProcessLookupError):
+        return False
+
+
+FAKE = "".join(
+    f'[services.{name}]\nmodule = "fake_process"\n\n'
+    for name in ("sim", "servo", "vision", "estimator", "gaze")
+)
+
+
+class RunningSupervisor:
+    """`gazed run RIG` as a subprocess, with a fake NOTIFY_SOCKET and a bus observer."""
+
+    def __init__(self, rig_path: Path, tmp_path: Path, **env: str) -> None:
+        self.rig_path = rig_path
+        self.rig = load_rig(rig_path)
+        self.notify = NotifySocket(tmp_path / "notify.sock")
+        self.process = subprocess.Popen(
+            [PYTHON, "-m", "gazed.cli", "run", str(rig_path)],
+            env=child_env(NOTIFY_SOCKET=str(self.notify.path), **env),
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        self.stderr: list[str] = []
+        self._reader = threading.Thread(
+            target=lambda: self.stderr.extend(self.process.stderr), daemon=True
+        )
+        self._reader.start()
+        self.alive_events: list[tuple[float, str, bool]] = []
+        self.statuses: list[SupervisorStatus] = []
+        self.bus = Bus(self.rig, "observer")
+        poll_until(self._connect, 20.0, 0.05)
+        self.bus.watch_alive(
+            lambda name, alive: self.alive_events.append((time.monotonic(), name, alive))
+        )
+        self._status = self.bus.subscribe(SUPERVISOR_STATUS)
+
+    def _connect(self) -> bool:
+        assert self.process.poll() is None, "".join(self.stderr)
+        try:
+            self.bus.open()
+        except ConnectionError:
+            return False
+        return True
+
+    def status(self) -> SupervisorStatus | None:
+        """The newest supervisor/status seen (None before the first)."""
+        self.statuses.extend(self._status.take())
+        return self.statuses[-1] if self.statuses else None
+
+    def pids(self) -> dict[str, int]:
+        """Pids of the running processes, once every process reported running has one."""
+
+        def complete() -> SupervisorStatus | None:
+            status = self.status()
+            if status and all(p.pid for p in status.processes if p.state == "running"):
+                return status
+            return None
+
+        status = poll_until(complete, 10.0)
+        return {p.name: p.pid for p in status.processes if p.pid is not None}
+
+    def wait_ready(self, timeout_s: float = 30.0) -> None:
+        poll_until(lambda: self.notify.count("READY=1") >= 1, timeout_s)
+
+    def stop(self) -> int:
+        if self.process.poll() is None:
+            self.process.send_signal(signal.SIGTERM)
+        try:
+            return self.process.wait(timeout=30)
+        finally:
+            self.bus.close()
+            self.notify.close()

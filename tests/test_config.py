@@ -33,7 +33,9 @@ def test_shipped_rigs_load(path: Path) -> None:
 def test_sim_rig_is_the_default_rig() -> None:
     rig = load_rig(REPO / "configs" / "sim.toml")
     assert rig.camera.source == "sim"
-    assert [n for n in ("sim", "servo", "vision", "estimator", "gaze") if rig.services.spec(n).enabled] == [
+    assert [
+        n for n in ("sim", "servo", "vision", "estimator", "gaze") if rig.services.spec(n).enabled
+    ] == [
         "sim",
         "servo",
         "vision",
@@ -49,17 +51,23 @@ def test_valid_rig_exits_0(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -
     assert "ok" in capsys.readouterr().out
 
 
-def test_syntax_error_reports_line_and_column(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_syntax_error_reports_line_and_column(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     code, lines = check(tmp_path, '[rig]\nname = "x"\n[head]\npan_max_deg = = 3\n', capsys)
     assert code == 2
-    assert lines == [f"{tmp_path / 'rig.toml'}: TOML syntax error: Invalid value (at line 4, column 15)"]
+    assert lines == [
+        f"{tmp_path / 'rig.toml'}: TOML syntax error: Invalid value (at line 4, column 15)"
+    ]
 
 
 def test_missing_key(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     code, lines = check(tmp_path, '[head]\nkinematics = "pan-tilt"\n', capsys)
     assert code == 2
     assert len(lines) == 1
-    assert lines[0].startswith(f"{tmp_path / 'rig.toml'}: rig: missing required key (expected a table")
+    assert lines[0].startswith(
+        f"{tmp_path / 'rig.toml'}: rig: missing required key (expected a table"
+    )
 
 
 def test_wrong_type(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -71,24 +79,37 @@ def test_wrong_type(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
 
 
 def test_out_of_range(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    code, lines = check(tmp_path, '[rig]\nname = "x"\n[estimator]\nstay_probability = 1.5\n', capsys)
+    code, lines = check(
+        tmp_path, '[rig]\nname = "x"\n[estimator]\nstay_probability = 1.5\n', capsys
+    )
     assert code == 2
-    assert ": estimator.stay_probability: input should be less than 1, got 1.5 (expected a number > 0 and < 1" in lines[0]
+    assert (
+        ": estimator.stay_probability: input should be less than 1, got 1.5 (expected a number > 0 and < 1"
+        in lines[0]
+    )
 
 
-def test_unknown_key_suggests_the_closest(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_unknown_key_suggests_the_closest(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     code, lines = check(tmp_path, '[rig]\nname = "x"\n[head]\npan_max_dg = 3\n', capsys)
     assert code == 2
-    assert lines == [f"{tmp_path / 'rig.toml'}: head.pan_max_dg: unknown key (did you mean 'pan_max_deg'?)"]
+    assert lines == [
+        f"{tmp_path / 'rig.toml'}: head.pan_max_dg: unknown key (did you mean 'pan_max_deg'?)"
+    ]
 
 
-def test_unknown_section_suggests_the_closest(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_unknown_section_suggests_the_closest(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     code, lines = check(tmp_path, '[rig]\nname = "x"\n[servoo]\nport = "x"\n', capsys)
     assert code == 2
     assert lines[0].endswith("servoo: unknown key (did you mean 'servo'?)")
 
 
-def test_every_problem_is_reported_not_only_the_first(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_every_problem_is_reported_not_only_the_first(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     text = (
         '[rig]\nname = "bad name"\n'
         "[head]\npan_min_deg = 10\npan_max_deg = 0\ntilt_rate_max_deg_s = -1\n"
@@ -101,15 +122,21 @@ def test_every_problem_is_reported_not_only_the_first(tmp_path: Path, capsys: py
     assert any("servo.speed: unknown key (did you mean 'pan_speed'?)" in line for line in lines)
 
 
-def test_cross_field_check_names_its_key(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    code, lines = check(tmp_path, '[rig]\nname = "x"\n[head]\npan_min_deg = 10\npan_max_deg = 0\n', capsys)
+def test_cross_field_check_names_its_key(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    code, lines = check(
+        tmp_path, '[rig]\nname = "x"\n[head]\npan_min_deg = 10\npan_max_deg = 0\n', capsys
+    )
     assert code == 2
     assert lines == [
         f"{tmp_path / 'rig.toml'}: head.pan_max_deg: must be above pan_min_deg (expected pan_min_deg < pan_max_deg)"
     ]
 
 
-def test_servo_protocol_is_a_discriminator(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_servo_protocol_is_a_discriminator(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     code, lines = check(tmp_path, '[rig]\nname = "x"\n[servo]\nprotocol = "pelco"\n', capsys)
     assert code == 2
     assert lines[0].endswith(
@@ -125,15 +152,32 @@ def test_unreadable_file(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> 
 def test_check_console_entry_exits_2(tmp_path: Path) -> None:
     path = tmp_path / "rig.toml"
     path.write_text('[rig]\nname = "x"\n[gaze]\nfovea_half_angel_deg = 2\n')
-    result = subprocess.run([sys.executable, "-m", "gazed.cli", "check", str(path)], capture_output=True, text=True)
+    result = subprocess.run(
+        [sys.executable, "-m", "gazed.cli", "check", str(path)], capture_output=True, text=True
+    )
     assert result.returncode == 2
-    assert "gaze.fovea_half_angel_deg: unknown key (did you mean 'fovea_half_angle_deg'?)" in result.stderr
+    assert (
+        "gaze.fovea_half_angel_deg: unknown key (did you mean 'fovea_half_angle_deg'?)"
+        in result.stderr
+    )
 
 
 def test_schema_is_json_schema_with_every_section(capsys: pytest.CaptureFixture[str]) -> None:
     assert cli.main(["schema"]) == 0
     schema = json.loads(capsys.readouterr().out)
-    sections = {"rig", "bus", "camera", "head", "servo", "calibration", "vision", "estimator", "gaze", "sim", "services"}
+    sections = {
+        "rig",
+        "bus",
+        "camera",
+        "head",
+        "servo",
+        "calibration",
+        "vision",
+        "estimator",
+        "gaze",
+        "sim",
+        "services",
+    }
     assert set(schema["properties"]) == sections
     assert schema["required"] == ["rig"]
     head = schema["$defs"]["HeadSection"]["properties"]
@@ -155,12 +199,16 @@ def test_every_field_has_a_description() -> None:
         return out
 
     fields = walk(Rig)
-    missing = [path for path, _, field in fields if not field.description and not path.startswith("Rig.")]
+    missing = [
+        path for path, _, field in fields if not field.description and not path.startswith("Rig.")
+    ]
     assert missing == []
 
 
 def test_relative_zenoh_config_is_resolved_from_the_rig_file(tmp_path: Path) -> None:
-    rig = parse_rig('[rig]\nname = "x"\n[bus]\nzenoh_config_path = "zenoh.json5"\n', tmp_path / "r.toml")
+    rig = parse_rig(
+        '[rig]\nname = "x"\n[bus]\nzenoh_config_path = "zenoh.json5"\n', tmp_path / "r.toml"
+    )
     assert rig.bus.zenoh_config_path == tmp_path / "zenoh.json5"
 
 
