@@ -175,6 +175,20 @@ class HeadSection(Section):
     )
     park_pan_deg: float = Field(0.0, description="Pan the head returns to when parked.")
     park_tilt_deg: float = Field(0.0, description="Tilt the head returns to when parked.")
+    angle_noise_deg: float = Field(
+        0.05,
+        gt=0,
+        le=10,
+        description="Std of the joint angles the head reports (encoder resolution, backlash); "
+        "propagated to the ground-plane measurement's covariance.",
+    )
+    angle_rate_noise_deg_s: float = Field(
+        0.5,
+        gt=0,
+        le=100,
+        description="Std of the joint rates at capture time (odometry differenced and "
+        "interpolated); propagated to the ground-plane velocity's covariance.",
+    )
 
     @model_validator(mode="after")
     def _limits(self) -> HeadSection:
@@ -216,6 +230,14 @@ class HeadSection(Section):
     def park_rad(self) -> tuple[float, float]:
         return math.radians(self.park_pan_deg), math.radians(self.park_tilt_deg)
 
+    @property
+    def angle_noise_rad(self) -> float:
+        return math.radians(self.angle_noise_deg)
+
+    @property
+    def angle_rate_noise_rad_s(self) -> float:
+        return math.radians(self.angle_rate_noise_deg_s)
+
 
 class ServoLink(Section):
     """Keys shared by every protocol: the serial link and the servo process's timing."""
@@ -235,6 +257,13 @@ class ServoLink(Section):
     odometry_rate_hz: float = Field(
         50.0, gt=0, le=1000, description="How often the head's position is polled."
     )
+    command_rate_hz: float = Field(
+        50.0,
+        gt=0,
+        le=1000,
+        description="Most set-points per second while a move is under way (a fresh demand is "
+        "written at once).",
+    )
     reconnect_max_s: float = Field(
         10.0, gt=0, le=600, description="Longest wait between reconnection attempts."
     )
@@ -249,6 +278,12 @@ class PelcoDServo(ServoLink):
         True,
         description="The unit answers the 0x51/0x53 position queries; otherwise odometry is dead-reckoned.",
     )
+    pan_speed_max_deg_s: float = Field(
+        120.0, gt=0, le=3600, description="Pan rate of drive speed 0x3F (speeds map linearly)."
+    )
+    tilt_speed_max_deg_s: float = Field(
+        90.0, gt=0, le=3600, description="Tilt rate of drive speed 0x3F (speeds map linearly)."
+    )
 
 
 class ViscaServo(ServoLink):
@@ -261,6 +296,12 @@ class ViscaServo(ServoLink):
     pan_speed: int = Field(24, ge=1, le=24, description="Pan speed byte of absolute moves (1-24).")
     tilt_speed: int = Field(
         20, ge=1, le=20, description="Tilt speed byte of absolute moves (1-20)."
+    )
+    pan_speed_max_deg_s: float = Field(
+        120.0, gt=0, le=3600, description="Pan rate of speed byte 0x18 (speeds map linearly)."
+    )
+    tilt_speed_max_deg_s: float = Field(
+        90.0, gt=0, le=3600, description="Tilt rate of speed byte 0x14 (speeds map linearly)."
     )
 
 
@@ -301,8 +342,9 @@ class CalibrationSection(Section):
         None,
         min_length=3,
         max_length=3,
-        description="3x3 matrix M (rows) mapping frontal-plane points to ground XY, M33 = 1; "
-        "written by `gazed calibrate --write`.",
+        description="3x3 matrix M (rows) mapping frontal-plane points to ground XY (metres), "
+        "M33 = 1 when the rest gaze points below the horizon, else a unit third row; lambda = "
+        "(M x)_3 > 0 below the horizon. Written by `gazed calibrate points|lines FILE --write RIG`.",
     )
     camera_xyz_m: tuple[float, float, float] | None = Field(
         None,
@@ -321,6 +363,17 @@ class CalibrationSection(Section):
             values = [v for row in self.homography for v in row]
             if not all(math.isfinite(v) for v in values):
                 raise ValueError("homography: not finite (expected 3 rows of 3 finite numbers)")
+            (a, b, c), (d, e, f), (g, h, i) = self.homography
+            determinant = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
+            scale = math.sqrt(sum(v * v for v in values))
+            if abs(determinant) <= 1e-12 * scale**3:
+                raise ValueError(
+                    "homography: singular (expected an invertible matrix, as `gazed calibrate` writes)"
+                )
+        if self.camera_xyz_m is not None and self.target_height_m >= self.camera_xyz_m[2]:
+            raise ValueError(
+                "target_height_m: not below the camera (expected target_height_m < camera_xyz_m[2])"
+            )
         if self.target_height_m > 0 and self.camera_xyz_m is None:
             raise ValueError(
                 "camera_xyz_m: missing (expected [X, Y, Z] when target_height_m > 0, for the height correction)"
@@ -349,6 +402,54 @@ class EstimatorSection(Section):
     )
     stay_probability: float = Field(
         0.96, gt=0, lt=1, description="IMM switching matrix diagonal J_d (the paper's 0.96)."
+    )
+    csd_speed_rate_noise_m_s2: float = Field(
+        0.3, gt=0, description="IMM CSD process noise: std of the unmodelled speed rate ṡ."
+    )
+    csd_turn_rate_noise_rad_s: float = Field(
+        0.1, gt=0, description="IMM CSD process noise: std of the unmodelled turn rate θ̇."
+    )
+    cs_speed_rate_noise_m_s2: float = Field(
+        0.3, gt=0, description="IMM CS process noise: std of the unmodelled speed rate ṡ."
+    )
+    cs_turn_accel_noise_rad_s2: float = Field(
+        5.5,
+        gt=0,
+        description="IMM CS process noise: std of the turn-rate change θ̈ (the paper: 30 rad²/s⁴).",
+    )
+    cd_jerk_noise_m_s3: float = Field(
+        3.0, gt=0, description="IMM CD process noise: std of the speed-rate change s̈."
+    )
+    cd_turn_rate_noise_rad_s: float = Field(
+        0.1, gt=0, description="IMM CD process noise: std of the unmodelled turn rate θ̇."
+    )
+    cp_velocity_noise_m_s: float = Field(
+        0.2, gt=0, description="CP process noise: std of the velocity (seed 003 §IV: 0.04 m²)."
+    )
+    cv_accel_noise_m_s2: float = Field(
+        0.5, gt=0, description="CV process noise: std of the acceleration (seed 003 §IV: 0.25)."
+    )
+    ca_jerk_noise_m_s3: float = Field(
+        0.5, gt=0, description="CA process noise: std of the jerk (seed 003 §IV: 0.25)."
+    )
+    selection_window: int = Field(
+        10, ge=1, le=1000, description="Innovation selection: window length in observations."
+    )
+    consistency_probability: float = Field(
+        0.99,
+        gt=0.5,
+        lt=1,
+        description="Innovation selection: a model is consistent while its windowed innovation "
+        "mean and NIS stay inside this chi-square probability.",
+    )
+    image_cv_accel_noise_rad_s2: float = Field(
+        0.5, gt=0, description="image-cv process noise: std of the gaze-angle acceleration."
+    )
+    initial_speed_std_m_s: float = Field(
+        2.0,
+        gt=0,
+        description="Std of the velocity (m/s, or rad/s for image-cv) of a track that has one "
+        "position and no velocity yet.",
     )
     position_noise_m: float = Field(
         0.05, gt=0, description="Std of a ground-plane position measurement."
@@ -420,6 +521,30 @@ class SimSection(Section):
         ge=0,
         le=2000,
         description="Delay between capture and a frame reaching the bus (the paper: 100-200).",
+    )
+    head_latency_ms: float = Field(
+        20.0,
+        ge=0,
+        le=2000,
+        description="Emulated head: delay from a command's last byte to the axes acting on it.",
+    )
+    head_reply_delay_ms: float = Field(
+        1.0,
+        ge=0,
+        le=1000,
+        description="Emulated head: delay from a request's last byte to its reply's first.",
+    )
+    head_encoder_resolution_deg: float = Field(
+        0.0,
+        ge=0,
+        le=10,
+        description="Emulated head: step of the reported angles (0: only the protocol's unit).",
+    )
+    head_backlash_deg: float = Field(
+        0.0,
+        ge=0,
+        le=10,
+        description="Emulated head: play between motor (what the encoder reads) and camera.",
     )
 
 

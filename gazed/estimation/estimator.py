@@ -117,7 +117,11 @@ class Measurement:
     @property
     def z(self) -> np.ndarray:
         """[p, v] or [p]: (4,) or (2,)."""
-        return self.position if self.velocity is None else np.concatenate([self.position, self.velocity])
+        return (
+            self.position
+            if self.velocity is None
+            else np.concatenate([self.position, self.velocity])
+        )
 
     @property
     def R(self) -> np.ndarray:
@@ -269,7 +273,9 @@ class TrackEstimator(ABC):
         R = np.asarray(R, dtype=float)
         m = z.shape[-1]
         if z.shape != (n, m) or m not in (2, 4) or R.shape != (n, m, m):
-            raise ValueError(f"expected z (N, 2|4) and R (N, m, m) for N = {n}, got {z.shape}, {R.shape}")
+            raise ValueError(
+                f"expected z (N, 2|4) and R (N, m, m) for N = {n}, got {z.shape}, {R.shape}"
+            )
         present = np.ones(n, bool) if present is None else np.asarray(present, bool)
         outcome = np.full(n, Outcome.IDLE, dtype=np.int64)
 
@@ -299,7 +305,7 @@ class TrackEstimator(ABC):
             idx = _select(moving)
             self._predict(idx, t[idx] - self.t_s[idx])
             self.t_s[idx] = t[idx]
-            outcome[coasting] = Outcome.COASTED
+            outcome[coasting & ~present] = Outcome.COASTED
         if tracked.any():
             self._filter(np.flatnonzero(tracked), t, z, R, outcome)
         starting = good & (self.status != TRACKING) & ~tracked
@@ -307,12 +313,14 @@ class TrackEstimator(ABC):
             self._start(np.flatnonzero(starting), t, z, R, outcome)
 
         np.add.at(self.counts, (np.arange(n), outcome), 1)
-        stepped = np.isin(outcome, (Outcome.ACCEPTED, Outcome.COASTED, Outcome.GATED, Outcome.INITIALISED, Outcome.REINITIALISED))
+        stepped = (self.status == TRACKING) & (outcome != Outcome.IDLE)
         if stepped.any() and len(self.model_names) > 1:
             idx = np.flatnonzero(stepped)
             sel = _select(stepped)
             s_dot, theta_dot = self._rates(sel)
-            self._maneuvers.observe(idx, t[idx], np.argmax(self._probabilities(sel), axis=-1), s_dot, theta_dot)
+            self._maneuvers.observe(
+                idx, t[idx], np.argmax(self._probabilities(sel), axis=-1), s_dot, theta_dot
+            )
         return outcome
 
     def forecast(self, t_s: np.ndarray) -> Forecast:
@@ -380,7 +388,7 @@ class TrackEstimator(ABC):
         """Initiate the tracks idx from this measurement (and a held one, if any)."""
         m = z.shape[-1]
         if m == 4:  # velocity measured: start at once
-            self._begin(idx, t[idx], z[idx], R[idx])
+            self._begin(idx, t[idx], z[idx], R[idx], np.full(len(idx), math.nan))
             outcome[idx] = Outcome.INITIALISED
             return
         second = idx[self.status[idx] == PENDING]
@@ -393,7 +401,7 @@ class TrackEstimator(ABC):
             Rv[:, :2, :2] = R1
             Rv[:, :2, 2:] = Rv[:, 2:, :2] = R1 / dt[:, :, None]
             Rv[:, 2:, 2:] = (R0 + R1) / (dt * dt)[:, :, None]
-            self._begin(second, t[second], zv, Rv)
+            self._begin(second, t[second], zv, Rv, dt[:, 0])
             outcome[second] = Outcome.INITIALISED
         if len(first):
             self.status[first] = PENDING
@@ -402,9 +410,11 @@ class TrackEstimator(ABC):
             self._pending_R[first] = R[first]
             outcome[first] = Outcome.PENDING
 
-    def _begin(self, idx: np.ndarray, t: np.ndarray, zv: np.ndarray, Rv: np.ndarray) -> None:
+    def _begin(
+        self, idx: np.ndarray, t: np.ndarray, zv: np.ndarray, Rv: np.ndarray, interval_s: np.ndarray
+    ) -> None:
         self._maneuvers.reset(idx)
-        self._initialise(idx, zv, Rv)
+        self._initialise(idx, zv, Rv, interval_s)
         self.status[idx] = TRACKING
         self.t_s[idx] = t
         self.t_measured_s[idx] = t
@@ -413,8 +423,11 @@ class TrackEstimator(ABC):
     # ------------------------------------------------------------------------ the filter part
 
     @abstractmethod
-    def _initialise(self, idx: np.ndarray, zv: np.ndarray, Rv: np.ndarray) -> None:
-        """Start the tracks idx from position and velocity zv (K, 4) with covariance Rv."""
+    def _initialise(
+        self, idx: np.ndarray, zv: np.ndarray, Rv: np.ndarray, interval_s: np.ndarray
+    ) -> None:
+        """Start the tracks idx from position and velocity zv (K, 4) with covariance Rv;
+        interval_s (K,) is the two-point interval the velocity came from (NaN: measured)."""
 
     @abstractmethod
     def _predict(self, idx: slice | np.ndarray, dt: np.ndarray) -> None:

@@ -94,9 +94,7 @@ class GroundModelBank:
     def names(self) -> tuple[str, ...]:
         return tuple(m.name for m in self.models)
 
-    def propagate(
-        self, x: np.ndarray, dt: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def propagate(self, x: np.ndarray, dt: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """f(x), its Jacobian ∇f and Q over an interval dt.
 
         x: (..., M, 6); dt: (...) seconds, >= 0.

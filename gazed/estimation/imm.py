@@ -45,8 +45,8 @@ class MotionModels(Protocol):
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]: ...
 
 
-# h(x (..., n)) -> (h (..., m), H (..., m, n))
-MeasurementFunction = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
+# (x (..., n), m) -> (h (..., m), H (..., m, n)) for a measurement of dimension m
+MeasurementFunction = Callable[[np.ndarray, int], tuple[np.ndarray, np.ndarray]]
 
 
 def switching_matrix(stay_probability: float, n_models: int) -> np.ndarray:
@@ -60,7 +60,9 @@ def check_switching_matrix(J: np.ndarray) -> np.ndarray:
     if J.ndim != 2 or J.shape[0] != J.shape[1]:
         raise ValueError(f"switching matrix must be square, got shape {J.shape}")
     if np.any(J < 0) or not np.allclose(J.sum(axis=1), 1.0, atol=1e-12):
-        raise ValueError("switching matrix: rows must be probabilities summing to 1 (J[i, j] = i -> j)")
+        raise ValueError(
+            "switching matrix: rows must be probabilities summing to 1 (J[i, j] = i -> j)"
+        )
     return J
 
 
@@ -125,7 +127,7 @@ def combine(
     xc = weighted_mean(mu, x, reference, angle_index)
     D = _difference(x, xc[..., None, :], angle_index)  # (N, M, n)
     n = x.shape[-1]
-    Pc = (mu[..., None, :] @ P.reshape(*P.shape[:-2], n * n))[..., 0, :].reshape(xc.shape + (n,))
+    Pc = (mu[..., None, :] @ P.reshape(*P.shape[:-2], n * n))[..., 0, :].reshape((*xc.shape, n))
     return xc, Pc + (D.mT * mu[..., None, :]) @ D
 
 
@@ -186,7 +188,7 @@ class ImmFilter:
 
     def innovate(self, idx: slice | np.ndarray, z: np.ndarray, R: np.ndarray) -> Innovation:
         """ν = z - h(x(k+1|k)), S, NIS and log N(ν; 0, S) per model; z (K, m), R (K, m, m)."""
-        h, H = self.measure(self.x[idx])
+        h, H = self.measure(self.x[idx], z.shape[-1])
         y = z[:, None, :] - h
         Rm = np.broadcast_to(R[:, None], H.shape[:-2] + R.shape[-2:])
         S = innovation_covariance(self.P[idx], H, Rm)

@@ -91,9 +91,7 @@ class KinematicModelBank:
         Q = (powers @ self._Q_coefficients).reshape(shape)
         return F, Q
 
-    def propagate(
-        self, x: np.ndarray, dt: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def propagate(self, x: np.ndarray, dt: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """x' = Ã x, Ã, Q̃: x (..., M, 6), dt broadcastable to (...)."""
         F, Q = self.matrices(np.broadcast_to(dt, x.shape[:-2]))
         return (F @ x[..., None])[..., 0], F, Q

@@ -1,0 +1,1 @@
+"""Offline evaluation: `gazed eval estimator` (and, later, the closed loop)."""
