@@ -131,6 +131,13 @@ class Odometry(Message):
     dead_reckoned: bool = Field(
         False, description="Computed from commands: the device cannot report position."
     )
+    command_t_capture_ns: int | None = Field(
+        None, ge=0, description="t_capture_ns of the demand last written to the head."
+    )
+    command_stamps: tuple[Stamp, ...] = Field(
+        default=(),
+        description="That demand's stamps, ending ('servo', t_ns) when its bytes were written.",
+    )
 
 
 class ServoStatus(Message):
@@ -141,9 +148,16 @@ class ServoStatus(Message):
     holding: bool = Field(False, description="No fresh demand: holding position.")
     errors: int = Field(0, ge=0)
     clamps: int = Field(0, ge=0, description="Demands clamped to joint or rate limits.")
-    refused: int = Field(0, ge=0, description="Demands refused (non-finite).")
+    refused: int = Field(
+        0, ge=0, description="Demands refused: non-finite, or malformed on the wire."
+    )
     reconnects: int = Field(0, ge=0)
     last_error: str | None = None
+    timeouts: int = Field(0, ge=0, description="Requests the head did not answer in time.")
+    commands: int = Field(0, ge=0, description="Set-points written to the head.")
+    dead_reckoned: bool = Field(
+        False, description="Odometry is computed from commands (no position feedback)."
+    )
 
 
 class GazeDemand(Message):

@@ -75,13 +75,17 @@ class AxisMotion:
         self.mode = "position"
         self.target_rad = self._clamp_target(target_rad)
         self.target_rate_rad_s = target_rate_rad_s
-        cap = self.rate_max_rad_s if rate_rad_s is None else min(abs(rate_rad_s), self.rate_max_rad_s)
+        cap = (
+            self.rate_max_rad_s if rate_rad_s is None else min(abs(rate_rad_s), self.rate_max_rad_s)
+        )
         self.rate_cap_rad_s = cap
 
     def move_at(self, rate_rad_s: float) -> None:
         """Run at `rate_rad_s` (clamped to the rate limit) until told otherwise or a bound."""
         self.mode = "velocity"
-        self.velocity_command_rad_s = max(-self.rate_max_rad_s, min(self.rate_max_rad_s, rate_rad_s))
+        self.velocity_command_rad_s = max(
+            -self.rate_max_rad_s, min(self.rate_max_rad_s, rate_rad_s)
+        )
 
     def hold(self) -> None:
         """Come to rest as soon as the acceleration limit allows, and stay there."""

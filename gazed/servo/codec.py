@@ -163,4 +163,3 @@ class Codec(ABC):
     def _discard(self, n: int) -> None:
         self.discarded_bytes += n
         del self._buffer[:n]
-

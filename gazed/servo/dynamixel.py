@@ -375,9 +375,13 @@ class DynamixelCodec(Codec):
         torque off to change it; torque on."""
         modes = []
         for device_id in self.ids:
-            self.model_numbers[device_id] = int(
-                self._require(exchange(self.encode_ping(device_id)), "ping", device_id).value or 0
-            ) & 0xFFFF
+            self.model_numbers[device_id] = (
+                int(
+                    self._require(exchange(self.encode_ping(device_id)), "ping", device_id).value
+                    or 0
+                )
+                & 0xFFFF
+            )
             mode_reply = self._require(
                 exchange(self.encode_read(device_id, "operating_mode")), "read mode", device_id
             )

@@ -212,8 +212,10 @@ class FlirPtuCodec(Codec):
             self._query(exchange, op, self._frames((op, None, "ack"))[0])
         values = {name: self._value(exchange, OPS[name]) for name in HANDSHAKE_QUERIES}
         if values["pan_resolution"] <= 0 or values["tilt_resolution"] <= 0:
-            raise HandshakeError(f"PTU reported resolutions {values['pan_resolution']}, "
-                                 f"{values['tilt_resolution']} arcsec/position")
+            raise HandshakeError(
+                f"PTU reported resolutions {values['pan_resolution']}, "
+                f"{values['tilt_resolution']} arcsec/position"
+            )
         self.pan_arcsec_per_position = values["pan_resolution"]
         self.tilt_arcsec_per_position = values["tilt_resolution"]
         self.limits_positions = {

@@ -9,6 +9,7 @@ the port (unplugged adapter, closed pty) comes out as `LinkError`.
 
 from __future__ import annotations
 
+import contextlib
 import time
 
 import serial
@@ -62,10 +63,9 @@ class SerialTransport:
     def disconnect(self) -> None:
         port, self._serial = self._serial, None
         if port is not None:
-            try:
+            # a port already gone (pulled adapter, closed pty) needs no more than this
+            with contextlib.suppress(serial.SerialException, OSError):
                 port.close()
-            except (serial.SerialException, OSError):
-                pass  # the port is already gone; closing is all that was asked
 
     def _port(self) -> serial.SerialBase:
         if self._serial is None:

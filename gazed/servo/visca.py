@@ -182,9 +182,7 @@ class ViscaCodec(Codec):
         return [self._packet(*head, self.pan_speed, self.tilt_speed, *stop)]
 
     def encode_query_position(self) -> list[bytes]:
-        return [
-            self._packet(CATEGORY["inquiry"], CATEGORY["pan_tilt"], PAN_TILT_POSITION_INQUIRY)
-        ]
+        return [self._packet(CATEGORY["inquiry"], CATEGORY["pan_tilt"], PAN_TILT_POSITION_INQUIRY)]
 
     def encode_if_clear(self) -> list[bytes]:
         """IF_Clear: empties the camera's command buffers; answered `z0 50 FF`."""

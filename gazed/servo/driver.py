@@ -1,0 +1,179 @@
+"""A codec on a transport: the head as a device with one lifecycle (STYLE 1).
+
+    with ServoDriver(codec, SerialTransport(rig.servo.port, rig.servo.baud), 0.1) as head:
+        t_ns = head.set_position(pan_rad, tilt_rad)      # device angles
+        where = head.query_position()                     # DevicePosition, t_read_ns
+
+Request/reply matching: each frame is written, then the driver reads until the codec has decoded
+as many synchronous replies as `codec.replies_expected(frame)` says (none for Pelco-D motion
+commands and Dynamixel Sync Write, an ACK for VISCA commands, one `*`/`!` line per PTU command,
+one status packet per ID of a Dynamixel Sync Read), or the read timeout passes. Only then is the
+next frame written, so a half-duplex line never has two talkers and VISCA never has more commands
+in flight than its sockets. Asynchronous replies (VISCA completions, PTU `!P`/`!T`) are kept in
+`notices`. Bytes waiting before a request are stale answers to a request that timed out: they
+are decoded, counted and dropped.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import Counter, deque
+from dataclasses import dataclass
+
+from gazed.servo.codec import Codec, Reply
+from gazed.servo.transport import LinkError, SerialTransport
+
+
+class ServoTimeout(LinkError):
+    """The device did not answer within the read timeout."""
+
+
+class DeviceError(RuntimeError):
+    """The device answered with an error (it refused the command); the link itself is fine."""
+
+
+@dataclass(frozen=True)
+class DevicePosition:
+    """Both axes in device angles, and when the (last) reply was read (wall clock, ns)."""
+
+    pan_rad: float
+    tilt_rad: float
+    t_read_ns: int
+
+
+class ServoDriver:
+    """The head behind one serial port, speaking one protocol."""
+
+    def __init__(self, codec: Codec, transport: SerialTransport, timeout_s: float) -> None:
+        self.codec = codec
+        self.transport = transport
+        self.timeout_s = timeout_s
+        self.counters: Counter[str] = Counter()
+        self.notices: deque[Reply] = deque(maxlen=32)
+        self.last_error: str | None = None
+
+    def __enter__(self) -> ServoDriver:
+        self.connect()
+        return self
+
+    def __exit__(self, *_exc: object) -> None:
+        self.disconnect()
+
+    @property
+    def is_connected(self) -> bool:
+        return self.transport.is_connected
+
+    def connect(self) -> None:
+        """Open the port and run the protocol's start-up handshake (raises `LinkError`,
+        `HandshakeError`; the port is closed again on failure)."""
+        self.transport.connect()
+        self.codec.reset()
+        try:
+            self.codec.handshake(self.exchange)
+        except BaseException:
+            self.disconnect()
+            raise
+
+    def disconnect(self) -> None:
+        self.transport.disconnect()
+        self.codec.reset()
+
+    # --- requests --------------------------------------------------------------------------
+
+    def exchange(self, frame: bytes) -> list[Reply]:
+        """Write one frame and return its synchronous replies (raises `ServoTimeout`)."""
+        return self.send([frame])[1]
+
+    def send(self, frames: list[bytes]) -> tuple[int, list[Reply], int]:
+        """Write frames one after another, each after its replies. Returns the time the first
+        frame was written, every synchronous reply, and the time the last reply was read."""
+        t_written_ns = 0
+        t_read_ns = 0
+        replies: list[Reply] = []
+        for frame in frames:
+            self._drain()
+            t_ns = self.transport.write(frame)
+            self.counters["frames_written"] += 1
+            t_written_ns = t_written_ns or t_ns
+            got, t_last_ns = self._collect(self.codec.replies_expected(frame))
+            replies += got
+            t_read_ns = t_last_ns or t_read_ns
+        return t_written_ns, replies, t_read_ns
+
+    def command(self, frames: list[bytes]) -> int:
+        """Send command frames; returns when the first was written. A device error reply raises
+        `DeviceError` (after the remaining frames were sent)."""
+        t_written_ns, replies, _ = self.send(frames)
+        errors = [r.reason or "error" for r in replies if r.kind == "error"]
+        if errors:
+            self.counters["device_errors"] += len(errors)
+            self.last_error = "; ".join(errors)
+            raise DeviceError(self.last_error)
+        return t_written_ns
+
+    def set_position(self, pan_rad: float, tilt_rad: float) -> int:
+        """Send both axes to device angles; the time the bytes were written (ns)."""
+        return self.command(self.codec.encode_set_position(pan_rad, tilt_rad))
+
+    def set_velocity(self, pan_rad_s: float, tilt_rad_s: float) -> int:
+        return self.command(self.codec.encode_set_velocity(pan_rad_s, tilt_rad_s))
+
+    def stop(self) -> int:
+        """Stop both axes where they are (reads the position first where the protocol needs it)."""
+        if self.codec.stop_needs_position:
+            self.query_position()
+        return self.command(self.codec.encode_stop())
+
+    def query_position(self) -> DevicePosition:
+        """Both axes' present device angles (raises `ServoTimeout`, `DeviceError`)."""
+        _, replies, t_read_ns = self.send(self.codec.encode_query_position())
+        pan = tilt = None
+        for reply in replies:
+            if reply.kind == "error":
+                self.counters["device_errors"] += 1
+                self.last_error = reply.reason or "error"
+                raise DeviceError(self.last_error)
+            if reply.kind == "position":
+                pan = reply.pan_rad if reply.pan_rad is not None else pan
+                tilt = reply.tilt_rad if reply.tilt_rad is not None else tilt
+        if pan is None or tilt is None:
+            raise DeviceError(f"position reply incomplete: {[r.describe() for r in replies]}")
+        return DevicePosition(pan, tilt, t_read_ns)
+
+    # --- reading ---------------------------------------------------------------------------
+
+    def _collect(self, expected: int) -> tuple[list[Reply], int]:
+        replies: list[Reply] = []
+        t_read_ns = 0
+        deadline = time.monotonic() + self.timeout_s
+        while len(replies) < expected:
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                self.counters["timeouts"] += 1
+                self.codec.reset()
+                raise ServoTimeout(
+                    f"{self.transport.url}: {len(replies)} of {expected} replies within "
+                    f"{self.timeout_s * 1000:.0f} ms"
+                )
+            data, t_ns = self.transport.read(remaining)
+            for reply in self.codec.feed(data):
+                if reply.asynchronous:
+                    self._notice(reply)
+                else:
+                    replies.append(reply)
+                    t_read_ns = t_ns
+        return replies, t_read_ns
+
+    def _drain(self) -> None:
+        data, _ = self.transport.read(0)
+        if not data:
+            return
+        for reply in self.codec.feed(data):
+            if reply.asynchronous:
+                self._notice(reply)
+            else:
+                self.counters["stale_replies"] += 1
+
+    def _notice(self, reply: Reply) -> None:
+        self.counters[f"notices:{reply.kind}"] += 1
+        self.notices.append(reply)

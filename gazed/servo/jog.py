@@ -1,0 +1,145 @@
+"""`gazed servo jog`: check the wiring of a new head by sending one command and reading the
+reply decoded.
+
+    gazed servo jog --rig RIG --pan-deg 10 --tilt-deg -5    # joint angles, inside [head] limits
+    gazed servo jog --rig RIG --stop
+    gazed servo jog --rig RIG --query
+
+It opens the rig's `[servo] port` (or `--port`, any pyserial URL), runs the protocol's start-up
+handshake, writes the command's frames one by one and prints every byte sent and every reply
+with its meaning, then listens `--listen-ms` for what the device sends unasked (VISCA
+completions, PTU limit notices). Exit 0 when the head answered as the protocol says, 1 when the
+link or the device failed, 2 for a bad rig or an angle outside the rig's limits.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+from pathlib import Path
+
+from gazed.cli import load_rig_or_exit
+from gazed.config import Rig
+from gazed.geometry.kinematics import device_from_joint, joint_from_device
+from gazed.servo import CodecError, HandshakeError, Reply, make_codec
+from gazed.servo.driver import ServoDriver
+from gazed.servo.transport import LinkError, SerialTransport
+
+
+def servo_arguments(parser: argparse.ArgumentParser) -> None:
+    actions = parser.add_subparsers(dest="action", required=True, metavar="ACTION")
+    jog = actions.add_parser("jog", help="send one command to the head and show the reply decoded")
+    jog.add_argument("--rig", required=True, type=Path, help="rig description (TOML)")
+    what = jog.add_mutually_exclusive_group(required=True)
+    what.add_argument("--pan-deg", type=float, help="go to this pan (joint angle, with --tilt-deg)")
+    what.add_argument("--stop", action="store_true", help="stop both axes where they are")
+    what.add_argument("--query", action="store_true", help="read both axes' positions")
+    jog.add_argument("--tilt-deg", type=float, help="go to this tilt (joint angle, with --pan-deg)")
+    jog.add_argument("--port", help="pyserial URL to use instead of the rig's [servo] port")
+    jog.add_argument(
+        "--listen-ms",
+        type=float,
+        default=300.0,
+        help="after the command, print what the head sends unasked for this long (default 300)",
+    )
+
+
+def servo_command(args: argparse.Namespace) -> int:
+    rig = load_rig_or_exit(args.rig)
+    if (args.pan_deg is None) != (args.tilt_deg is None):
+        print("gazed servo jog: --pan-deg and --tilt-deg go together")
+        return 2
+    if args.pan_deg is not None:
+        problem = _outside_limits(rig, args.pan_deg, args.tilt_deg)
+        if problem:
+            print(f"gazed servo jog: {problem}")
+            return 2
+    port = args.port or rig.servo.port
+    codec = make_codec(rig.servo.protocol, **rig.servo_params())
+    driver = ServoDriver(codec, SerialTransport(port, rig.servo.baud), rig.servo.timeout_ms / 1000)
+    print(f"{rig.servo.protocol} on {port} at {rig.servo.baud} baud")
+    try:
+        with driver:
+            print("handshake: ok")
+            answered = _jog(rig, driver, args)
+            _listen(driver, args.listen_ms / 1000.0)
+    except (LinkError, HandshakeError, CodecError) as exc:
+        print(f"failed: {exc}")
+        return 1
+    return 0 if answered else 1
+
+
+def _outside_limits(rig: Rig, pan_deg: float, tilt_deg: float) -> str | None:
+    head = rig.head
+    if not (math.isfinite(pan_deg) and math.isfinite(tilt_deg)):
+        return "angles must be finite"
+    if not head.pan_min_deg <= pan_deg <= head.pan_max_deg:
+        return f"pan {pan_deg} deg outside [head] {head.pan_min_deg}..{head.pan_max_deg} deg"
+    if not head.tilt_min_deg <= tilt_deg <= head.tilt_max_deg:
+        return f"tilt {tilt_deg} deg outside [head] {head.tilt_min_deg}..{head.tilt_max_deg} deg"
+    return None
+
+
+def _jog(rig: Rig, driver: ServoDriver, args: argparse.Namespace) -> bool:
+    """Send the command; False if the device answered with an error or cannot answer."""
+    codec = driver.codec
+    if args.query:
+        if not codec.can_report_position:
+            print("this head cannot report its position ([servo] position_feedback = false)")
+            return False
+        return _send(rig, driver, codec.encode_query_position())
+    if args.stop:
+        if codec.stop_needs_position and not _send(rig, driver, codec.encode_query_position()):
+            return False
+        return _send(rig, driver, codec.encode_stop())
+    pan, tilt = device_from_joint(rig.head, math.radians(args.pan_deg), math.radians(args.tilt_deg))
+    print(f"device angles: pan {math.degrees(pan):.3f} deg, tilt {math.degrees(tilt):.3f} deg")
+    return _send(rig, driver, codec.encode_set_position(pan, tilt))
+
+
+def _send(rig: Rig, driver: ServoDriver, frames: list[bytes]) -> bool:
+    answered = True
+    for frame in frames:
+        print(f"-> {_show(frame)}")
+        replies = driver.exchange(frame)
+        if not replies:
+            print("   (no reply expected)")
+        for reply in replies:
+            _print_reply(rig, reply)
+            answered = answered and reply.kind != "error"
+    return answered
+
+
+def _listen(driver: ServoDriver, duration_s: float) -> None:
+    """Print the notices that came during the exchanges, then whatever comes unasked."""
+    for reply in driver.notices:
+        print(f"<- {_show(reply.raw)}   {reply.describe()}")
+    deadline = time.monotonic() + duration_s
+    while (remaining_s := deadline - time.monotonic()) > 0:
+        data, _ = driver.transport.read(remaining_s)
+        for reply in driver.codec.feed(data):
+            print(f"<- {_show(reply.raw)}   {reply.describe()}")
+
+
+def _print_reply(rig: Rig, reply: Reply) -> None:
+    print(f"<- {_show(reply.raw)}   {reply.describe()}")
+    if reply.kind == "position":
+        pan, tilt = joint_from_device(
+            rig.head,
+            reply.pan_rad if reply.pan_rad is not None else math.nan,
+            reply.tilt_rad if reply.tilt_rad is not None else math.nan,
+        )
+        joint = [
+            f"{name} {math.degrees(angle):.3f} deg"
+            for name, angle in (("pan", pan), ("tilt", tilt))
+            if math.isfinite(angle)
+        ]
+        print(f"   joint: {', '.join(joint)}")
+
+
+def _show(data: bytes) -> str:
+    """ASCII protocols (PTU) as text, binary ones as hex."""
+    if data and all(32 <= b < 127 or b in b"\r\n" for b in data):
+        return repr(data.decode("ascii"))
+    return data.hex(" ")

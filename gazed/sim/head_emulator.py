@@ -1,0 +1,280 @@
+"""The head emulator: a pan/tilt head that answers the rig's protocol on a pseudo-terminal
+(DESIGN §9, STYLE 3: the fake speaks the real bytes).
+
+It opens a pty, points the rig's `[servo] port` at it with a symlink (so the `servo` process
+opens it through pyserial as it would a USB adapter), decodes what the host writes with the
+protocol's device model (`head_pelco_d`, `head_visca`, `head_flir_ptu`, `head_dynamixel`),
+answers as the device would, and moves the two axes of a `HeadMechanics`.
+
+The serial line is emulated at the rig's baud rate (8N1, ten bit times a byte): a request counts
+as received when its last byte would have arrived, and a reply reaches the host when its last
+byte would have, one after another, so the poll rates and latencies measured against the
+emulator are those of the real line. `head_reply_delay_ms` is the device's own turn-around.
+
+Embedding (the `sim` process): `HeadEmulator(rig)` as a context manager runs its own thread;
+`pose_at(t)` gives the camera's true joint angles at any monotonic instant of the last two
+seconds. Alone: `python -m gazed.sim.head_emulator --rig RIG`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import os
+import pty
+import select
+import signal
+import sys
+import threading
+import time
+import tty
+from collections import deque
+from collections.abc import Callable
+from pathlib import Path
+from typing import Protocol
+
+from gazed.config import Rig, RigError, load_rig
+from gazed.geometry.kinematics import joint_from_device
+from gazed.messages import HeadPose
+from gazed.sim.head_dynamixel import DynamixelDevice
+from gazed.sim.head_flir_ptu import FlirPtuDevice
+from gazed.sim.head_mechanics import AxisSample, HeadMechanics
+from gazed.sim.head_pelco_d import PelcoDDevice
+from gazed.sim.head_visca import ViscaDevice
+
+BITS_PER_BYTE = 10  # 8N1: start, eight data bits, stop
+POLL_S = 0.002
+READ_CHUNK = 4096
+
+
+class EmulatorError(RuntimeError):
+    """The emulator cannot take the rig's port (not a path, or a real file is in the way)."""
+
+
+class DeviceModel(Protocol):
+    """The device side of one protocol."""
+
+    def receive(self, data: bytes, t_s: float) -> bytes:
+        """Bytes from the host, fully received at `t_s`; returns the reply bytes."""
+        ...
+
+    def poll(self, t_s: float) -> bytes:
+        """Bytes the device sends unasked by `t_s` (completions, limit notices)."""
+        ...
+
+
+DEVICES: dict[str, Callable[..., DeviceModel]] = {
+    "pelco-d": PelcoDDevice,
+    "visca": ViscaDevice,
+    "flir-ptu": FlirPtuDevice,
+    "dynamixel": DynamixelDevice,
+}
+
+
+class HeadEmulator:
+    """The rig's head on a pty. `link` overrides where the symlink goes (default: the rig's
+    `[servo] port`); `clock` is the monotonic clock of its timing (seconds)."""
+
+    def __init__(
+        self,
+        rig: Rig,
+        *,
+        link: str | Path | None = None,
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
+        port = str(link if link is not None else rig.servo.port)
+        if "://" in port:
+            raise EmulatorError(f"[servo] port {port!r} is a URL; the emulator needs a file path")
+        self.rig = rig
+        self.link_path = Path(port)
+        self._clock = clock
+        self._lock = threading.RLock()
+        self.mechanics = HeadMechanics(rig.head, rig.sim, clock())
+        self.device = DEVICES[rig.servo.protocol](rig.servo, self.mechanics)
+        self.byte_time_s = BITS_PER_BYTE / rig.servo.baud
+        self.reply_delay_s = rig.sim.head_reply_delay_ms / 1000.0
+        self.pty_path: str | None = None
+        self.bytes_received = 0
+        self.bytes_sent = 0
+        self.bytes_dropped = 0
+        self._master: int | None = None
+        self._slave: int | None = None
+        self._arrivals: deque[tuple[float, bytes]] = deque()
+        self._outgoing: deque[tuple[float, bytes]] = deque()
+        self._line_in_free_s = 0.0
+        self._line_out_free_s = 0.0
+        self._thread: threading.Thread | None = None
+        self._stop = threading.Event()
+
+    def __enter__(self) -> HeadEmulator:
+        self.open()
+        self.start()
+        return self
+
+    def __exit__(self, *_exc: object) -> None:
+        self.close()
+
+    # --- lifecycle -------------------------------------------------------------------------
+
+    def open(self) -> None:
+        """Create the pty (raw, no echo) and the symlink at the rig's port."""
+        if self._master is not None:
+            return
+        if self.link_path.exists() and not self.link_path.is_symlink():
+            raise EmulatorError(f"{self.link_path} exists and is not a symlink; not replacing it")
+        master, slave = pty.openpty()
+        tty.setraw(slave)
+        os.set_blocking(master, False)
+        self._master, self._slave = master, slave
+        self.pty_path = os.ttyname(slave)
+        temporary = self.link_path.with_name(f".{self.link_path.name}.{os.getpid()}.tmp")
+        with contextlib.suppress(FileNotFoundError):
+            temporary.unlink()
+        os.symlink(self.pty_path, temporary)
+        os.replace(temporary, self.link_path)
+
+    def start(self) -> None:
+        """Serve the pty from a thread of its own."""
+        if self._thread is None:
+            self._stop.clear()
+            self._thread = threading.Thread(target=self._run, name="head-emulator", daemon=True)
+            self._thread.start()
+
+    def stop(self) -> None:
+        if self._thread is not None:
+            self._stop.set()
+            self._thread.join()
+            self._thread = None
+
+    def close(self) -> None:
+        """Stop, remove the symlink if it is still ours, close the pty: the host sees the port
+        vanish as when a USB adapter is pulled."""
+        self.stop()
+        if self.pty_path is not None:
+            with contextlib.suppress(OSError):
+                if os.readlink(self.link_path) == self.pty_path:
+                    self.link_path.unlink()
+        for fd in (self._master, self._slave):
+            if fd is not None:
+                with contextlib.suppress(OSError):
+                    os.close(fd)
+        self._master = self._slave = None
+        self.pty_path = None
+
+    def _run(self) -> None:
+        while not self._stop.is_set():
+            self.service(POLL_S)
+
+    # --- the line --------------------------------------------------------------------------
+
+    def service(self, timeout_s: float) -> None:
+        """One round: wait up to `timeout_s` for bytes (less if something falls due), act on
+        requests whose last byte has arrived, move the axes, send what is due."""
+        if self._master is None:
+            raise EmulatorError("the emulator is not open")
+        now = self._clock()
+        due = [queue[0][0] for queue in (self._arrivals, self._outgoing) if queue]
+        wait_s = max(0.0, min([timeout_s, *(t - now for t in due)]))
+        readable, _, _ = select.select([self._master], [], [], wait_s)
+        if readable:
+            self._read(self._clock())
+        now = self._clock()
+        with self._lock:
+            while self._arrivals and self._arrivals[0][0] <= now:
+                t_s, data = self._arrivals.popleft()
+                self._emit(self.device.receive(data, t_s), t_s + self.reply_delay_s)
+            self.mechanics.advance(now)
+            self._emit(self.device.poll(now), now)
+        self._flush(now)
+
+    def _read(self, now: float) -> None:
+        assert self._master is not None
+        try:
+            data = os.read(self._master, READ_CHUNK)
+        except (BlockingIOError, InterruptedError):
+            return
+        except OSError:
+            return  # EIO: no host has the port open
+        self.bytes_received += len(data)
+        done = max(now, self._line_in_free_s) + len(data) * self.byte_time_s
+        self._line_in_free_s = done
+        self._arrivals.append((done, data))
+
+    def _emit(self, data: bytes, t_due: float) -> None:
+        if data:
+            done = max(t_due, self._line_out_free_s) + len(data) * self.byte_time_s
+            self._line_out_free_s = done
+            self._outgoing.append((done, data))
+
+    def _flush(self, now: float) -> None:
+        assert self._master is not None
+        while self._outgoing and self._outgoing[0][0] <= now:
+            _, data = self._outgoing.popleft()
+            try:
+                written = os.write(self._master, data)
+            except OSError:
+                written = 0  # nobody reads the port: the bytes are lost, as on a real line
+            self.bytes_sent += written
+            self.bytes_dropped += len(data) - written
+
+    # --- truth -----------------------------------------------------------------------------
+
+    def device_pose_at(self, t_s: float) -> AxisSample:
+        """The camera side of the axes in device angles at monotonic `t_s`."""
+        with self._lock:
+            return self.mechanics.pose_at(t_s)
+
+    def pose_at(self, t_s: float) -> HeadPose:
+        """The camera's true joint angles and rates at monotonic `t_s` (for the renderer)."""
+        sample = self.device_pose_at(t_s)
+        head = self.rig.head
+        pan, tilt = joint_from_device(head, sample.pan_rad, sample.tilt_rad)
+        return HeadPose(
+            pan_rad=pan,
+            tilt_rad=tilt,
+            pan_rate_rad_s=head.pan_sign * sample.pan_rate_rad_s,
+            tilt_rate_rad_s=head.tilt_sign * sample.tilt_rate_rad_s,
+        )
+
+    @property
+    def settled(self) -> bool:
+        """Nothing commanded is still to happen."""
+        with self._lock:
+            return self.mechanics.settled
+
+
+def main(argv: list[str] | None = None) -> int:
+    """`python -m gazed.sim.head_emulator --rig RIG`: serve the rig's head until SIGTERM/SIGINT."""
+    parser = argparse.ArgumentParser(
+        prog="python -m gazed.sim.head_emulator",
+        description="Emulate the rig's pan/tilt head on a pty at its [servo] port.",
+    )
+    parser.add_argument("--rig", required=True, type=Path, help="rig description (TOML)")
+    parser.add_argument("--link", help="symlink to create instead of the rig's [servo] port")
+    args = parser.parse_args(argv)
+    try:
+        rig = load_rig(args.rig)
+        emulator = HeadEmulator(rig, link=args.link)
+    except (RigError, EmulatorError) as exc:
+        print(exc, file=sys.stderr)
+        return 2
+    stop = threading.Event()
+    for signum in (signal.SIGTERM, signal.SIGINT):
+        signal.signal(signum, lambda *_: stop.set())
+    try:
+        with emulator:
+            print(
+                f"{rig.servo.protocol} head on {emulator.pty_path} -> {emulator.link_path} "
+                f"at {rig.servo.baud} baud",
+                flush=True,
+            )
+            while not stop.wait(0.5):
+                pass
+    except (OSError, EmulatorError) as exc:
+        print(f"head emulator: {exc}", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

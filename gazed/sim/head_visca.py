@@ -1,0 +1,183 @@
+"""The device side of Sony VISCA pan-tilt (PROTOCOLS.md §2), for the head emulator.
+
+Two command sockets, as on Sony cameras (SRG-300H technical manual p.28): a command is accepted
+into a free socket and answered `z0 4y FF` at once; its completion `z0 5y FF` follows when it
+has been executed — for Pan-tiltDrive and stop at once, for absolute/relative moves, Home and
+Reset when the head has settled on the target. With both sockets busy the answer is
+`z0 60 03 FF` (buffer full). A pan-tilt move that arrives while another is executing takes over
+the axes; the superseded move is reported complete at that moment (the emulator's reading of
+"executed": its motion has ended). Cancel `8x 2y FF` answers `z0 6y 04 FF` (no completion
+follows) or `z0 6y 05 FF`. Inquiries are answered directly; IF_Clear empties the sockets and
+answers `z0 50 FF`. Anything else, or a parameter out of range, is a syntax error
+`z0 60 02 FF`. Packets for another address are not for this camera and get nothing.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from gazed.config import ViscaServo
+from gazed.servo.codec import nearest
+from gazed.servo.visca import (
+    BROADCAST,
+    CANCEL,
+    CATEGORY,
+    IF_CLEAR,
+    PAN_DIRECTION,
+    PAN_SPEED_MAX,
+    PAN_TILT,
+    PAN_TILT_POSITION_INQUIRY,
+    REPLY,
+    TERMINATOR,
+    TILT_DIRECTION,
+    TILT_SPEED_MAX,
+    from_nibbles,
+    reply_header,
+    split_packets,
+    to_nibbles,
+)
+from gazed.sim.head_mechanics import Action, HeadMechanics
+
+HOST_HEADERS = bytes(range(0x81, 0x89))
+SOCKETS = (1, 2)
+ERROR_CODE = {"syntax": 0x02, "buffer_full": 0x03, "cancelled": 0x04, "no_socket": 0x05}
+
+
+@dataclass
+class _Job:
+    """A command in a socket: complete once the axes settle after `t_effect_s`."""
+
+    t_effect_s: float
+    moves: bool
+
+
+class ViscaDevice:
+    """A VISCA camera at `servo.address` driving `mechanics`."""
+
+    def __init__(self, servo: ViscaServo, mechanics: HeadMechanics) -> None:
+        self.address = servo.address
+        self.pan_deg_per_unit = servo.pan_deg_per_unit
+        self.tilt_deg_per_unit = servo.tilt_deg_per_unit
+        self.pan_speed_max_rad_s = math.radians(servo.pan_speed_max_deg_s)
+        self.tilt_speed_max_rad_s = math.radians(servo.tilt_speed_max_deg_s)
+        self.mechanics = mechanics
+        self._z = reply_header(self.address)
+        self._buffer = bytearray()
+        self._sockets: dict[int, _Job] = {}
+        self.ignored = 0
+
+    def _reply(self, *payload: int) -> bytes:
+        return bytes((self._z, *payload, TERMINATOR))
+
+    def _error(self, socket: int, code: str) -> bytes:
+        return self._reply(REPLY["error"] | socket, ERROR_CODE[code])
+
+    def receive(self, data: bytes, t_s: float) -> bytes:
+        self._buffer += data
+        packets, discarded = split_packets(self._buffer, HOST_HEADERS)
+        self.ignored += discarded
+        out = bytearray()
+        for p in packets:
+            if p[0] != BROADCAST and p[0] & 0x0F != self.address:
+                continue
+            out += self._handle(p[1:-1], t_s)
+        return bytes(out)
+
+    def poll(self, t_s: float) -> bytes:
+        """Completions of the moves that have ended by `t_s`."""
+        out = bytearray()
+        self.mechanics.advance(t_s)
+        for socket, job in sorted(self._sockets.items()):
+            if t_s >= job.t_effect_s and (not job.moves or self.mechanics.settled):
+                del self._sockets[socket]
+                out += self._reply(REPLY["completion"] | socket)
+        return bytes(out)
+
+    def _handle(self, payload: bytes, t_s: float) -> bytes:
+        if tuple(payload) == IF_CLEAR:
+            self._sockets.clear()
+            return self._reply(REPLY["completion"])
+        if len(payload) == 1 and payload[0] & 0xF0 == CANCEL:
+            socket = payload[0] & 0x0F
+            if self._sockets.pop(socket, None) is None:
+                return self._error(socket, "no_socket")
+            self.mechanics.schedule(t_s, lambda m: (m.pan.hold(), m.tilt.hold()))
+            return self._error(socket, "cancelled")
+        if tuple(payload) == (CATEGORY["inquiry"], CATEGORY["pan_tilt"], PAN_TILT_POSITION_INQUIRY):
+            self.mechanics.advance(t_s)
+            pan, tilt = self.mechanics.encoder()
+            pan_units = nearest(math.degrees(pan) / self.pan_deg_per_unit)
+            tilt_units = nearest(math.degrees(tilt) / self.tilt_deg_per_unit)
+            return self._reply(REPLY["completion"], *to_nibbles(pan_units), *to_nibbles(tilt_units))
+        if (
+            len(payload) >= 3
+            and payload[0] == CATEGORY["command"]
+            and payload[1] == CATEGORY["pan_tilt"]
+        ):
+            return self._pan_tilt(payload[2], payload[3:], t_s)
+        return self._error(0, "syntax")
+
+    def _pan_tilt(self, kind: int, args: bytes, t_s: float) -> bytes:
+        action = self._decode(kind, args)
+        if action is None:
+            return self._error(0, "syntax")
+        run, moves = action
+        free = [s for s in SOCKETS if s not in self._sockets]
+        if not free:
+            return self._error(0, "buffer_full")
+        superseded = sorted(s for s, job in self._sockets.items() if job.moves)
+        for old in superseded:
+            del self._sockets[old]
+        self.mechanics.schedule(t_s, run)
+        self._sockets[free[0]] = _Job(t_s + self.mechanics.latency_s, moves)
+        out = self._reply(REPLY["ack"] | free[0])
+        for old in superseded:
+            out += self._reply(REPLY["completion"] | old)
+        return out
+
+    def _decode(self, kind: int, args: bytes) -> tuple[Action, bool] | None:
+        """The action of a pan-tilt command and whether it is a move that completes on arrival."""
+        if kind == PAN_TILT["drive"] and len(args) == 4:
+            vv, ww, pp, tt = args
+            if not (1 <= vv <= PAN_SPEED_MAX and 1 <= ww <= TILT_SPEED_MAX):
+                return None
+            pan_sign = {
+                PAN_DIRECTION["right"]: 1,
+                PAN_DIRECTION["left"]: -1,
+                PAN_DIRECTION["stop"]: 0,
+            }
+            tilt_sign = {
+                TILT_DIRECTION["up"]: 1,
+                TILT_DIRECTION["down"]: -1,
+                TILT_DIRECTION["stop"]: 0,
+            }
+            if pp not in pan_sign or tt not in tilt_sign:
+                return None
+            pan_rate = pan_sign[pp] * vv / PAN_SPEED_MAX * self.pan_speed_max_rad_s
+            tilt_rate = tilt_sign[tt] * ww / TILT_SPEED_MAX * self.tilt_speed_max_rad_s
+            if pan_rate == 0 and tilt_rate == 0:
+                return (lambda m: (m.pan.hold(), m.tilt.hold())), False
+            return (lambda m: (m.pan.move_at(pan_rate), m.tilt.move_at(tilt_rate))), False
+        if kind in (PAN_TILT["absolute"], PAN_TILT["relative"]) and len(args) == 10:
+            vv, ww = args[0], args[1]
+            if not (1 <= vv <= PAN_SPEED_MAX and 1 <= ww <= TILT_SPEED_MAX) or any(
+                b > 0x0F for b in args[2:]
+            ):
+                return None
+            pan = math.radians(from_nibbles(args[2:6]) * self.pan_deg_per_unit)
+            tilt = math.radians(from_nibbles(args[6:10]) * self.tilt_deg_per_unit)
+            pan_rate = vv / PAN_SPEED_MAX * self.pan_speed_max_rad_s
+            tilt_rate = ww / TILT_SPEED_MAX * self.tilt_speed_max_rad_s
+            relative = kind == PAN_TILT["relative"]
+
+            def move(m: HeadMechanics) -> None:
+                pan_target = pan + (m.pan.target_rad if relative else 0.0)
+                tilt_target = tilt + (m.tilt.target_rad if relative else 0.0)
+                m.pan.move_to(pan_target, rate_rad_s=pan_rate)
+                m.tilt.move_to(tilt_target, rate_rad_s=tilt_rate)
+
+            return move, True
+        if kind in (PAN_TILT["home"], PAN_TILT["reset"]) and not args:
+            return (lambda m: (m.pan.move_to(0.0), m.tilt.move_to(0.0))), True
+        return None
