@@ -101,9 +101,7 @@ class HeadStep:
         """Rotational flow (px/s) at pixels of the current frame (seed 004 eq. 11)."""
         return rotational_flow(self.K, self.omega, u_px, v_px)
 
-    def displacement(
-        self, u_px: np.ndarray, v_px: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray]:
+    def displacement(self, u_px: np.ndarray, v_px: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """How far (px) static points now at pixels (u, v) moved over the interval: the
         rotational flow at their mid-interval position times dt (second-order accurate)."""
         fu, fv = self.flow(u_px, v_px)

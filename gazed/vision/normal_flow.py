@@ -43,10 +43,10 @@ from gazed.vision.ego_motion import HeadStep
 
 SMOOTHING_SIGMA_PX = 1.5  # images are smoothed before differentiating (noise, aliasing)
 MARGIN_PX = 6  # pixels around the window read for smoothing and gradients
-HYPOTHESIS_ITERATIONS = 2  # fits from each starting hypothesis before choosing one
 REFINE_ITERATIONS = 6  # further fits of the chosen hypothesis
 CONVERGED_PX = 0.02  # stop refining when d changes by less than this (px per frame)
-TRIM_MAD = 3.0  # constraints further than this many robust deviations are outliers
+LINEAR_RANGE_PX = 2.0  # constraints this far from a hypothesis still pull it (px per frame)
+REFINE_RANGE_PX = 1.0  # ... and once it is chosen
 
 
 @dataclass(frozen=True)
@@ -74,7 +74,6 @@ class Fovea:
 @dataclass
 class _Fit:
     d: np.ndarray  # independent displacement (px per frame)
-    residual: np.ndarray  # per-pixel normal flow left over, v̂·d - v_ind
     inliers: np.ndarray  # bool mask of constraints the fit explains
     score: float  # fraction of the region's constraints explained
 
@@ -116,7 +115,8 @@ class NormalFlowDetector:
             self.reset()
             return DetectorOutput.nothing()
         fovea = self._place(pair.step, pair.gray.shape)
-        measurement = _Measurement(pair, fovea, self.min_gradient)
+        track = self._track[2] if self._track is not None else None
+        measurement = _Measurement(pair, fovea, self.min_gradient, track)
         # seed 000 §2: background where the ego-compensated normal flow is within the noise
         v_ind = measurement.independent_flow(np.zeros(2))
         moving = measurement.valid & (np.abs(v_ind) > self.noise_px)
@@ -124,7 +124,7 @@ class NormalFlowDetector:
         if region is None:
             self.reset()
             return DetectorOutput.nothing(fovea.rect)
-        fit = self._fit_velocity(measurement, region, v_ind)
+        fit = self._fit_velocity(measurement, region)
         # the target: moving against the background, and explained by the fitted velocity
         explained = np.zeros_like(moving)
         explained[region & measurement.valid] = fit.inliers
@@ -171,23 +171,16 @@ class NormalFlowDetector:
             return None
         return np.isin(labels, keep)
 
-    def _fit_velocity(
-        self, measurement: _Measurement, region: np.ndarray, v_ind: np.ndarray
-    ) -> _Fit:
+    def _fit_velocity(self, measurement: _Measurement, region: np.ndarray) -> _Fit:
         """Least-squares image velocity of the region from its normal-flow constraints."""
-        pixels = region & measurement.valid
-        starts = [np.zeros(2), -measurement.centre_shift]
-        if self._track is not None:
-            starts.append(self._track[2])
-        fits = []
-        for start in starts:
-            fit = measurement.fit(pixels, start, self.noise_px)
-            for _ in range(HYPOTHESIS_ITERATIONS - 1):
-                fit = measurement.fit(pixels, fit.d, self.noise_px)
-            fits.append(fit)
+        constraints = measurement.constraints(region & measurement.valid)
+        fits = [
+            constraints.fit(start, LINEAR_RANGE_PX, self.noise_px)
+            for start in measurement.hypotheses
+        ]
         best = max(fits, key=lambda f: f.score)
         for _ in range(REFINE_ITERATIONS):
-            refined = measurement.fit(pixels, best.d, self.noise_px)
+            refined = constraints.fit(best.d, REFINE_RANGE_PX, self.noise_px)
             moved = float(np.hypot(*(refined.d - best.d)))
             best = refined
             if moved < CONVERGED_PX:
@@ -196,66 +189,91 @@ class NormalFlowDetector:
 
 
 class _Measurement:
-    """The current window, its gradients and the ego-rotation displacement over it."""
+    """The current window, its gradients, the ego-rotation displacement over it, and the part of
+    the previous frame the hypotheses can reach (smoothed once)."""
 
-    def __init__(self, pair: FramePair, fovea: Fovea, min_gradient: float) -> None:
-        self.previous = pair.previous
+    def __init__(
+        self, pair: FramePair, fovea: Fovea, min_gradient: float, track: np.ndarray | None
+    ) -> None:
+        assert pair.previous is not None
         self.fovea = fovea
         m, n = MARGIN_PX, fovea.side
         crop = pair.gray[fovea.y0 - m : fovea.y0 + n + m, fovea.x0 - m : fovea.x0 + n + m]
         current = cv2.GaussianBlur(crop.astype(np.float32), (0, 0), SMOOTHING_SIGMA_PX)
         gx = cv2.Sobel(current, cv2.CV_32F, 1, 0, ksize=3, scale=0.125)[m:-m, m:-m]
         gy = cv2.Sobel(current, cv2.CV_32F, 0, 1, ksize=3, scale=0.125)[m:-m, m:-m]
-        self.current = current
+        self.current = current[m:-m, m:-m]
         self.gradient = np.hypot(gx, gy)
         self.valid = self.gradient > min_gradient
         safe = np.where(self.valid, self.gradient, 1.0)
+        self.inverse_gradient = 1.0 / safe
         self.nx, self.ny = gx / safe, gy / safe
         u, v = fovea.grids()
         wu, wv = pair.step.displacement(u, v)  # ego-rotation displacement, px per frame
         cu, cv = fovea.centre
         su, sv = pair.step.displacement(np.array(cu), np.array(cv))
-        self.centre_shift = np.array([float(su), float(sv)])
+        self.shift = np.array([float(su), float(sv)])  # s
         # v̂·(s - w): the ego flow's normal component, relative to the window's shift
-        self._ego_normal = self.nx * (self.centre_shift[0] - wu) + self.ny * (
-            self.centre_shift[1] - wv
-        )
+        self.ego_normal = self.nx * (self.shift[0] - wu) + self.ny * (self.shift[1] - wv)
+        # starting hypotheses for the target's own displacement d (px per frame): still in the
+        # world, still in the image (pursued by the head), moving as in the last frame
+        self.hypotheses = [np.zeros(2), -self.shift]
+        if track is not None:
+            self.hypotheses.append(np.asarray(track, float))
+        self._previous_region(pair.previous)
+
+    def _previous_region(self, previous: np.ndarray) -> None:
+        """Smooth the part of the previous frame that the shifted windows cover."""
+        f, n = self.fovea, self.fovea.side
+        reach = np.array([self.shift + d for d in self.hypotheses])
+        slack = MARGIN_PX + 2 * LINEAR_RANGE_PX
+        h, w = previous.shape
+        x0 = int(max(0, np.floor(f.x0 - reach[:, 0].max() - slack)))
+        y0 = int(max(0, np.floor(f.y0 - reach[:, 1].max() - slack)))
+        x1 = int(min(w, np.ceil(f.x0 + n - reach[:, 0].min() + slack)))
+        y1 = int(min(h, np.ceil(f.y0 + n - reach[:, 1].min() + slack)))
+        region = previous[y0:y1, x0:x1].astype(np.float32)
+        self._previous = cv2.GaussianBlur(region, (0, 0), SMOOTHING_SIGMA_PX)
+        self._previous_origin = np.array([x0, y0], float)
 
     def independent_flow(self, d: np.ndarray) -> np.ndarray:
-        """v_ind along v̂ (px per frame) with the previous window shifted by s + d:
+        """v_ind along v̂ (px per frame) over the window, the previous frame shifted by s + d:
         v = -E_t/|∇E| + v̂·(s + d), then minus v̂·w (seed 000 §2)."""
-        m, n = MARGIN_PX, self.fovea.side
-        cu, cv = self.fovea.centre
-        shift = self.centre_shift + d
-        patch = cv2.getRectSubPix(
-            self.previous,
-            (n + 2 * m, n + 2 * m),
-            (float(cu - shift[0]), float(cv - shift[1])),
-            patchType=cv2.CV_32F,
-        )
-        previous = cv2.GaussianBlur(patch, (0, 0), SMOOTHING_SIGMA_PX)
-        e_t = (self.current - previous)[m:-m, m:-m]
-        safe = np.where(self.valid, self.gradient, 1.0)
-        return -e_t / safe + self.nx * d[0] + self.ny * d[1] + self._ego_normal
+        cu, cv = np.array(self.fovea.centre) - self.shift - d - self._previous_origin
+        previous = cv2.getRectSubPix(self._previous, (self.fovea.side,) * 2, (float(cu), float(cv)))
+        e_t = self.current - previous
+        return -e_t * self.inverse_gradient + self.nx * d[0] + self.ny * d[1] + self.ego_normal
 
-    def fit(self, pixels: np.ndarray, d: np.ndarray, noise_px: float) -> _Fit:
-        """One Gauss-Newton step: re-sample at s + d, fit v̂·d' = v_ind by weighted least
-        squares (weights |∇E|²), drop outliers, fit again."""
-        r = self.independent_flow(d)[pixels]
-        nx, ny, g2 = self.nx[pixels], self.ny[pixels], self.gradient[pixels] ** 2
-        inliers = np.ones(r.shape, bool)
+    def constraints(self, pixels: np.ndarray) -> _Constraints:
+        return _Constraints(self, pixels)
+
+
+class _Constraints:
+    """The normal-flow constraints v̂·d = v_ind of one region's pixels."""
+
+    def __init__(self, measurement: _Measurement, pixels: np.ndarray) -> None:
+        self.measurement = measurement
+        self.pixels = pixels
+        self.nx = measurement.nx[pixels]
+        self.ny = measurement.ny[pixels]
+        self.weight = measurement.gradient[pixels] ** 2
+
+    def fit(self, d: np.ndarray, tolerance_px: float, noise_px: float) -> _Fit:
+        """One Gauss-Newton step from the hypothesis d: re-sample the previous frame at s + d,
+        keep the constraints within `tolerance_px` of the hypothesis (the linear range; the
+        rest belong to something else), and fit v̂·d' = v_ind by least squares weighted by
+        |∇E|² (i.e. ∇E·d' = -E_t)."""
+        r = self.measurement.independent_flow(d)[self.pixels]
+        nx, ny = self.nx, self.ny
+        near = np.abs(r - (nx * d[0] + ny * d[1])) < tolerance_px
         estimate = np.asarray(d, float)
-        for _ in range(2):
-            A = np.stack([nx[inliers], ny[inliers]], axis=1)
-            W = g2[inliers]
-            normal = (A * W[:, None]).T @ A
-            if A.shape[0] < 2 or np.linalg.cond(normal) > 1e6:
-                break
-            estimate = np.linalg.solve(normal, (A * W[:, None]).T @ r[inliers])
-            residual = nx * estimate[0] + ny * estimate[1] - r
-            spread = 1.4826 * float(np.median(np.abs(residual)))
-            inliers = np.abs(residual) <= max(TRIM_MAD * spread, noise_px)
+        w = self.weight * near
+        # normal equations of sum w (nx dx + ny dy - r)^2
+        a, b, c = float(w @ (nx * nx)), float(w @ (nx * ny)), float(w @ (ny * ny))
+        det = a * c - b * b
+        if det > 1e-9 * (a + c) ** 2 and a + c > 0:
+            p, q = float(w @ (nx * r)), float(w @ (ny * r))
+            estimate = np.array([(c * p - b * q) / det, (a * q - b * p) / det])
         residual = nx * estimate[0] + ny * estimate[1] - r
         inliers = np.abs(residual) <= noise_px
-        score = float(np.count_nonzero(inliers)) / max(r.size, 1)
-        return _Fit(estimate, residual, inliers, score)
+        return _Fit(estimate, inliers, float(np.count_nonzero(inliers)) / max(r.size, 1))

@@ -2,7 +2,8 @@
 
 The energy pyramid (see `motion_energy`) is searched with small square windows (16x16 in the
 paper). A pixel is *active* when its energy exceeds `energy_threshold`; a window's position is
-the energy-weighted centroid of its active pixels.
+the mean position of its active pixels ("the positions of local energy change are integrated to
+find the object center"). The confidence is the window's share of the level's active energy.
 
 - `full` — the 5-level search (seed 004 §2.1, §3, Fig. 6): the whole coarsest level is examined,
   its strongest region centres a window one level finer, and so on towards level 0 until a
@@ -38,7 +39,7 @@ SearchMode = Literal["full", "predictive"]
 
 # Centroids used for the velocity fit (seed 004 §4 leaves filtering to the estimator; this
 # only smooths the centroid jitter of a single frame difference).
-VELOCITY_POINTS = 4
+VELOCITY_POINTS = 6
 
 
 @dataclass(frozen=True)
@@ -76,16 +77,16 @@ def look(
 def _centroid(
     window: np.ndarray, level: int, x0: int, y0: int, size: int, threshold: float
 ) -> WindowLook:
-    weights = np.where(window > threshold, window, 0.0)
-    active = int(np.count_nonzero(weights))
-    total = float(weights.sum())
-    if active == 0:
+    """Seed 004 §3: the positions of the active pixels integrated (their mean) -> the centre."""
+    active = window > threshold
+    count = int(np.count_nonzero(active))
+    if count == 0:
         return WindowLook(level, x0, y0, size, 0, 0.0, math.nan, math.nan)
-    ys, xs = np.indices(window.shape)
+    ys, xs = np.nonzero(active)
     scale = 1 << level
-    u = (x0 + float((weights * xs).sum()) / total) * scale
-    v = (y0 + float((weights * ys).sum()) / total) * scale
-    return WindowLook(level, x0, y0, size, active, total, u, v)
+    u = (x0 + float(xs.mean())) * scale
+    v = (y0 + float(ys.mean())) * scale
+    return WindowLook(level, x0, y0, size, count, float(window[active].sum()), u, v)
 
 
 def strongest_region(energy: np.ndarray, level: int, threshold: float) -> WindowLook | None:
@@ -102,8 +103,7 @@ def strongest_region(energy: np.ndarray, level: int, threshold: float) -> Window
     box = energy[y0 : int(ys.max()) + 1, x0 : int(xs.max()) + 1] * (
         labels[y0 : int(ys.max()) + 1, x0 : int(xs.max()) + 1] == best
     )
-    found = _centroid(box, level, x0, y0, max(box.shape), threshold)
-    return found
+    return _centroid(box, level, x0, y0, max(box.shape), threshold)
 
 
 class PyramidDetector:
@@ -147,7 +147,8 @@ class PyramidDetector:
         self._history.add(pair.t_s - pair.step.dt_s / 2.0, final.u_px, final.v_px)
         du, dv = self._history.velocity() or (0.0, 0.0)
         half_dt = pair.step.dt_s / 2.0
-        level_energy = float(pyramid[final.level].sum())
+        level = pyramid[final.level]
+        level_energy = float(level[level > self.energy_threshold].sum())
         return DetectorOutput(
             found=True,
             u_px=final.u_px + du * half_dt,
@@ -210,7 +211,7 @@ class PyramidDetector:
         if window.active == 0:
             self.level = None
             return None
-        # each level finer quadruples the active count: the finest level still filled
+        # each level finer quadruples the active count: the coarsest level the object fills
         self.level = level
         count = float(window.active)
         while self.level > 0 and count < self.fill_count:

@@ -1,0 +1,6 @@
+"""Vision: frame sources, ego-motion, detectors (flow, pyramid, background), candidates.
+
+seed 000 §2 (foveal normal flow with ego-rotation compensation), seed 004 §2-3 and §5 (motion
+energy pyramid, coarse-to-fine search, compensating the head's rotation), seed 003 §IV
+(background subtraction); DESIGN §6.
+"""
