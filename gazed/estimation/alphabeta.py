@@ -100,8 +100,9 @@ class AlphaBetaEstimator(TrackEstimator):
         enough = n >= 3
         quad, quad_v = line.copy(), slope.copy()
         if enough.any():
-            safe_valid = np.where(enough[:, None], valid, True)
-            c = polynomial_fit(t_rel, h, safe_valid, 2)
+            # rows without three estimates get a well-posed stand-in fit (their result is unused)
+            t_fit = np.where(enough[:, None], t_rel, np.arange(1 - HISTORY, 1.0))
+            c = polynomial_fit(t_fit, h, np.where(enough[:, None], valid, True), 2)
             quad = np.where(enough[:, None], polynomial_value(c, dt), line)
             quad_v = np.where(enough[:, None], polynomial_value(c, dt, 1), slope)
         return line, quad, slope, quad_v

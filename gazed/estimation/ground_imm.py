@@ -103,9 +103,17 @@ class ImmEstimator(TrackEstimator):
         return self.imm.mu[idx]
 
     def _rates(self, idx: slice | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The combined ṡ and θ̇ (§5 step 4 applied to the two rates)."""
-        rates = (self.imm.mu[idx][:, None, :] @ self.imm.x[idx][..., [ISD, ITD]])[:, 0, :]
-        return rates[:, 0], rates[:, 1]
+        """ṡ and θ̇ of the most likely model's own estimate: the motion signature of a segment
+        is the rates of the model that explains it (the combined state, §5 step 4, dilutes a
+        turn rate by the probability of the models that hold θ̇ at 0)."""
+        return self.model_rates(idx)
+
+    def model_rates(self, idx: slice | np.ndarray = slice(None)) -> tuple[np.ndarray, np.ndarray]:
+        """(ṡ, θ̇) of each track's most likely model, 2 x (K,)."""
+        mu, x = self.imm.mu[idx], self.imm.x[idx]
+        best = np.argmax(mu, axis=-1)
+        own = x[np.arange(len(best)), best]
+        return own[:, ISD], own[:, ITD]
 
     def combined_state(self) -> tuple[np.ndarray, np.ndarray]:
         """The IMM output x (N, 6), P (N, 6, 6) (§5 step 4, heading averaged as an angle)."""

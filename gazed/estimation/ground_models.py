@@ -74,20 +74,16 @@ class GroundModelBank:
     def __post_init__(self) -> None:
         turns = np.array([float(m.turns) for m in self.models])
         accel = np.array([float(m.accelerates) for m in self.models])
-        # The entries of ∇f and of the noise gain G that do not depend on the state.
+        # The entries of ∇f that do not depend on the state.
         F0 = np.zeros((len(self.models), STATE_DIM, STATE_DIM))
         for i in (IX, IY, IS, ITH):
             F0[:, i, i] = 1.0
         F0[:, ISD, ISD] = accel
         F0[:, ITD, ITD] = turns
-        G0 = np.zeros((len(self.models), STATE_DIM, 2))
-        G0[:, ISD, 0] = 1.0 - accel  # ṡ itself is the noise (CSD, CS) ...
-        G0[:, ITD, 1] = 1.0 - turns  # ... and θ̇ (CSD, CD)
         q = np.array([[m.q_speed, m.q_heading] for m in self.models])
         object.__setattr__(self, "_turns", turns)
         object.__setattr__(self, "_accel", accel)
         object.__setattr__(self, "_F0", F0)
-        object.__setattr__(self, "_G0", G0)
         object.__setattr__(self, "_q", q)
 
     @property
@@ -138,17 +134,17 @@ class GroundModelBank:
         # (CD, order 1), the heading channel at θ̇ (order 0) or at θ̈ (CS, order 1).
         gs_pos = accel * T3 / 6.0 + (1.0 - accel) * T2 / 2.0
         gh_pos = (turns * T3 / 6.0 + (1.0 - turns) * T2 / 2.0) * s
-        G = np.broadcast_to(self._G0, (*shape, STATE_DIM, 2)).copy()
+        G = np.zeros((*shape, STATE_DIM, 2))
         G[..., _G_ROWS, _G_COLS] = np.stack(
             np.broadcast_arrays(
                 c * gs_pos,  # X
                 sn * gs_pos,  # Y
                 accel * T2 / 2.0 + (1.0 - accel) * T,  # s
-                accel * T,  # ṡ (CD)
+                accel * T + (1.0 - accel),  # ṡ: s̈ T (CD), or ṡ is the noise itself
                 -sn * gh_pos,  # X
                 c * gh_pos,  # Y
                 turns * T2 / 2.0 + (1.0 - turns) * T,  # θ
-                turns * T,  # θ̇ (CS)
+                turns * T + (1.0 - turns),  # θ̇: θ̈ T (CS), or θ̇ is the noise itself
             ),
             axis=-1,
         )

@@ -18,7 +18,9 @@ import numpy as np
 class Scenario:
     """Truth and noisy measurements at times t_s (K,).
 
-    truth: (K, 6) [X, Y, s, θ, ṡ, θ̇]; phase (K,) the true motion label of each step;
+    truth: (K, 6) [X, Y, s, θ, ṡ, θ̇] at each observation, with the rates of the motion that
+    follows it; phase (K,) the motion that led to each observation (the first observation
+    takes the first motion's label), which is what observation k can show;
     z_position (K, 2), z_velocity (K, 2) noisy measurements with stds position_noise_m,
     velocity_noise_m_s.
     """
@@ -108,6 +110,7 @@ def _measured(
 ) -> Scenario:
     rng = np.random.default_rng(seed)
     n = len(truth)
+    labels = labels[:1] + labels[:-1]  # observation k shows the motion of (k-1, k]
     velocity = truth[:, 2:3] * np.stack([np.cos(truth[:, 3]), np.sin(truth[:, 3])], axis=-1)
     return Scenario(
         name,
