@@ -88,6 +88,7 @@ class SegmentPath:
             x, y, speed, heading = _advance(x, y, speed, heading, segment, segment.duration_s)
             t += segment.duration_s
         self.end = (x, y, speed, heading)
+        self._start_times_s = np.array([start.t_s for start in self._starts])
 
     @property
     def duration_s(self) -> float | None:
@@ -95,11 +96,8 @@ class SegmentPath:
 
     def state(self, t_s: float) -> TargetState:
         local = t_s % self.period_s if self.loop else min(max(t_s, 0.0), self.period_s)
-        index = min(
-            int(np.searchsorted([s.t_s for s in self._starts], local, side="right")) - 1,
-            len(self.segments) - 1,
-        )
-        index = max(index, 0)
+        index = int(np.searchsorted(self._start_times_s, local, side="right")) - 1
+        index = min(max(index, 0), len(self.segments) - 1)
         start, segment = self._starts[index], self.segments[index]
         tau = local - start.t_s
         x, y, speed, heading = _advance(
@@ -128,6 +126,7 @@ def _advance(
 def _state(
     t_s: float, x: float, y: float, speed: float, heading: float, segment: Segment
 ) -> TargetState:
+    speed = max(speed, 0.0)  # a ramp to rest may end a rounding error below zero
     turn = segment.curvature_1_m * speed
     if speed <= 1e-9 and segment.accel_m_s2 == 0.0:
         model = "stop"
@@ -219,45 +218,59 @@ def random_walk(
     duration_s: float = 3600.0,
 ) -> SegmentPath:
     """Seeded maneuvers: straights of 1-4 s, turns of 20-60°/s for 1-3 s, speed changes, short
-    stops. Whenever the target has left the circle of `radius_m` about the centre, the next
-    segment turns it back towards the centre."""
+    stops. A segment that would end farther than 1.5 `radius_m` from the centre, or any segment
+    that starts outside `radius_m`, is replaced by a turn back towards the centre."""
     rng = np.random.default_rng(seed)
-    segments: list[Segment] = []
+    cx, cy = centre_xy_m
     heading0 = float(rng.uniform(-math.pi, math.pi))
-    x, y, speed, heading = centre_xy_m[0], centre_xy_m[1], speed_m_s, heading0
+    x, y, speed, heading = cx, cy, speed_m_s, heading0
+    segments: list[Segment] = []
     total = 0.0
     while total < duration_s:
-        offside = math.hypot(x - centre_xy_m[0], y - centre_xy_m[1]) > radius_m
-        kind = (
-            "home"
-            if offside
-            else rng.choice(["straight", "turn", "speed", "stop"], p=[0.35, 0.35, 0.2, 0.1])
-        )
-        if kind == "home":
-            home = math.atan2(centre_xy_m[1] - y, centre_xy_m[0] - x)
-            error = (home - heading + math.pi) % (2 * math.pi) - math.pi
-            rate = math.copysign(math.radians(60.0), error)
-            moving = max(speed, 0.3 * speed_m_s)
-            segment = Segment(max(abs(error), 0.1) / abs(rate), curvature_1_m=rate / moving)
-            if speed < moving:  # standing: walk off first
-                segment = Segment(1.0, accel_m_s2=moving - speed)
-        elif kind == "straight":
-            segment = Segment(float(rng.uniform(1.0, 4.0)))
-        elif kind == "turn" and speed > 0.05:
-            rate = math.radians(float(rng.uniform(20.0, 60.0))) * rng.choice([-1.0, 1.0])
-            segment = Segment(float(rng.uniform(1.0, 3.0)), curvature_1_m=rate / speed)
-        elif kind == "speed" or speed <= 0.05:
-            target = float(rng.uniform(0.5, 1.5)) * speed_m_s
-            ramp_s = float(rng.uniform(1.0, 2.0))
-            segment = Segment(ramp_s, accel_m_s2=(target - speed) / ramp_s)
-        else:  # stop: slow down to rest, the next "speed" segment walks off again
-            ramp_s = float(rng.uniform(0.8, 1.5))
-            segment = Segment(ramp_s, accel_m_s2=-speed / ramp_s)
-        x, y, speed, heading = _advance(x, y, speed, heading, segment, segment.duration_s)
-        speed = max(speed, 0.0)
+        segment = _random_segment(rng, speed, speed_m_s)
+        end = _advance(x, y, speed, heading, segment, segment.duration_s)
+        if (
+            math.hypot(x - cx, y - cy) > radius_m
+            or math.hypot(end[0] - cx, end[1] - cy) > 1.5 * radius_m
+        ):
+            segment = _homing_segment(x, y, speed, heading, speed_m_s, centre_xy_m)
+            end = _advance(x, y, speed, heading, segment, segment.duration_s)
+        x, y, speed, heading = end[0], end[1], max(end[2], 0.0), end[3]
         segments.append(segment)
         total += segment.duration_s
     return SegmentPath(segments, centre_xy_m, speed_m_s, heading0, loop=False)
+
+
+def _random_segment(rng: np.random.Generator, speed: float, nominal_m_s: float) -> Segment:
+    kind = rng.choice(["straight", "turn", "speed", "stop"], p=[0.35, 0.35, 0.2, 0.1])
+    if kind == "straight":
+        return Segment(float(rng.uniform(1.0, 4.0)))
+    if kind == "turn" and speed > 0.05:
+        rate = math.radians(float(rng.uniform(20.0, 60.0))) * float(rng.choice([-1.0, 1.0]))
+        return Segment(float(rng.uniform(1.0, 3.0)), curvature_1_m=rate / speed)
+    if kind == "stop" and speed > 0.05:
+        ramp_s = float(rng.uniform(0.8, 1.5))
+        return Segment(ramp_s, accel_m_s2=-speed / ramp_s)
+    target = float(rng.uniform(0.5, 1.5)) * nominal_m_s  # a speed change, or walking off
+    ramp_s = float(rng.uniform(1.0, 2.0))
+    return Segment(ramp_s, accel_m_s2=(target - speed) / ramp_s)
+
+
+def _homing_segment(
+    x: float,
+    y: float,
+    speed: float,
+    heading: float,
+    nominal_m_s: float,
+    centre_xy_m: tuple[float, float],
+) -> Segment:
+    """Turn towards the centre at 60°/s (walking off first if standing)."""
+    if speed < 0.3 * nominal_m_s:
+        return Segment(1.0, accel_m_s2=nominal_m_s - speed)
+    home = math.atan2(centre_xy_m[1] - y, centre_xy_m[0] - x)
+    error = (home - heading + math.pi) % (2 * math.pi) - math.pi
+    rate = math.copysign(math.radians(60.0), error)
+    return Segment(max(abs(error), 0.1) / abs(rate), curvature_1_m=rate / speed)
 
 
 class RecordedTrack:
