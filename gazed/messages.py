@@ -84,12 +84,24 @@ class Detection(Message):
     seq: int = Field(ge=0, description="Frame sequence number.")
     detector: str
     found: bool
-    u_px: float = 0.0
-    v_px: float = 0.0
-    du_px_s: float = 0.0
-    dv_px_s: float = 0.0
-    area_px: float = 0.0
+    u_px: float = Field(0.0, description="Target pixel, u (origin: the top-left pixel's centre).")
+    v_px: float = Field(0.0, description="Target pixel, v.")
+    du_px_s: float = Field(
+        0.0,
+        description="Independent image velocity along u: the target's motion against the world "
+        "with the head's own rotational flow removed (seed 000 §2), over the last frame interval.",
+    )
+    dv_px_s: float = Field(0.0, description="Independent image velocity along v.")
+    area_px: float = Field(0.0, ge=0, description="Area of the detected region in pixels.")
     confidence: float = Field(0.0, ge=0, le=1)
+    point: Literal["centroid", "ground-contact"] = Field(
+        "centroid",
+        description="What (u, v) is: the region's centroid, or the bottom of the blob where it "
+        "meets the ground (no height correction needed).",
+    )
+    compensated: bool = Field(
+        False, description="The head's rotation was removed (odometry covered both frames)."
+    )
     width_px: int = Field(gt=0)
     height_px: int = Field(gt=0)
     processing_ms: float = Field(0.0, ge=0)

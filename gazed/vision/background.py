@@ -103,7 +103,7 @@ class BackgroundDetector:
         # level-k pixel i is centred on level-0 pixel scale*i and spans scale pixels
         u = foot_u * scale
         v = bottom * scale + (scale - 1) / 2.0
-        self._history.add(t_s, u, v)
+        self._history.add(t_s, u, v, gate_px=0.5 * scale * max(w, h))
         du, dv = self._history.velocity() or (0.0, 0.0)
         return DetectorOutput(
             found=True,

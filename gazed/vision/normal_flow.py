@@ -42,7 +42,10 @@ from gazed.vision.detector import DetectorOutput, FramePair
 from gazed.vision.ego_motion import HeadStep
 
 SMOOTHING_SIGMA_PX = 1.5  # images are smoothed before differentiating (noise, aliasing)
-MARGIN_PX = 6  # pixels around the window read for smoothing and gradients
+COARSE_SIGMA_PX = 4.0  # ... and more for the coarse fit, whose linear range is larger
+MARGIN_PX = 6  # the window keeps this far from the image border
+ACQUIRED_SCORE = 0.3  # a fit explaining less of the region than this tries the coarse scale
+MIN_SCORE = 0.2  # ... and one explaining less than this is not reported
 REFINE_ITERATIONS = 6  # further fits of the chosen hypothesis
 CONVERGED_PX = 0.02  # stop refining when d changes by less than this (px per frame)
 LINEAR_RANGE_PX = 2.0  # constraints this far from a hypothesis still pull it (px per frame)
@@ -116,7 +119,7 @@ class NormalFlowDetector:
             return DetectorOutput.nothing()
         fovea = self._place(pair.step, pair.gray.shape)
         track = self._track[2] if self._track is not None else None
-        measurement = _Measurement(pair, fovea, self.min_gradient, track)
+        measurement = _Measurement(pair, fovea, self.min_gradient, track, SMOOTHING_SIGMA_PX)
         # seed 000 §2: background where the ego-compensated normal flow is within the noise
         v_ind = measurement.independent_flow(np.zeros(2))
         moving = measurement.valid & (np.abs(v_ind) > self.noise_px)
@@ -124,7 +127,7 @@ class NormalFlowDetector:
         if region is None:
             self.reset()
             return DetectorOutput.nothing(fovea.rect)
-        fit = self._fit_velocity(measurement, region)
+        fit = self._fit_velocity(pair, measurement, region)
         # the target: moving against the background, and explained by the fitted velocity
         explained = np.zeros_like(moving)
         explained[region & measurement.valid] = fit.inliers
@@ -134,6 +137,11 @@ class NormalFlowDetector:
             return DetectorOutput.nothing(fovea.rect)
         u_grid, v_grid = fovea.grids()
         u, v = float(u_grid[target].mean()), float(v_grid[target].mean())
+        if fit.score < MIN_SCORE:
+            # something moves there, but no single velocity explains it: look there again
+            # next frame, with no trust in the velocity
+            self._track = (u, v, np.zeros(2))
+            return DetectorOutput.nothing(fovea.rect)
         self._track = (u, v, fit.d)
         dt = pair.step.dt_s
         return DetectorOutput(
@@ -165,20 +173,42 @@ class NormalFlowDetector:
     def _regions(self, mask: np.ndarray) -> np.ndarray | None:
         """Seed 000 §2: group foreground pixels into regions; their union, or None."""
         closed = cv2.morphologyEx(mask.astype(np.uint8), cv2.MORPH_CLOSE, np.ones((3, 3), np.uint8))
-        count, labels, stats, _ = cv2.connectedComponentsWithStats(closed, connectivity=8)
-        keep = [i for i in range(1, count) if stats[i, cv2.CC_STAT_AREA] >= self.min_area_px]
-        if not keep:
+        _, labels, stats, _ = cv2.connectedComponentsWithStats(closed, connectivity=8)
+        keep = stats[:, cv2.CC_STAT_AREA] >= self.min_area_px
+        keep[0] = False  # the background label
+        if not keep.any():
             return None
-        return np.isin(labels, keep)
+        return keep[labels]
 
-    def _fit_velocity(self, measurement: _Measurement, region: np.ndarray) -> _Fit:
-        """Least-squares image velocity of the region from its normal-flow constraints."""
+    def _fit_velocity(self, pair: FramePair, measurement: _Measurement, region: np.ndarray) -> _Fit:
+        """Least-squares image velocity of the region from its normal-flow constraints: fits
+        from each hypothesis; if none explains the region, the same at a coarser scale (a
+        wider linear range) gives another start; then the best one refined."""
         constraints = measurement.constraints(region & measurement.valid)
         fits = [
             constraints.fit(start, LINEAR_RANGE_PX, self.noise_px)
             for start in measurement.hypotheses
         ]
         best = max(fits, key=lambda f: f.score)
+        if best.score < ACQUIRED_SCORE:
+            scale = COARSE_SIGMA_PX / SMOOTHING_SIGMA_PX
+            coarse = _Measurement(
+                pair, measurement.fovea, self.min_gradient / scale, None, COARSE_SIGMA_PX
+            )
+            coarse.hypotheses = measurement.hypotheses
+            wide = coarse.constraints(region & coarse.valid)
+            start = max(
+                (
+                    wide.fit(h, LINEAR_RANGE_PX * scale, self.noise_px * scale)
+                    for h in coarse.hypotheses
+                ),
+                key=lambda f: f.score,
+            )
+            for _ in range(REFINE_ITERATIONS):
+                start = wide.fit(start.d, REFINE_RANGE_PX * scale, self.noise_px * scale)
+            candidate = constraints.fit(start.d, LINEAR_RANGE_PX, self.noise_px)
+            if candidate.score > best.score:
+                best = candidate
         for _ in range(REFINE_ITERATIONS):
             refined = constraints.fit(best.d, REFINE_RANGE_PX, self.noise_px)
             moved = float(np.hypot(*(refined.d - best.d)))
@@ -193,13 +223,21 @@ class _Measurement:
     the previous frame the hypotheses can reach (smoothed once)."""
 
     def __init__(
-        self, pair: FramePair, fovea: Fovea, min_gradient: float, track: np.ndarray | None
+        self,
+        pair: FramePair,
+        fovea: Fovea,
+        min_gradient: float,
+        track: np.ndarray | None,
+        sigma_px: float,
     ) -> None:
         assert pair.previous is not None
         self.fovea = fovea
-        m, n = MARGIN_PX, fovea.side
-        crop = pair.gray[fovea.y0 - m : fovea.y0 + n + m, fovea.x0 - m : fovea.x0 + n + m]
-        current = cv2.GaussianBlur(crop.astype(np.float32), (0, 0), SMOOTHING_SIGMA_PX)
+        self.sigma_px = sigma_px
+        self.margin = math.ceil(3.0 * sigma_px) + 1
+        m, n = self.margin, fovea.side
+        cu, cv = fovea.centre
+        crop = cv2.getRectSubPix(pair.gray, (n + 2 * m,) * 2, (cu, cv), patchType=cv2.CV_32F)
+        current = cv2.GaussianBlur(crop, (0, 0), sigma_px)
         gx = cv2.Sobel(current, cv2.CV_32F, 1, 0, ksize=3, scale=0.125)[m:-m, m:-m]
         gy = cv2.Sobel(current, cv2.CV_32F, 0, 1, ksize=3, scale=0.125)[m:-m, m:-m]
         self.current = current[m:-m, m:-m]
@@ -226,14 +264,14 @@ class _Measurement:
         """Smooth the part of the previous frame that the shifted windows cover."""
         f, n = self.fovea, self.fovea.side
         reach = np.array([self.shift + d for d in self.hypotheses])
-        slack = MARGIN_PX + 2 * LINEAR_RANGE_PX
+        slack = self.margin + 2.0 * LINEAR_RANGE_PX * COARSE_SIGMA_PX / SMOOTHING_SIGMA_PX
         h, w = previous.shape
         x0 = int(max(0, np.floor(f.x0 - reach[:, 0].max() - slack)))
         y0 = int(max(0, np.floor(f.y0 - reach[:, 1].max() - slack)))
         x1 = int(min(w, np.ceil(f.x0 + n - reach[:, 0].min() + slack)))
         y1 = int(min(h, np.ceil(f.y0 + n - reach[:, 1].min() + slack)))
         region = previous[y0:y1, x0:x1].astype(np.float32)
-        self._previous = cv2.GaussianBlur(region, (0, 0), SMOOTHING_SIGMA_PX)
+        self._previous = cv2.GaussianBlur(region, (0, 0), self.sigma_px)
         self._previous_origin = np.array([x0, y0], float)
 
     def independent_flow(self, d: np.ndarray) -> np.ndarray:

@@ -30,7 +30,16 @@ class PositionHistory:
             ((t, *step.transport(u, v)) for t, u, v in self._points), maxlen=self._points.maxlen
         )
 
-    def add(self, t_s: float, u_px: float, v_px: float) -> None:
+    def add(self, t_s: float, u_px: float, v_px: float, gate_px: float = np.inf) -> None:
+        """Append a position; one further than `gate_px` from where the stored ones predict it
+        is taken for another object and starts the history afresh."""
+        last = self._points[-1] if self._points else None
+        if last is not None:
+            du, dv = self.velocity() or (0.0, 0.0)
+            dt = t_s - last[0]
+            miss = np.hypot(u_px - last[1] - du * dt, v_px - last[2] - dv * dt)
+            if miss > gate_px:
+                self._points.clear()
         self._points.append((t_s, u_px, v_px))
 
     def velocity(self) -> tuple[float, float] | None:

@@ -144,7 +144,9 @@ class PyramidDetector:
         if final is None:
             self.reset()
             return DetectorOutput.nothing()
-        self._history.add(pair.t_s - pair.step.dt_s / 2.0, final.u_px, final.v_px)
+        self._history.add(
+            pair.t_s - pair.step.dt_s / 2.0, final.u_px, final.v_px, gate_px=final.rect[2] / 2.0
+        )
         du, dv = self._history.velocity() or (0.0, 0.0)
         half_dt = pair.step.dt_s / 2.0
         level = pyramid[final.level]

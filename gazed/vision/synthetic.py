@@ -92,10 +92,12 @@ class SyntheticScene:
         *,
         seed: int = 0,
         target_radius_px: float = 16.0,
+        target_brightness: float = 0.0,
         noise_std: float = 1.5,
         field_rad: float = 1.2,
     ) -> None:
-        """`field_rad`: the background covers directions up to this angle from the rest gaze."""
+        """`target_brightness` shifts the target's grey levels (a walker in dark clothes: < 0);
+        `field_rad`: the background covers directions up to this angle from the rest gaze."""
         self.camera = camera
         self.kinematics = kinematics
         self.head = head
@@ -110,7 +112,8 @@ class SyntheticScene:
         self._background = texture(2 * half + 1, 2 * half + 1, rng)
         self._half = half
         side = int(2 * np.ceil(target_radius_px) + 5)
-        self._sprite = texture(side, side, rng, (1.0, 2.0, 4.0))
+        sprite = texture(side, side, rng, (1.0, 2.0, 4.0)).astype(np.float32)
+        self._sprite = np.clip(sprite + target_brightness, 0, 255)
         yy, xx = np.mgrid[0:side, 0:side].astype(np.float32) - (side - 1) / 2.0
         self._alpha = np.clip(target_radius_px + 0.5 - np.hypot(xx, yy), 0.0, 1.0)
 
@@ -175,7 +178,7 @@ class SyntheticScene:
             [[1.0, 0.0, u_px - x0 - (side - 1) / 2.0], [0.0, 1.0, v_px - y0 - (side - 1) / 2.0]]
         )
         size = (x1 - x0, y1 - y0)
-        sprite = cv2.warpAffine(self._sprite.astype(np.float32), shift, size)
+        sprite = cv2.warpAffine(self._sprite, shift, size)
         alpha = cv2.warpAffine(self._alpha, shift, size)
         roi = gray[y0:y1, x0:x1]
         roi += alpha * (sprite - roi)

@@ -1,0 +1,146 @@
+"""One frame through the vision stage: pose at capture, ego-motion, detector, candidates.
+
+Shared by the `vision` process and `gazed detect`. The caller gives a grey frame, its capture
+time and the head pose at that time (None without odometry); the pipeline pairs it with the
+previous frame, works out the head's rotation between the two (or an identity step when
+compensation is off: no pose for either frame, or `[vision] compensate_ego_motion = false`),
+computes the motion-energy pyramid once if the detector or the candidates need it, and runs
+both. Frames out of time order or further apart than `frame_gap_max_ms` restart the detectors.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from gazed.config import VisionSection
+from gazed.geometry.camera import CameraModel
+from gazed.geometry.kinematics import HeadKinematics
+from gazed.messages import HeadPose
+from gazed.vision.background import BackgroundDetector
+from gazed.vision.candidates import CandidateFinder, MotionRegion
+from gazed.vision.detector import Detector, DetectorOutput, FramePair
+from gazed.vision.ego_motion import EgoMotion
+from gazed.vision.motion_energy import MotionEnergy
+from gazed.vision.normal_flow import NormalFlowDetector
+from gazed.vision.pyramid_search import PyramidDetector
+
+
+def make_detector(name: str, vision: VisionSection, camera: CameraModel) -> Detector:
+    """The detector `name` ('flow', 'pyramid', 'background') with the rig's settings."""
+    if name == "flow":
+        return NormalFlowDetector(
+            camera,
+            fovea_rad=vision.fovea_rad,
+            noise_px=vision.flow_noise_px,
+            min_gradient=vision.flow_min_gradient,
+            min_area_px=vision.flow_min_area_px,
+        )
+    if name == "pyramid":
+        return PyramidDetector(
+            vision.pyramid_search,
+            window_px=vision.pyramid_window_px,
+            energy_threshold=vision.energy_threshold,
+            fill_fraction=vision.pyramid_fill_fraction,
+        )
+    if name == "background":
+        return BackgroundDetector(
+            level=vision.background_level,
+            history_frames=vision.background_history_frames,
+            threshold=vision.background_threshold,
+            min_area_px=vision.background_min_area_px,
+            learning_frames=vision.background_learning_frames,
+            still_px=vision.background_still_px,
+        )
+    raise ValueError(f"unknown detector {name!r} (expected flow, pyramid or background)")
+
+
+@dataclass(frozen=True)
+class VisionResult:
+    """The detector's answer (`processing_ms` filled in), the candidates (None when off), and
+    whether the head's rotation was compensated for this frame."""
+
+    output: DetectorOutput
+    candidates: list[MotionRegion] | None
+    compensated: bool
+    candidates_ms: float = 0.0
+
+
+class VisionPipeline:
+    def __init__(
+        self,
+        camera: CameraModel,
+        kinematics: HeadKinematics,
+        vision: VisionSection,
+        detector: str | None = None,
+    ) -> None:
+        self.camera = camera
+        self.vision = vision
+        self.ego = EgoMotion(camera, kinematics)
+        self.detector = make_detector(detector or vision.detector, vision, camera)
+        self.candidates = (
+            CandidateFinder(
+                level=vision.candidates_level,
+                energy_threshold=vision.energy_threshold,
+                min_area_px=vision.candidate_min_area_px,
+                max_count=vision.candidates_max,
+            )
+            if vision.candidates
+            else None
+        )
+        self._energy = MotionEnergy(vision.pyramid_levels)
+        self._previous: tuple[np.ndarray, int, HeadPose | None] | None = None
+        self.restarts = 0
+
+    def reset(self) -> None:
+        self._previous = None
+        self._energy.reset()
+        self.detector.reset()
+        if self.candidates is not None:
+            self.candidates.reset()
+
+    def process(self, gray: np.ndarray, t_capture_ns: int, head: HeadPose | None) -> VisionResult:
+        """Run the detector (and candidates) on one grey frame captured at `t_capture_ns`."""
+        previous = self._previous
+        if previous is not None:
+            dt_s = (t_capture_ns - previous[1]) * 1e-9
+            if not 0.0 < dt_s <= self.vision.frame_gap_max_ms * 1e-3:
+                self.reset()
+                self.restarts += 1
+                previous = None
+        self._previous = (gray, t_capture_ns, head)
+        if previous is None:  # nothing to compare with: no interval, no rotation
+            dt_s = 0.0
+            prev_gray, prev_head = None, None
+        else:
+            prev_gray, _, prev_head = previous
+        compensated = (
+            self.vision.compensate_ego_motion and head is not None and prev_head is not None
+        )
+        if compensated:
+            assert head is not None and prev_head is not None
+            step = self.ego.step(prev_head, head, dt_s)
+        else:
+            step = self.ego.still_step(dt_s)
+        started = time.perf_counter()
+        energy = None
+        if self.detector.needs_energy or self.candidates is not None:
+            energy = self._energy.update(gray, step.H if compensated else None)
+        energy_s = time.perf_counter() - started
+        pair = FramePair(gray, t_capture_ns * 1e-9, prev_gray, step, compensated, energy)
+        started = time.perf_counter()
+        output = self.detector.detect(pair)
+        detector_s = time.perf_counter() - started
+        if self.detector.needs_energy:
+            detector_s += energy_s
+        output = dataclasses.replace(output, processing_ms=detector_s * 1e3)
+        candidates = None
+        candidates_s = 0.0
+        if self.candidates is not None:
+            started = time.perf_counter()
+            candidates = self.candidates.find(pair)
+            candidates_s = time.perf_counter() - started + energy_s
+        return VisionResult(output, candidates, compensated, candidates_s * 1e3)
