@@ -77,6 +77,7 @@ class AlphaBetaEstimator(TrackEstimator):
         self.history = np.zeros((n_tracks, HISTORY, 2))  # θ̂, newest last
         self.history_t = np.zeros((n_tracks, HISTORY))
         self.count = np.zeros(n_tracks, dtype=np.int64)
+        self.since_s = np.zeros(n_tracks)  # time from the newest estimate to the track's time
         self.var_l = np.zeros((n_tracks, 2))  # σ_l², σ_q² of eq. 10 (running means)
         self.var_q = np.zeros((n_tracks, 2))
         self.spread = np.zeros((n_tracks, 2))  # running mean of (θ_m - θ̂_p)²
@@ -125,33 +126,34 @@ class AlphaBetaEstimator(TrackEstimator):
         self.history[idx, -1] = zv[:, :2]
         self.history_t[idx, -2] = -dt
         self.count[idx] = 2
+        self.since_s[idx] = 0.0
         self.var_l[idx] = 0.0
         self.var_q[idx] = 0.0
-        self.spread[idx] = 2.0 * np.diagonal(Rv[:, :2, :2], axis1=1, axis2=2)
-        self.speed_var[idx] = np.diagonal(Rv[:, 2:, 2:], axis1=1, axis2=2)
-
-    def _advance(self, idx: slice | np.ndarray, dt: np.ndarray, estimate: np.ndarray) -> None:
-        """Append the estimate at newest time + dt to the history."""
-        t_new = self.history_t[idx][:, -1] + dt
-        self.history[idx] = np.concatenate([self.history[idx][:, 1:], estimate[:, None]], axis=1)
-        self.history_t[idx] = np.concatenate([self.history_t[idx][:, 1:], t_new[:, None]], axis=1)
-        self.count[idx] += 1
+        # the spreads start wide (the initial speed uncertainty over one interval) and learn
+        self.speed_var[idx] = self.initial_speed_std**2
+        self.spread[idx] = (
+            np.diagonal(Rv[:, :2, :2], axis1=1, axis2=2)
+            + (self.initial_speed_std * dt[:, None]) ** 2
+        )
 
     def _predict(self, idx: slice | np.ndarray, dt: np.ndarray) -> None:
-        """Predict-only: θ̂_p(k|k-1) (eq. 7) becomes the estimate; kept for the update."""
-        line, quad, _, _ = self._predictors(idx, dt)
+        """θ̂_p at the track's new time (eq. 7), kept for the update. A predict-only step adds
+        no estimate: the history holds estimates from measurements only."""
+        self.since_s[idx] += dt
+        line, quad, _, _ = self._predictors(idx, self.since_s[idx])
         beta1, beta2 = self._beta(idx)
-        predicted = beta1 * line + beta2 * quad
-        self._advance(idx, dt, predicted)
-        self._predicted = (predicted, line, quad)
+        self._predicted = (beta1 * line + beta2 * quad, line, quad)
 
     def _innovate(
         self, idx: slice | np.ndarray, z: np.ndarray, R: np.ndarray
     ) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray]]:
-        """NIS of the position against θ̂_p with S = diag(spread) (which includes R)."""
+        """NIS of the position against θ̂_p with S = diag(spread) (which includes R), widened
+        by the velocity spread over the time since the last estimate."""
         assert self._predicted is not None
         y = z[:, :2] - self._predicted[0]
+        since = self.since_s[idx][:, None]
         spread = np.maximum(self.spread[idx], np.diagonal(R[:, :2, :2], axis1=1, axis2=2))
+        spread = spread + self.speed_var[idx] * since * since
         nis = (y * y / spread).sum(axis=-1)
         return nis, (z[:, :2], np.diagonal(R[:, :2, :2], axis1=1, axis2=2))
 
@@ -167,26 +169,34 @@ class AlphaBetaEstimator(TrackEstimator):
         var_p = np.maximum(self.spread[rows] - var_m, 0.0)  # σ_p², σ_m² from before step k
         alpha1 = weight(var_m, var_p)  # eq. 5
         estimate = alpha1 * predicted + (1.0 - alpha1) * measured  # eq. 2
-        self.history[rows, -1] = estimate
+        dt = self.since_s[rows]
+        self.history[rows] = np.concatenate([self.history[rows, 1:], estimate[:, None]], axis=1)
+        t_new = self.history_t[rows, -1] + dt
+        self.history_t[rows] = np.concatenate([self.history_t[rows, 1:], t_new[:, None]], axis=1)
+        self.count[rows] += 1
+        self.since_s[rows] = 0.0
         g = self.smoothing
         self.var_l[rows] += g * ((estimate - line) ** 2 - self.var_l[rows])  # eq. 10
         self.var_q[rows] += g * ((estimate - quad) ** 2 - self.var_q[rows])
         error2 = (measured - predicted) ** 2
         self.spread[rows] += g * (error2 - self.spread[rows])
-        dt = self.history_t[rows, -1] - self.history_t[rows, -2]
         self.speed_var[rows] += g * (error2 / (dt * dt)[:, None] - self.speed_var[rows])
 
     def _forecast(self, idx: slice | np.ndarray, dt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """β1 θ̂_l + β2 θ̂_q at dt after the newest estimate, its velocity, and an empirical
         covariance: the running mean of squared one-step errors, grown with the horizon
         as the position error of a velocity error (no cross terms)."""
-        line, quad, v_line, v_quad = self._predictors(idx, dt)
+        ahead = self.since_s[idx] + dt
+        line, quad, v_line, v_quad = self._predictors(idx, ahead)
         beta1, beta2 = self._beta(idx)
         mean = np.concatenate(
             [beta1 * line + beta2 * quad, beta1 * v_line + beta2 * v_quad], axis=-1
         )
         var = np.concatenate(
-            [self.spread[idx] + self.speed_var[idx] * (dt * dt)[:, None], self.speed_var[idx]],
+            [
+                self.spread[idx] + self.speed_var[idx] * (ahead * ahead)[:, None],
+                self.speed_var[idx],
+            ],
             axis=-1,
         )
         cov = np.zeros((len(var), 4, 4))

@@ -313,6 +313,8 @@ class TrackEstimator(ABC):
             self._start(np.flatnonzero(starting), t, z, R, outcome)
 
         np.add.at(self.counts, (np.arange(n), outcome), 1)
+        rejected = present & ~good & ~late & (outcome != Outcome.NONFINITE)
+        self.counts[rejected, Outcome.NONFINITE] += 1  # rejected, then dropped by the coast
         stepped = (self.status == TRACKING) & (outcome != Outcome.IDLE)
         if stepped.any() and len(self.model_names) > 1:
             idx = np.flatnonzero(stepped)

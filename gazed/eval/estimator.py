@@ -157,7 +157,7 @@ def kelly_report(section: EstimatorSection, seed: int, noise_m: float | None) ->
         selected.append(estimator.most_likely() if estimator.status[0] == TRACKING else None)
     phases = []
     for seg in segments(list(scenario.phase)):
-        span = slice(seg.start + 1, seg.stop)  # innovations ν(k+1) belong to the phase of k
+        span = slice(seg.start, seg.stop)  # ν(k) shows the motion of (k-1, k], phase[k]
         chosen = [s for s in selected[seg.start : seg.stop] if s is not None]
         counts = {n: chosen.count(n) for n in names}
         phases.append(
