@@ -10,8 +10,8 @@ Settings: [head] signs, zero offsets, joint, rate and acceleration limits, park 
 protocol and its keys, port, baud, timeout_ms, command_timeout_ms, odometry_rate_hz,
 command_rate_hz, reconnect_max_s.
 
-Every demand is limited (`DemandLimiter`: non-finite refused, joint and rate limits clamped,
-all counted) and becomes the target of the set-point generator, whose set-points — never a jump
+Every demand is limited (`DemandLimiter`: non-finite refused, joint limits — brought in by one
+device unit, so rounding never crosses them — and rate limits clamped, all counted) and becomes the target of the set-point generator, whose set-points — never a jump
 — are written at once for a fresh demand and at `command_rate_hz` while a move is under way.
 No fresh demand within `command_timeout_ms` -> hold (decelerate to rest). Position is polled at
 `odometry_rate_hz`; a head that cannot report it (Pelco-D without the extended queries) gets its
@@ -67,8 +67,9 @@ class ServoService:
             SerialTransport(rig.servo.port, rig.servo.baud),
             rig.servo.timeout_ms / 1000.0,
         )
-        self.limiter = DemandLimiter(rig.head)
-        self.setpoints = SetpointGenerator(rig.head, time.monotonic())
+        inset_rad = self.codec.resolution_rad
+        self.limiter = DemandLimiter(rig.head, inset_rad)
+        self.setpoints = SetpointGenerator(rig.head, time.monotonic(), inset_rad)
         self.demands = bus.subscribe(GAZE_DEMAND, capacity=64)
         self.odometry = bus.publisher(SERVO_ODOMETRY)
         self.status = bus.publisher(SERVO_STATUS)
@@ -350,11 +351,12 @@ class ServoService:
         park_pan, park_tilt = self.head.park_rad
         self.setpoints.track(Target("park", park_pan, park_tilt, 0.0, 0.0), time.monotonic())
         deadline_s = time.monotonic() + PARK_TIMEOUT_S
-        while not self.setpoints.settled and time.monotonic() < deadline_s:
+        while True:
             setpoint = self.setpoints.advance(time.monotonic())
             self.driver.set_position(*device_from_joint(self.head, *setpoint))
+            if self.setpoints.settled or time.monotonic() > deadline_s:
+                break
             time.sleep(self.command_period_s)
-        self.driver.set_position(*device_from_joint(self.head, park_pan, park_tilt))
 
 
 def build(rig: Rig, bus: Bus) -> ServoService:

@@ -121,20 +121,22 @@ class AxisMotion:
 
     def _step(self, h: float) -> None:
         a_max = self.accel_max_rad_s2
+        e = 0.0
         if self.mode == "velocity":
             v_des = self.velocity_command_rad_s
         else:
+            # close the gap as if the target stood still, and move with it on top
+            e = self.target_rad - self.position_rad
+            cap = self.rate_cap_rad_s
+            towards = min(cap, _braking_speed(abs(e), a_max, h), abs(e) / h)
+            v_des = self.target_rate_rad_s + math.copysign(towards, e)
+            v_des = max(-cap, min(cap, v_des))
             if self.target_rate_rad_s:
                 moved = self.target_rad + self.target_rate_rad_s * h
                 self.target_rad = min(max(moved, self.lower_rad), self.upper_rad)
                 if self.target_rad != moved:
                     self.target_rate_rad_s = 0.0
                     self.clamps += 1
-            e = self.target_rad - self.position_rad
-            cap = self.rate_cap_rad_s
-            towards = min(cap, _braking_speed(abs(e), a_max, h), abs(e) / h)
-            v_des = self.target_rate_rad_s + math.copysign(towards, e)
-            v_des = max(-cap, min(cap, v_des))
         v0 = self.velocity_rad_s
         v1 = v0 + max(-a_max * h, min(a_max * h, v_des - v0))
         x = self.position_rad + v1 * h
@@ -144,7 +146,12 @@ class AxisMotion:
                 self.limit_hit = True
             v1 = 0.0
         self.position_rad, self.velocity_rad_s = x, v1
-        close = abs(self.target_rad - x) < SNAP_RAD
-        if self.mode == "position" and close and abs(v1 - self.target_rate_rad_s) <= a_max * h:
+        if self.mode != "position":
+            return
+        # arrived: within a hair of the target, or about to step past it at the end of braking
+        # (a speed between grid multiples of a·h can leave the last step a fraction too fast)
+        e_after = self.target_rad - x
+        arrived = abs(e_after) < SNAP_RAD or (e != 0.0 and e_after * e < 0.0)
+        if arrived and abs(v1 - self.target_rate_rad_s) <= 2.0 * a_max * h:
             self.position_rad = self.target_rad
             self.velocity_rad_s = self.target_rate_rad_s

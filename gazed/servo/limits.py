@@ -31,12 +31,22 @@ def clamp(value: float, lower: float, upper: float) -> float:
     return min(max(value, lower), upper)
 
 
-class DemandLimiter:
-    """Clamps demands to [head]; `joint_clamps`, `rate_clamps` and `refused` count what it did."""
+def joint_limits_rad(
+    head: HeadSection, inset_rad: tuple[float, float] = (0.0, 0.0)
+) -> tuple[tuple[float, float], tuple[float, float]]:
+    """[head]'s pan and tilt limits, each brought in by `inset_rad` (one device unit, so that
+    rounding a set-point to the protocol's unit never lands it beyond the limit)."""
+    (pan_lo, pan_hi), (tilt_lo, tilt_hi) = head.pan_limits_rad, head.tilt_limits_rad
+    pan_in, tilt_in = inset_rad
+    return (pan_lo + pan_in, pan_hi - pan_in), (tilt_lo + tilt_in, tilt_hi - tilt_in)
 
-    def __init__(self, head: HeadSection) -> None:
-        self.pan_limits_rad = head.pan_limits_rad
-        self.tilt_limits_rad = head.tilt_limits_rad
+
+class DemandLimiter:
+    """Clamps demands to [head] (limits brought in by `inset_rad`); `joint_clamps`,
+    `rate_clamps` and `refused` count what it did."""
+
+    def __init__(self, head: HeadSection, inset_rad: tuple[float, float] = (0.0, 0.0)) -> None:
+        self.pan_limits_rad, self.tilt_limits_rad = joint_limits_rad(head, inset_rad)
         self.rate_max_rad_s = head.rate_max_rad_s
         self.park_rad = head.park_rad
         self.joint_clamps = 0

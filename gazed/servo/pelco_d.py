@@ -21,6 +21,7 @@ The frame helpers below are shared by the host codec and the emulated device (ga
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -43,6 +44,7 @@ EXTENDED = {
     "tilt_response": 0x5B,
     "zoom_response": 0x5D,
 }
+RESPONSES = (EXTENDED["pan_response"], EXTENDED["tilt_response"], EXTENDED["zoom_response"])
 # cmd2 direction bits of the standard drive command (TF-0002); data1 pan speed, data2 tilt speed
 DRIVE = {"right": 0x02, "left": 0x04, "up": 0x08, "down": 0x10}
 SPEED_MAX = 0x3F
@@ -77,18 +79,14 @@ class Frame:
     def word(self) -> int:
         return (self.data1 << 8) | self.data2
 
-    @property
-    def extended(self) -> bool:
-        return bool(self.cmd2 & 0x01) or self.cmd2 in (
-            EXTENDED["pan_response"],
-            EXTENDED["tilt_response"],
-            EXTENDED["zoom_response"],
-        )
 
-
-def split_frames(buffer: bytearray) -> tuple[list[tuple[Frame, bytes]], int]:
-    """Take every checksum-valid frame off the front of `buffer`; returns the frames (decoded and
-    raw) and the number of garbage bytes dropped. An incomplete tail stays in `buffer`."""
+def split_frames(
+    buffer: bytearray, accept: Callable[[Frame], bool] = lambda frame: True
+) -> tuple[list[tuple[Frame, bytes]], int]:
+    """Take every checksum-valid frame that `accept`s off the front of `buffer`; returns the
+    frames (decoded and raw) and the number of bytes dropped. A frame that is not accepted is
+    skipped one byte at a time, like garbage, so a false start can never swallow the beginning
+    of a real frame. An incomplete tail stays in `buffer`."""
     frames: list[tuple[Frame, bytes]] = []
     discarded = 0
     while buffer:
@@ -102,13 +100,13 @@ def split_frames(buffer: bytearray) -> tuple[list[tuple[Frame, bytes]], int]:
             del buffer[:start]
         if len(buffer) < FRAME_LENGTH:
             break
-        if checksum(buffer[1:6]) != buffer[6]:
+        frame = Frame(*buffer[1:6])
+        if checksum(buffer[1:6]) != buffer[6] or not accept(frame):
             discarded += 1
             del buffer[:1]
             continue
-        raw = bytes(buffer[:FRAME_LENGTH])
+        frames.append((frame, bytes(buffer[:FRAME_LENGTH])))
         del buffer[:FRAME_LENGTH]
-        frames.append((Frame(*raw[1:6]), raw))
     return frames, discarded
 
 
@@ -204,22 +202,22 @@ class PelcoDCodec(Codec):
         is_query = len(frame_bytes) == FRAME_LENGTH and frame_bytes[3] in queries
         return 1 if is_query and self.position_feedback else 0
 
+    def _is_reply(self, frame: Frame) -> bool:
+        """Our camera's extended response (not another camera's, nor our own command echoed
+        by the RS-485 adapter)."""
+        return frame.address == self.address and frame.cmd1 == 0 and frame.cmd2 in RESPONSES
+
     def _parse(self) -> list[Reply]:
-        frames, discarded = split_frames(self._buffer)
+        frames, discarded = split_frames(self._buffer, self._is_reply)
         self.discarded_bytes += discarded
         replies = []
         for f, raw in frames:
-            if f.address != self.address or f.cmd1 != 0:
-                self.bad_frames += 1  # another camera's, or our own command echoed on the bus
-                continue
             if f.cmd2 == EXTENDED["pan_response"]:
                 pan = math.radians(pan_deg_from_raw(f.word))
                 replies.append(Reply("position", pan_rad=pan, raw=raw))
             elif f.cmd2 == EXTENDED["tilt_response"]:
                 tilt = math.radians(tilt_deg_from_raw(f.word))
                 replies.append(Reply("position", tilt_rad=tilt, raw=raw))
-            elif f.cmd2 == EXTENDED["zoom_response"]:
-                replies.append(Reply("ok", value=f.word, reason="zoom position", raw=raw))
             else:
-                self.bad_frames += 1
+                replies.append(Reply("ok", value=f.word, reason="zoom position", raw=raw))
         return replies

@@ -12,14 +12,16 @@ from __future__ import annotations
 
 from gazed.config import HeadSection
 from gazed.servo.axis_motion import AxisMotion
-from gazed.servo.limits import Target
+from gazed.servo.limits import Target, joint_limits_rad
 
 
 class SetpointGenerator:
     """Two axes of set-points in joint angles, advanced on the caller's monotonic clock."""
 
-    def __init__(self, head: HeadSection, t_s: float) -> None:
-        (pan_lo, pan_hi), (tilt_lo, tilt_hi) = head.pan_limits_rad, head.tilt_limits_rad
+    def __init__(
+        self, head: HeadSection, t_s: float, inset_rad: tuple[float, float] = (0.0, 0.0)
+    ) -> None:
+        (pan_lo, pan_hi), (tilt_lo, tilt_hi) = joint_limits_rad(head, inset_rad)
         pan_rate, tilt_rate = head.rate_max_rad_s
         pan_accel, tilt_accel = head.accel_max_rad_s2
         park_pan, park_tilt = head.park_rad

@@ -20,9 +20,12 @@ tilt positive up; units per degree depend on the model (the rig's `pan_deg_per_u
 from __future__ import annotations
 
 import math
-from typing import ClassVar
+from collections.abc import Callable
+from typing import ClassVar, TypeVar
 
 from gazed.servo.codec import Codec, CodecError, Exchange, HandshakeError, Reply, nearest
+
+T = TypeVar("T")
 
 TERMINATOR = 0xFF
 MAX_PACKET = 16
@@ -79,10 +82,14 @@ def reply_header(address: int) -> int:
     return (address + 8) << 4
 
 
-def split_packets(buffer: bytearray, is_header: bytes | bytearray) -> tuple[list[bytes], int]:
-    """Take every `header ... FF` packet (at most 16 bytes) off the front of `buffer`; `is_header`
-    lists the bytes a packet may start with. Returns the packets and the bytes dropped."""
-    packets: list[bytes] = []
+def split_packets(
+    buffer: bytearray, is_header: bytes, decode: Callable[[bytes], T | None]
+) -> tuple[list[T], int]:
+    """Take every `header ... FF` packet (at most 16 bytes) off the front of `buffer` that
+    `decode` accepts, and return what it made of them, with the number of bytes dropped.
+    `is_header` lists the bytes a packet may start with. A packet `decode` refuses is skipped
+    one byte at a time, like garbage, so a false start never swallows a real packet."""
+    packets: list[T] = []
     discarded = 0
     while buffer:
         start = next((i for i, b in enumerate(buffer) if b in is_header), -1)
@@ -96,11 +103,12 @@ def split_packets(buffer: bytearray, is_header: bytes | bytearray) -> tuple[list
         end = buffer.find(TERMINATOR, 1)
         if end < 0 and len(buffer) < MAX_PACKET:
             break
-        if end < 0 or end + 1 > MAX_PACKET:
+        decoded = decode(bytes(buffer[: end + 1])) if 0 < end < MAX_PACKET else None
+        if decoded is None:
             discarded += 1
             del buffer[:1]
             continue
-        packets.append(bytes(buffer[: end + 1]))
+        packets.append(decoded)
         del buffer[: end + 1]
     return packets, discarded
 
@@ -200,15 +208,8 @@ class ViscaCodec(Codec):
             raise HandshakeError(f"VISCA IF_Clear answered {got}, expected completion")
 
     def _parse(self) -> list[Reply]:
-        packets, discarded = split_packets(self._buffer, self._reply_headers)
+        replies, discarded = split_packets(self._buffer, self._reply_headers, self._decode)
         self.discarded_bytes += discarded
-        replies = []
-        for packet in packets:
-            reply = self._decode(packet)
-            if reply is None:
-                self.bad_frames += 1
-            else:
-                replies.append(reply)
         return replies
 
     def _decode(self, p: bytes) -> Reply | None:

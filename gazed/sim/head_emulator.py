@@ -4,12 +4,8 @@
 It opens a pty, points the rig's `[servo] port` at it with a symlink (so the `servo` process
 opens it through pyserial as it would a USB adapter), decodes what the host writes with the
 protocol's device model (`head_pelco_d`, `head_visca`, `head_flir_ptu`, `head_dynamixel`),
-answers as the device would, and moves the two axes of a `HeadMechanics`.
-
-The serial line is emulated at the rig's baud rate (8N1, ten bit times a byte): a request counts
-as received when its last byte would have arrived, and a reply reaches the host when its last
-byte would have, one after another, so the poll rates and latencies measured against the
-emulator are those of the real line. `head_reply_delay_ms` is the device's own turn-around.
+answers as the device would, and moves the two axes of a `HeadMechanics` — all of which is the
+`HeadLine`, including the line's timing at the rig's baud rate.
 
 Embedding (the `sim` process): `HeadEmulator(rig)` as a context manager runs its own thread;
 `pose_at(t)` gives the camera's true joint angles at any monotonic instant of the last two
@@ -28,47 +24,21 @@ import sys
 import threading
 import time
 import tty
-from collections import deque
 from collections.abc import Callable
 from pathlib import Path
-from typing import Protocol
 
 from gazed.config import Rig, RigError, load_rig
 from gazed.geometry.kinematics import joint_from_device
 from gazed.messages import HeadPose
-from gazed.sim.head_dynamixel import DynamixelDevice
-from gazed.sim.head_flir_ptu import FlirPtuDevice
-from gazed.sim.head_mechanics import AxisSample, HeadMechanics
-from gazed.sim.head_pelco_d import PelcoDDevice
-from gazed.sim.head_visca import ViscaDevice
+from gazed.sim.head_line import HeadLine
+from gazed.sim.head_mechanics import AxisSample
 
-BITS_PER_BYTE = 10  # 8N1: start, eight data bits, stop
 POLL_S = 0.002
 READ_CHUNK = 4096
 
 
 class EmulatorError(RuntimeError):
     """The emulator cannot take the rig's port (not a path, or a real file is in the way)."""
-
-
-class DeviceModel(Protocol):
-    """The device side of one protocol."""
-
-    def receive(self, data: bytes, t_s: float) -> bytes:
-        """Bytes from the host, fully received at `t_s`; returns the reply bytes."""
-        ...
-
-    def poll(self, t_s: float) -> bytes:
-        """Bytes the device sends unasked by `t_s` (completions, limit notices)."""
-        ...
-
-
-DEVICES: dict[str, Callable[..., DeviceModel]] = {
-    "pelco-d": PelcoDDevice,
-    "visca": ViscaDevice,
-    "flir-ptu": FlirPtuDevice,
-    "dynamixel": DynamixelDevice,
-}
 
 
 class HeadEmulator:
@@ -89,20 +59,14 @@ class HeadEmulator:
         self.link_path = Path(port)
         self._clock = clock
         self._lock = threading.RLock()
-        self.mechanics = HeadMechanics(rig.head, rig.sim, clock())
-        self.device = DEVICES[rig.servo.protocol](rig.servo, self.mechanics)
-        self.byte_time_s = BITS_PER_BYTE / rig.servo.baud
-        self.reply_delay_s = rig.sim.head_reply_delay_ms / 1000.0
+        self.line = HeadLine(rig, clock())
+        self.mechanics = self.line.mechanics
         self.pty_path: str | None = None
         self.bytes_received = 0
         self.bytes_sent = 0
         self.bytes_dropped = 0
         self._master: int | None = None
         self._slave: int | None = None
-        self._arrivals: deque[tuple[float, bytes]] = deque()
-        self._outgoing: deque[tuple[float, bytes]] = deque()
-        self._line_in_free_s = 0.0
-        self._line_out_free_s = 0.0
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
 
@@ -168,54 +132,39 @@ class HeadEmulator:
     # --- the line --------------------------------------------------------------------------
 
     def service(self, timeout_s: float) -> None:
-        """One round: wait up to `timeout_s` for bytes (less if something falls due), act on
-        requests whose last byte has arrived, move the axes, send what is due."""
+        """One round: wait up to `timeout_s` for bytes (less if something falls due), hand them
+        to the line, write what has reached the host."""
         if self._master is None:
             raise EmulatorError("the emulator is not open")
-        now = self._clock()
-        due = [queue[0][0] for queue in (self._arrivals, self._outgoing) if queue]
-        wait_s = max(0.0, min([timeout_s, *(t - now for t in due)]))
-        readable, _, _ = select.select([self._master], [], [], wait_s)
-        if readable:
-            self._read(self._clock())
+        with self._lock:
+            due_s = self.line.next_due_s()
+        wait_s = timeout_s if due_s is None else min(timeout_s, due_s - self._clock())
+        readable, _, _ = select.select([self._master], [], [], max(0.0, wait_s))
+        data = self._read() if readable else b""
         now = self._clock()
         with self._lock:
-            while self._arrivals and self._arrivals[0][0] <= now:
-                t_s, data = self._arrivals.popleft()
-                self._emit(self.device.receive(data, t_s), t_s + self.reply_delay_s)
-            self.mechanics.advance(now)
-            self._emit(self.device.poll(now), now)
-        self._flush(now)
+            self.line.receive(data, now)
+            out = self.line.service(now)
+        if out:
+            self._write(out)
 
-    def _read(self, now: float) -> None:
+    def _read(self) -> bytes:
         assert self._master is not None
         try:
             data = os.read(self._master, READ_CHUNK)
-        except (BlockingIOError, InterruptedError):
-            return
         except OSError:
-            return  # EIO: no host has the port open
+            return b""  # EAGAIN, EINTR, or EIO while no host has the port open
         self.bytes_received += len(data)
-        done = max(now, self._line_in_free_s) + len(data) * self.byte_time_s
-        self._line_in_free_s = done
-        self._arrivals.append((done, data))
+        return data
 
-    def _emit(self, data: bytes, t_due: float) -> None:
-        if data:
-            done = max(t_due, self._line_out_free_s) + len(data) * self.byte_time_s
-            self._line_out_free_s = done
-            self._outgoing.append((done, data))
-
-    def _flush(self, now: float) -> None:
+    def _write(self, data: bytes) -> None:
         assert self._master is not None
-        while self._outgoing and self._outgoing[0][0] <= now:
-            _, data = self._outgoing.popleft()
-            try:
-                written = os.write(self._master, data)
-            except OSError:
-                written = 0  # nobody reads the port: the bytes are lost, as on a real line
-            self.bytes_sent += written
-            self.bytes_dropped += len(data) - written
+        try:
+            written = os.write(self._master, data)
+        except OSError:
+            written = 0  # nobody reads the port: the bytes are lost, as on a real line
+        self.bytes_sent += written
+        self.bytes_dropped += len(data) - written
 
     # --- truth -----------------------------------------------------------------------------
 

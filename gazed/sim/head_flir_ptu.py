@@ -87,7 +87,7 @@ class FlirPtuDevice:
                 out.append(f"!{key}{EOL}")
         if self._awaiting is not None and t_s >= self._awaiting and m.settled:
             self._awaiting = None
-            out.append(self._line("A", "*"))
+            out.append(self._line("A", "*", self.echo))
             queued, self._queued = self._queued, []
             out += [self._submit(token, t) for token, t in queued]
         return "".join(out).encode("latin-1")
@@ -96,12 +96,14 @@ class FlirPtuDevice:
         if self._awaiting is not None:
             self._queued.append((token, t_s))
             return ""
-        return self._line(token, self._execute(token, t_s))
+        echo = self.echo  # characters are echoed as they arrive, before the command acts
+        answer = self._execute(token, t_s)
+        return self._line(token, answer, echo)
 
-    def _line(self, token: str, answer: str) -> str:
+    def _line(self, token: str, answer: str, echo: bool) -> str:
         if not answer:
             return ""
-        return f"{token} {answer}{EOL}" if self.echo else f"{answer}{EOL}"
+        return f"{token} {answer}{EOL}" if echo else f"{answer}{EOL}"
 
     def _execute(self, token: str, t_s: float) -> str:
         match = TOKEN.match(token)

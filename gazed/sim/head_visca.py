@@ -52,6 +52,11 @@ class _Job:
     moves: bool
 
 
+def _command(packet: bytes) -> bytes | None:
+    """A host packet: header, at least one payload byte, terminator."""
+    return packet if len(packet) >= 3 else None
+
+
 class ViscaDevice:
     """A VISCA camera at `servo.address` driving `mechanics`."""
 
@@ -75,7 +80,7 @@ class ViscaDevice:
 
     def receive(self, data: bytes, t_s: float) -> bytes:
         self._buffer += data
-        packets, discarded = split_packets(self._buffer, HOST_HEADERS)
+        packets, discarded = split_packets(self._buffer, HOST_HEADERS, _command)
         self.ignored += discarded
         out = bytearray()
         for p in packets:

@@ -1,0 +1,263 @@
+"""The real `servo` process (`python -m services.servo --rig RIG`) against the head emulator on a
+real pty: commanded angles reached within the protocol's resolution; out-of-limit and NaN
+demands clamped or refused, counted, never sent; hold on timeout; link loss reported and
+recovered when the pty returns; park on SIGTERM; dead-reckoned odometry where the head cannot
+report its position."""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import time
+from pathlib import Path
+
+import pytest
+import zenoh
+from conftest import PYTHON, REPO, child_env, poll_until, unique_rig_name
+
+from gazed.bus import Bus
+from gazed.config import load_rig
+from gazed.messages import GazeDemand
+from gazed.servo import make_codec
+from gazed.sim.head_emulator import HeadEmulator
+from gazed.topics import GAZE_DEMAND, SERVO_ODOMETRY, SERVO_STATUS
+
+PORTS = {"pelco-d": 17511, "visca": 17512, "flir-ptu": 17513, "dynamixel": 17514}
+SERVO_KEYS = {
+    "pelco-d": "",
+    "visca": "pan_speed_max_deg_s = 300\ntilt_speed_max_deg_s = 300",
+    "flir-ptu": "pan_arcsec_per_position = 92.5714\ntilt_arcsec_per_position = 46.2857",
+    "dynamixel": "",
+}
+
+
+def write_servo_rig(tmp_path: Path, protocol: str, port: int, servo_extra: str = "") -> Path:
+    name = unique_rig_name("servo")
+    path = tmp_path / f"{name}.toml"
+    path.write_text(
+        f"""
+[rig]
+name = "{name}"
+[bus]
+listen = ["tcp/127.0.0.1:{port}"]
+[servo]
+protocol = "{protocol}"
+port = "{tmp_path / "head"}"
+baud = 115200
+timeout_ms = 100
+command_timeout_ms = 300
+odometry_rate_hz = 50
+reconnect_max_s = 0.5
+{SERVO_KEYS[protocol]}
+{servo_extra}
+[head]
+pan_min_deg = -60
+pan_max_deg = 60
+tilt_min_deg = -40
+tilt_max_deg = 20
+pan_rate_max_deg_s = 300
+tilt_rate_max_deg_s = 300
+pan_accel_max_deg_s2 = 3000
+tilt_accel_max_deg_s2 = 3000
+park_pan_deg = 5
+park_tilt_deg = -5
+[sim]
+head_latency_ms = 5
+"""
+    )
+    return path
+
+
+class Loop:
+    """The test's side of the bus: publishes demands, keeps the newest odometry and status."""
+
+    def __init__(self, bus: Bus) -> None:
+        self.bus = bus
+        self.demands = bus.publisher(GAZE_DEMAND)
+        self._odometry = bus.subscribe(SERVO_ODOMETRY)
+        self._status = bus.subscribe(SERVO_STATUS)
+        self.odometry = None
+        self.status = None
+        self.odometry_count = 0
+
+    def update(self) -> Loop:
+        for message in self._odometry.take():
+            self.odometry = message
+            self.odometry_count += 1
+        for message in self._status.take():
+            self.status = message
+        return self
+
+    def demand(
+        self, pan_deg: float, tilt_deg: float, kind: str = "position", pan_rate_deg_s: float = 0.0
+    ) -> None:
+        self.demands.put(
+            GazeDemand(
+                t_capture_ns=time.time_ns(),
+                kind=kind,
+                pan_rad=math.radians(pan_deg),
+                tilt_rad=math.radians(tilt_deg),
+                pan_rate_rad_s=math.radians(pan_rate_deg_s),
+            ).stamped("test")
+        )
+
+    def until(self, predicate, timeout_s: float = 10.0, keep_demanding: tuple | None = None):
+        """Wait (on bus arrivals) until `predicate(self)`; optionally re-publish a demand as a
+        gaze process would, so the servo never times out into holding meanwhile."""
+
+        def check():
+            if keep_demanding is not None:
+                self.demand(*keep_demanding)
+            self.bus.wait(0.02)
+            return predicate(self.update())
+
+        return poll_until(check, timeout_s, interval_s=0.0)
+
+
+def start_servo(rig_path: Path) -> subprocess.Popen:
+    return subprocess.Popen(
+        [PYTHON, "-m", "services.servo", "--rig", str(rig_path)],
+        cwd=REPO,
+        env=child_env(),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
+
+
+def stop(process: subprocess.Popen) -> str:
+    process.terminate()
+    try:
+        out, _ = process.communicate(timeout=10)
+    except subprocess.TimeoutExpired:
+        process.kill()
+        out, _ = process.communicate()
+        raise AssertionError(f"servo did not stop on SIGTERM:\n{out}") from None
+    assert process.returncode == 0, out
+    return out
+
+
+def near(a_rad: float, b_deg: float, unit_rad: float) -> bool:
+    return abs(a_rad - math.radians(b_deg)) <= unit_rad / 2 + 1e-9
+
+
+@pytest.mark.parametrize("protocol", list(PORTS))
+def test_reaches_commanded_angles_and_parks_on_sigterm(tmp_path: Path, protocol: str) -> None:
+    rig_path = write_servo_rig(tmp_path, protocol, PORTS[protocol])
+    rig = load_rig(rig_path)
+    pan_unit, tilt_unit = make_codec(protocol, **rig.servo_params()).resolution_rad
+    with Bus(rig, "test", router=True) as bus, HeadEmulator(rig) as head:
+        loop = Loop(bus)
+        servo = start_servo(rig_path)
+        try:
+            loop.until(lambda s: s.status is not None and s.status.link == "connected")
+            target = (-33.33, 12.345)
+            loop.until(
+                lambda s: (
+                    s.odometry is not None
+                    and near(s.odometry.pan_rad, target[0], pan_unit)
+                    and near(s.odometry.tilt_rad, target[1], tilt_unit)
+                ),
+                keep_demanding=target,
+            )
+            truth = head.pose_at(time.monotonic())
+            assert near(truth.pan_rad, target[0], pan_unit)
+            assert near(truth.tilt_rad, target[1], tilt_unit)
+            # odometry carries the demand's stamps and the moment its bytes were written
+            stamps = loop.odometry.command_stamps
+            assert [stage for stage, _ in stamps] == ["test", "servo"]
+            assert 0 < stamps[1][1] - stamps[0][1] < 2_000_000_000
+            assert loop.odometry.dead_reckoned is False
+        finally:
+            stop(servo)
+        poll_until(lambda: head.settled, timeout_s=5.0)
+        parked = head.pose_at(time.monotonic())
+        assert near(parked.pan_rad, 5.0, pan_unit) and near(parked.tilt_rad, -5.0, tilt_unit)
+
+
+def nan_demand_payload() -> bytes:
+    return (
+        json.dumps({"t_capture_ns": 1, "kind": "position", "pan_rad": 0.1, "tilt_rad": 0.0})
+        .replace("0.1", "NaN")
+        .encode()
+    )
+
+
+def test_limits_refusals_hold_and_link_loss(tmp_path: Path) -> None:
+    rig_path = write_servo_rig(tmp_path, "visca", 17515)
+    rig = load_rig(rig_path)
+    unit = make_codec("visca", **rig.servo_params()).resolution_rad[0]
+    with Bus(rig, "test", router=True) as bus:
+        head = HeadEmulator(rig)
+        head.open()
+        head.start()
+        loop = Loop(bus)
+        servo = start_servo(rig_path)
+        try:
+            loop.until(lambda s: s.status is not None and s.status.link == "connected")
+
+            # out of the joint limits: clamped one device unit inside them, counted
+            loop.until(
+                lambda s: s.odometry is not None and s.odometry.pan_rad > math.radians(59),
+                keep_demanding=(75.0, 0.0),
+            )
+            loop.until(lambda s: s.status.clamps >= 1)
+            poll_until(lambda: head.settled, timeout_s=5.0)
+            assert head.mechanics.pan.target_rad <= math.radians(60.0)
+            assert head.mechanics.pan.clamps == 0  # nothing beyond the limit reached the head
+
+            # non-finite: refused at the bus, counted, the head does not move
+            commands = head.mechanics.commands
+            key = GAZE_DEMAND.key(rig.name)
+            encoding = zenoh.Encoding("application/json").with_schema(GazeDemand.schema_id())
+            bus.session.put(key, nan_demand_payload(), encoding=encoding)
+            loop.until(lambda s: s.status.refused >= 1)
+            assert head.mechanics.commands == commands
+
+            # pursuit, then silence: the servo holds instead of following the stale rate
+            loop.until(lambda s: not s.status.holding, keep_demanding=(0.0, 0.0, "pursuit", 30.0))
+            loop.until(lambda s: s.status.holding, timeout_s=5.0)
+            poll_until(lambda: head.settled, timeout_s=5.0)
+            held = head.pose_at(time.monotonic()).pan_rad
+            assert held < math.radians(20.0)  # 30°/s for the 0.3 s timeout, then braking
+
+            # link loss: the pty goes away, then comes back
+            errors = loop.status.errors
+            head.close()
+            loop.until(lambda s: s.status.link != "connected" and s.status.errors > errors)
+            head = HeadEmulator(rig)
+            head.open()
+            head.start()
+            loop.until(lambda s: s.status.link == "connected" and s.status.reconnects == 1)
+            count = loop.odometry_count
+            loop.until(lambda s: s.odometry_count > count + 5)
+            assert abs(loop.odometry.pan_rad - math.radians(5.0)) <= unit  # the new head: parked
+        finally:
+            stop(servo)
+            head.close()
+
+
+def test_dead_reckoned_odometry_without_position_feedback(tmp_path: Path) -> None:
+    rig_path = write_servo_rig(tmp_path, "pelco-d", 17516, "position_feedback = false")
+    rig = load_rig(rig_path)
+    with Bus(rig, "test", router=True) as bus, HeadEmulator(rig) as head:
+        loop = Loop(bus)
+        servo = start_servo(rig_path)
+        try:
+            loop.until(lambda s: s.status is not None and s.status.link == "connected")
+            assert loop.status.dead_reckoned
+            loop.until(
+                lambda s: (
+                    s.odometry is not None
+                    and s.odometry.dead_reckoned
+                    and abs(s.odometry.pan_rad - math.radians(20.0)) < 1e-9
+                ),
+                keep_demanding=(20.0, -10.0),
+            )
+            poll_until(
+                lambda: abs(head.pose_at(time.monotonic()).pan_rad - math.radians(20.0)) < 1e-4,
+                timeout_s=5.0,
+            )
+        finally:
+            stop(servo)
