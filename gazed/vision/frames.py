@@ -54,7 +54,7 @@ def gray_frame(frame: CapturedFrame, width_px: int, height_px: int) -> np.ndarra
     if frame.encoding == "gray8":
         if channels != 1:
             raise FrameError("channels", f"gray8 frame {frame.seq} has {channels} channels")
-        return pixels.reshape(height_px, width_px)
+        return np.ascontiguousarray(pixels.reshape(height_px, width_px))
     if frame.encoding not in _TO_GRAY:
         raise FrameError("encoding", f"frame {frame.seq}: unknown encoding {frame.encoding!r}")
     if channels != 3:
