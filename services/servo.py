@@ -227,6 +227,14 @@ class ServoService:
             self._fresh = None
         self._next_command_s = now.mono_s + self.command_period_s
 
+    def _between_poll_frames(self) -> None:
+        """A demand that came while the head was answering a poll goes out now, not after the
+        whole poll (Pelco-D asks pan and tilt in two exchanges)."""
+        now = Now.read()
+        self._take_demands(now, executable=True)
+        if self._fresh is not None:
+            self._command(now)
+
     # --- odometry ----------------------------------------------------------------------------
 
     def _joint(self, position: DevicePosition) -> tuple[float, float]:
@@ -244,7 +252,7 @@ class ServoService:
             return
         started = time.perf_counter()
         try:
-            position = self.driver.query_position()
+            position = self.driver.query_position(between=self._between_poll_frames)
         except ServoTimeout as exc:
             self.counts["timeouts"] += 1
             self._poll_failures += 1

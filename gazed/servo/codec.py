@@ -91,6 +91,9 @@ class Codec(ABC):
     protocol: ClassVar[str]
     pan_wraps: ClassVar[bool] = False
     """True when the protocol's pan is a circle (Pelco-D 0..35999): readings are taken modulo 2π."""
+    replies_identify_themselves: ClassVar[bool] = True
+    """False when replies are matched to requests by order alone (PTU lines): then no other
+    request may be slipped between the frames of one."""
 
     def __init__(self) -> None:
         self._buffer = bytearray()

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import time
 from collections import Counter, deque
+from collections.abc import Callable
 from dataclasses import dataclass
 
 from gazed.servo.codec import Codec, Reply
@@ -84,13 +85,18 @@ class ServoDriver:
         """Write one frame and return its synchronous replies (raises `ServoTimeout`)."""
         return self.send([frame])[1]
 
-    def send(self, frames: list[bytes]) -> tuple[int, list[Reply], int]:
-        """Write frames one after another, each after its replies. Returns the time the first
-        frame was written, every synchronous reply, and the time the last reply was read."""
+    def send(
+        self, frames: list[bytes], between: Callable[[], None] | None = None
+    ) -> tuple[int, list[Reply], int]:
+        """Write frames one after another, each after its replies, calling `between()` after
+        every frame but the last (the line is quiet then). Returns the time the first frame was
+        written, every synchronous reply, and the time the last reply was read."""
         t_written_ns = 0
         t_read_ns = 0
         replies: list[Reply] = []
-        for frame in frames:
+        for i, frame in enumerate(frames):
+            if i and between is not None:
+                between()
             self._drain()
             t_ns = self.transport.write(frame)
             self.counters["frames_written"] += 1
@@ -124,9 +130,15 @@ class ServoDriver:
             self.query_position()
         return self.command(self.codec.encode_stop())
 
-    def query_position(self) -> DevicePosition:
-        """Both axes' present device angles (raises `ServoTimeout`, `DeviceError`)."""
-        _, replies, t_read_ns = self.send(self.codec.encode_query_position())
+    def query_position(self, between: Callable[[], None] | None = None) -> DevicePosition:
+        """Both axes' present device angles (raises `ServoTimeout`, `DeviceError`). Where the
+        query takes several frames and the protocol's replies say what they answer,
+        `between()` may use the line between them (to write a fresh command without waiting
+        for the whole query)."""
+        frames = self.codec.encode_query_position()
+        if not self.codec.replies_identify_themselves:
+            between = None
+        _, replies, t_read_ns = self.send(frames, between)
         pan = tilt = None
         for reply in replies:
             if reply.kind == "error":

@@ -134,6 +134,7 @@ class FlirPtuCodec(Codec):
     the unit's own."""
 
     protocol: ClassVar[str] = "flir-ptu"
+    replies_identify_themselves: ClassVar[bool] = False
 
     def __init__(
         self, pan_arcsec_per_position: float = 46.2857, tilt_arcsec_per_position: float = 46.2857
