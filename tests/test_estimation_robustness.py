@@ -61,7 +61,7 @@ def test_common_interface(mode: str) -> None:
 )
 def test_bad_measurements_are_rejected_and_counted(mode: str, bad: Measurement) -> None:
     estimator = build_estimator(EstimatorSection(), mode=mode)
-    t = walk(estimator)
+    walk(estimator)
     before = estimator.predict(4.5)
     assert estimator.update(Measurement.ground(math.nan, [0, 0], R)) == Outcome.NONFINITE
     assert estimator.update(bad) == Outcome.NONFINITE

@@ -28,7 +28,11 @@ class ManeuverEvent:
 
 
 class ManeuverTracker:
-    """Segments of constant most-likely model for N tracks."""
+    """Segments of constant most-likely model for N tracks.
+
+    `observe` is vectorised: the segments that end are stored as arrays and turned into
+    `ManeuverEvent`s only when drained, so a batch of thousands of tracks stays cheap.
+    """
 
     def __init__(self, n_tracks: int, model_names: tuple[str, ...]) -> None:
         self.model_names = model_names
@@ -37,7 +41,7 @@ class ManeuverTracker:
         self.steps = np.zeros(n_tracks, dtype=np.int64)
         self.sum_s_dot = np.zeros(n_tracks)
         self.sum_theta_dot = np.zeros(n_tracks)
-        self.pending: list[ManeuverEvent] = []
+        self._ended: list[tuple[np.ndarray, ...]] = []
 
     def reset(self, idx: slice | np.ndarray) -> None:
         """Forget the current segments (the track restarted); no event."""
@@ -52,34 +56,52 @@ class ManeuverTracker:
         theta_dot_rad_s: np.ndarray,
     ) -> None:
         """One step of the tracks idx (index array) at t_s with their most likely model."""
-        changed = (model != self.model[idx]) & (self.model[idx] >= 0)
-        for k in np.flatnonzero(changed):
-            track = int(idx[k])
-            steps = int(self.steps[track])
-            self.pending.append(
-                ManeuverEvent(
-                    track=track,
-                    model=self.model_names[model[k]],
-                    previous_model=self.model_names[self.model[track]],
-                    t_start_s=float(t_s[k]),
-                    previous_start_s=float(self.start_s[track]),
-                    previous_duration_s=float(t_s[k] - self.start_s[track]),
-                    previous_steps=steps,
-                    mean_s_dot_m_s2=float(self.sum_s_dot[track] / steps),
-                    mean_theta_dot_rad_s=float(self.sum_theta_dot[track] / steps),
+        previous = self.model[idx]
+        new = model != previous
+        if new.any():
+            ended = new & (previous >= 0)
+            if ended.any():
+                tracks = idx[ended]
+                self._ended.append(
+                    (
+                        tracks,
+                        model[ended],
+                        previous[ended],
+                        t_s[ended],
+                        self.start_s[tracks],
+                        self.steps[tracks],
+                        self.sum_s_dot[tracks],
+                        self.sum_theta_dot[tracks],
+                    )
                 )
-            )
-        new = model != self.model[idx]
-        fresh = idx[new]
-        self.model[fresh] = model[new]
-        self.start_s[fresh] = t_s[new]
-        self.steps[fresh] = 0
-        self.sum_s_dot[fresh] = 0.0
-        self.sum_theta_dot[fresh] = 0.0
+            fresh = idx[new]
+            self.model[fresh] = model[new]
+            self.start_s[fresh] = t_s[new]
+            self.steps[fresh] = 0
+            self.sum_s_dot[fresh] = 0.0
+            self.sum_theta_dot[fresh] = 0.0
         self.steps[idx] += 1
         self.sum_s_dot[idx] += s_dot_m_s2
         self.sum_theta_dot[idx] += theta_dot_rad_s
 
     def drain(self) -> list[ManeuverEvent]:
-        events, self.pending = self.pending, []
+        """The events since the last call, oldest first."""
+        events = []
+        for tracks, model, previous, t_s, start_s, steps, sum_s_dot, sum_theta_dot in self._ended:
+            for k in range(len(tracks)):
+                n = int(steps[k])
+                events.append(
+                    ManeuverEvent(
+                        track=int(tracks[k]),
+                        model=self.model_names[int(model[k])],
+                        previous_model=self.model_names[int(previous[k])],
+                        t_start_s=float(t_s[k]),
+                        previous_start_s=float(start_s[k]),
+                        previous_duration_s=float(t_s[k] - start_s[k]),
+                        previous_steps=n,
+                        mean_s_dot_m_s2=float(sum_s_dot[k] / n),
+                        mean_theta_dot_rad_s=float(sum_theta_dot[k] / n),
+                    )
+                )
+        self._ended = []
         return events

@@ -74,16 +74,24 @@ class GroundModelBank:
     def __post_init__(self) -> None:
         turns = np.array([float(m.turns) for m in self.models])
         accel = np.array([float(m.accelerates) for m in self.models])
-        # The entries of ∇f that do not depend on the state.
-        F0 = np.zeros((len(self.models), STATE_DIM, STATE_DIM))
-        for i in (IX, IY, IS, ITH):
-            F0[:, i, i] = 1.0
-        F0[:, ISD, ISD] = accel
-        F0[:, ITD, ITD] = turns
+        # ∇f's diagonal: X, Y, s, θ carry over; ṡ only in CD, θ̇ only in CS
+        F_diagonal = np.ones((len(self.models), STATE_DIM))
+        F_diagonal[:, ISD] = accel
+        F_diagonal[:, ITD] = turns
+        # noise gains as polynomials in T (columns: 1, T, T², T³) for the entries
+        # [X|Y per cos/sin, s, ṡ] of the speed channel and [X|Y per s·sin/cos, θ, θ̇] of the
+        # heading channel: order 0 -> (T²/2, T, 1), order 1 -> (T³/6, T²/2, T)
+        G_poly = np.zeros((len(self.models), 4, 6))
+        for m, (order_s, order_h) in enumerate(zip(accel, turns, strict=True)):
+            for channel, order in ((0, int(order_s)), (3, int(order_h))):
+                G_poly[m, 2 + order, channel] = 1.0 / (2.0 + 4.0 * order)
+                G_poly[m, 1 + order, channel + 1] = 1.0 / (1.0 + order)
+                G_poly[m, order, channel + 2] = 1.0
         q = np.array([[m.q_speed, m.q_heading] for m in self.models])
         object.__setattr__(self, "_turns", turns)
         object.__setattr__(self, "_accel", accel)
-        object.__setattr__(self, "_F0", F0)
+        object.__setattr__(self, "_F_diagonal", F_diagonal)
+        object.__setattr__(self, "_G_poly", G_poly)
         object.__setattr__(self, "_q", q)
 
     @property
@@ -93,69 +101,74 @@ class GroundModelBank:
     def propagate(self, x: np.ndarray, dt: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """f(x), its Jacobian ∇f and Q over an interval dt.
 
-        x: (..., M, 6); dt: (...) seconds, >= 0.
+        x: (..., M, 6); dt: (...) seconds, >= 0, one per state of the M models.
         Returns x' (..., M, 6), F (..., M, 6, 6), Q (..., M, 6, 6).
         """
-        turns, accel = self._turns, self._accel
-        T = np.asarray(dt, dtype=float)[..., None]
-        s, th, sd, td = x[..., IS], x[..., ITH], x[..., ISD], x[..., ITD]
-        a = accel * sd  # the ṡ the model propagates (CD), else 0
-        w = turns * td  # the θ̇ the model propagates (CS), else 0
+        M = len(self.models)
+        shape = x.shape
+        K = x.size // (M * STATE_DIM)
+        # flat (K·M,) arrays: basic indexing on them is several times cheaper than on (..., M)
+        T = np.repeat(np.asarray(dt, dtype=float).ravel(), M)
+        if T.size != K * M:
+            raise ValueError(f"dt has {T.size // M} intervals for {K} states")
+        turns, accel = np.tile(self._turns, K), np.tile(self._accel, K)
+        x = x.reshape(-1, STATE_DIM)
+        s, th = x[:, IS], x[:, ITH]
+        a = accel * x[:, ISD]  # the ṡ the model propagates (CD), else 0
+        w = turns * x[:, ITD]  # the θ̇ the model propagates (CS), else 0
         T2 = T * T
-        T3 = T2 * T
         d = s * T + a * T2 / 2.0
         A, B, dA, dB = _a_b(w * T)
         c, sn = np.cos(th), np.sin(th)
         ex = c * A - sn * B  # displacement direction per unit of d
         ey = sn * A + c * B
 
-        xn = np.stack(
-            [x[..., IX] + d * ex, x[..., IY] + d * ey, s + a * T, wrap_angle(th + w * T), a, w],
-            axis=-1,
-        )
-        shape = np.broadcast_shapes(s.shape, T.shape)
-        F = np.broadcast_to(self._F0, (*shape, STATE_DIM, STATE_DIM)).copy()
-        F[..., _F_ROWS, _F_COLS] = np.stack(
-            np.broadcast_arrays(
-                T * ex,  # ∂X/∂s
-                T * ey,  # ∂Y/∂s
-                -d * ey,  # ∂X/∂θ
-                d * ex,  # ∂Y/∂θ
-                accel * T2 / 2.0 * ex,  # ∂X/∂ṡ (CD)
-                accel * T2 / 2.0 * ey,  # ∂Y/∂ṡ (CD)
-                turns * d * T * (c * dA - sn * dB),  # ∂X/∂θ̇ (CS)
-                turns * d * T * (sn * dA + c * dB),  # ∂Y/∂θ̇ (CS)
-                accel * T,  # ∂s/∂ṡ (CD)
-                turns * T,  # ∂θ/∂θ̇ (CS)
-            ),
-            axis=-1,
-        )
+        xn = np.empty_like(x)
+        xn[:, IX] = x[:, IX] + d * ex
+        xn[:, IY] = x[:, IY] + d * ey
+        xn[:, IS] = s + a * T
+        xn[:, ITH] = wrap_angle(th + w * T)
+        xn[:, ISD] = a
+        xn[:, ITD] = w
+
+        F = np.zeros((K * M, STATE_DIM * STATE_DIM))
+        F[:, ::7] = np.tile(self._F_diagonal, (K, 1))  # the diagonal
+        F = F.reshape(K * M, STATE_DIM, STATE_DIM)
+        F[:, IX, IS] = T * ex  # ∂X/∂s
+        F[:, IY, IS] = T * ey
+        F[:, IX, ITH] = -d * ey  # ∂X/∂θ
+        F[:, IY, ITH] = d * ex
+        half_T2 = accel * T2 / 2.0  # CD only
+        F[:, IX, ISD] = half_T2 * ex  # ∂X/∂ṡ
+        F[:, IY, ISD] = half_T2 * ey
+        dT = turns * d * T  # CS only
+        F[:, IX, ITD] = dT * (c * dA - sn * dB)  # ∂X/∂θ̇
+        F[:, IY, ITD] = dT * (sn * dA + c * dB)
+        F[:, IS, ISD] = accel * T  # ∂s/∂ṡ
+        F[:, ITH, ITD] = turns * T  # ∂θ/∂θ̇
+
         # Noise gains (§4.1.2, first order): the speed channel enters at ṡ (order 0) or at s̈
-        # (CD, order 1), the heading channel at θ̇ (order 0) or at θ̈ (CS, order 1).
-        gs_pos = accel * T3 / 6.0 + (1.0 - accel) * T2 / 2.0
-        gh_pos = (turns * T3 / 6.0 + (1.0 - turns) * T2 / 2.0) * s
-        G = np.zeros((*shape, STATE_DIM, 2))
-        G[..., _G_ROWS, _G_COLS] = np.stack(
-            np.broadcast_arrays(
-                c * gs_pos,  # X
-                sn * gs_pos,  # Y
-                accel * T2 / 2.0 + (1.0 - accel) * T,  # s
-                accel * T + (1.0 - accel),  # ṡ: s̈ T (CD), or ṡ is the noise itself
-                -sn * gh_pos,  # X
-                c * gh_pos,  # Y
-                turns * T2 / 2.0 + (1.0 - turns) * T,  # θ
-                turns * T + (1.0 - turns),  # θ̇: θ̈ T (CS), or θ̇ is the noise itself
-            ),
-            axis=-1,
-        )
-        Q = (G * self._q[..., None, :]) @ G.mT
-        return xn, F, Q
-
-
-_F_ROWS = np.array([IX, IY, IX, IY, IX, IY, IX, IY, IS, ITH])
-_F_COLS = np.array([IS, IS, ITH, ITH, ISD, ISD, ITD, ITD, ISD, ITD])
-_G_ROWS = np.array([IX, IY, IS, ISD, IX, IY, ITH, ITD])
-_G_COLS = np.array([0, 0, 0, 0, 1, 1, 1, 1])
+        # (CD, order 1), the heading channel at θ̇ (order 0) or at θ̈ (CS, order 1); _G_poly
+        # holds per model the coefficients of 1, T, T², T³ of the gains
+        # [X,Y of the speed noise, s, ṡ, X,Y of the heading noise, θ, θ̇].
+        powers = np.empty((K * M, 1, 4))
+        powers[:, 0, 0] = 1.0
+        powers[:, 0, 1] = T
+        powers[:, 0, 2] = T2
+        powers[:, 0, 3] = T2 * T
+        g = (powers @ np.tile(self._G_poly, (K, 1, 1)))[:, 0, :]
+        G = np.zeros((K * M, STATE_DIM, 2))
+        G[:, IX, 0] = c * g[:, 0]
+        G[:, IY, 0] = sn * g[:, 0]
+        G[:, IS, 0] = g[:, 1]
+        G[:, ISD, 0] = g[:, 2]
+        G[:, IX, 1] = -sn * s * g[:, 3]
+        G[:, IY, 1] = c * s * g[:, 3]
+        G[:, ITH, 1] = g[:, 4]
+        G[:, ITD, 1] = g[:, 5]
+        Q = (G * np.tile(self._q, (K, 1))[:, None, :]) @ G.mT
+        square = (*shape, STATE_DIM)
+        return xn.reshape(shape), F.reshape(square), Q.reshape(square)
 
 
 def _a_b(u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -164,13 +177,17 @@ def _a_b(u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
     us = u + small  # nonzero where the series is used; those closed-form values are discarded
     sin_u, cos_u = np.sin(us), np.cos(us)
     inv = 1.0 / us
-    A = sin_u * inv
-    B = (1.0 - cos_u) * inv
-    closed = np.stack([A, B, (cos_u - A) * inv, (sin_u - B) * inv])
     u2 = u * u
-    series = np.stack(
-        [1.0 - u2 / 6.0, u * (0.5 - u2 / 24.0), u * (u2 / 30.0 - 1.0 / 3.0), 0.5 - u2 / 8.0]
-    )
+    closed = np.empty((4, *u.shape))
+    series = np.empty((4, *u.shape))
+    closed[0] = A = sin_u * inv
+    closed[1] = B = (1.0 - cos_u) * inv
+    closed[2] = (cos_u - A) * inv
+    closed[3] = (sin_u - B) * inv
+    series[0] = 1.0 - u2 / 6.0
+    series[1] = u * (0.5 - u2 / 24.0)
+    series[2] = u * (u2 / 30.0 - 1.0 / 3.0)
+    series[3] = 0.5 - u2 / 8.0
     A, B, dA, dB = np.where(small, series, closed)
     return A, B, dA, dB
 

@@ -35,8 +35,8 @@ def gaussian_terms(y: np.ndarray, S: np.ndarray) -> tuple[np.ndarray, np.ndarray
     Returns (S_inv (..., m, m), nis (...), log_likelihood (...)).
     """
     S_inv = np.linalg.inv(S)
+    log_det = np.linalg.slogdet(S)[1]
     nis = (y[..., None, :] @ S_inv @ y[..., :, None])[..., 0, 0]
-    _, log_det = np.linalg.slogdet(S)
     return S_inv, nis, -0.5 * (nis + log_det + y.shape[-1] * LOG_2PI)
 
 
