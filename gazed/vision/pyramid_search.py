@@ -77,33 +77,30 @@ def look(
 def _centroid(
     window: np.ndarray, level: int, x0: int, y0: int, size: int, threshold: float
 ) -> WindowLook:
-    """Seed 004 §3: the positions of the active pixels integrated (their mean) -> the centre."""
+    """Seed 004 §3: the positions of the active pixels integrated (their mean) -> the centre.
+    One object is assumed: when the active pixels form several regions (8-connected, across
+    one-pixel gaps), only the one with the most energy counts."""
     active = window > threshold
-    count = int(np.count_nonzero(active))
-    if count == 0:
+    if not active.any():
         return WindowLook(level, x0, y0, size, 0, 0.0, math.nan, math.nan)
+    joined = cv2.dilate(active.astype(np.uint8), np.ones((3, 3), np.uint8))
+    count, labels = cv2.connectedComponents(joined, connectivity=8)
+    if count > 2:
+        sums = np.bincount(labels[active], weights=window[active], minlength=count)
+        active &= labels == int(np.argmax(sums))
     ys, xs = np.nonzero(active)
     scale = 1 << level
     u = (x0 + float(xs.mean())) * scale
     v = (y0 + float(ys.mean())) * scale
-    return WindowLook(level, x0, y0, size, count, float(window[active].sum()), u, v)
+    return WindowLook(level, x0, y0, size, len(xs), float(window[active].sum()), u, v)
 
 
 def strongest_region(energy: np.ndarray, level: int, threshold: float) -> WindowLook | None:
     """Scan a whole (coarse) level: the connected active region with the most energy."""
-    active = (energy > threshold).astype(np.uint8)
-    count, labels = cv2.connectedComponents(active, connectivity=8)
-    if count <= 1:
+    if not (energy > threshold).any():
         return None
-    sums = np.bincount(labels.ravel(), weights=energy.ravel(), minlength=count)
-    sums[0] = 0.0
-    best = int(np.argmax(sums))
-    ys, xs = np.nonzero(labels == best)
-    x0, y0 = int(xs.min()), int(ys.min())
-    box = energy[y0 : int(ys.max()) + 1, x0 : int(xs.max()) + 1] * (
-        labels[y0 : int(ys.max()) + 1, x0 : int(xs.max()) + 1] == best
-    )
-    return _centroid(box, level, x0, y0, max(box.shape), threshold)
+    h, w = energy.shape
+    return _centroid(energy, level, 0, 0, max(h, w), threshold)
 
 
 class PyramidDetector:
