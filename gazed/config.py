@@ -545,24 +545,24 @@ class EstimatorSection(Section):
         0.96, gt=0, lt=1, description="IMM switching matrix diagonal J_d (the paper's 0.96)."
     )
     csd_speed_rate_noise_m_s2: float = Field(
-        0.3, gt=0, description="IMM CSD process noise: std of the unmodelled speed rate ṡ."
+        0.5, gt=0, description="IMM CSD process noise: std of the unmodelled speed rate ṡ."
     )
     csd_turn_rate_noise_rad_s: float = Field(
-        0.1, gt=0, description="IMM CSD process noise: std of the unmodelled turn rate θ̇."
+        0.5, gt=0, description="IMM CSD process noise: std of the unmodelled turn rate θ̇."
     )
     cs_speed_rate_noise_m_s2: float = Field(
-        0.3, gt=0, description="IMM CS process noise: std of the unmodelled speed rate ṡ."
+        0.5, gt=0, description="IMM CS process noise: std of the unmodelled speed rate ṡ."
     )
     cs_turn_accel_noise_rad_s2: float = Field(
-        5.5,
+        3.0,
         gt=0,
         description="IMM CS process noise: std of the turn-rate change θ̈ (the paper: 30 rad²/s⁴).",
     )
     cd_jerk_noise_m_s3: float = Field(
-        3.0, gt=0, description="IMM CD process noise: std of the speed-rate change s̈."
+        1.0, gt=0, description="IMM CD process noise: std of the speed-rate change s̈."
     )
     cd_turn_rate_noise_rad_s: float = Field(
-        0.1, gt=0, description="IMM CD process noise: std of the unmodelled turn rate θ̇."
+        0.5, gt=0, description="IMM CD process noise: std of the unmodelled turn rate θ̇."
     )
     cp_velocity_noise_m_s: float = Field(
         0.2, gt=0, description="CP process noise: std of the velocity (seed 003 §IV: 0.04 m²)."
@@ -583,6 +583,13 @@ class EstimatorSection(Section):
         description="Innovation selection: a model is consistent while its windowed innovation "
         "mean and NIS stay inside this chi-square probability.",
     )
+    alphabeta_smoothing: float = Field(
+        0.2,
+        gt=0,
+        le=1,
+        description="alphabeta: weight of the newest squared error in its running variances "
+        "(1 = the instantaneous values of seed 004 eq. 10).",
+    )
     image_cv_accel_noise_rad_s2: float = Field(
         0.5, gt=0, description="image-cv process noise: std of the gaze-angle acceleration."
     )
@@ -593,7 +600,10 @@ class EstimatorSection(Section):
         "position and no velocity yet.",
     )
     position_noise_m: float = Field(
-        0.05, gt=0, description="Std of a ground-plane position measurement."
+        0.1,
+        gt=0,
+        description="Std of a ground-plane position measurement where nothing better is known "
+        "(also the annotation noise assumed by `gazed eval estimator --data`).",
     )
     velocity_noise_m_s: float = Field(
         0.2, gt=0, description="Std of a ground-plane velocity measurement."

@@ -46,7 +46,7 @@ def build_estimator(
             **track,
         )
     if mode == "alphabeta":
-        return AlphaBetaEstimator(n_tracks, **track)
+        return AlphaBetaEstimator(n_tracks, smoothing=e.alphabeta_smoothing, **track)
     kinematic = {
         "CP": kinematic_model("CP", e.cp_velocity_noise_m_s**2),
         "CV": kinematic_model("CV", e.cv_accel_noise_m_s2**2),

@@ -36,11 +36,7 @@ def rounded_square_report(
     section: EstimatorSection, seed: int, noise_m: float | None
 ) -> dict[str, Any]:
     """Table 1 of seed 000 for the IMM: one row per segment of the most likely model."""
-    scenario = rounded_square(
-        seed,
-        position_noise_m=section.position_noise_m if noise_m is None else noise_m,
-        velocity_noise_m_s=section.velocity_noise_m_s,
-    )
+    scenario = rounded_square(seed, **({} if noise_m is None else {"position_noise_m": noise_m}))
     estimator = build_estimator(section, mode="imm")
     assert isinstance(estimator, ImmEstimator)
     p_var = scenario.position_noise_m**2
@@ -311,8 +307,8 @@ def estimator_arguments(parser: argparse.ArgumentParser) -> None:
         "--noise-m",
         type=float,
         default=None,
-        help="position noise std added to the measurements (m); default: none for --data, the "
-        "rig's position_noise_m for rounded-square, 0.01 for kelly",
+        help="position noise std added to the measurements (m); default: none for --data, "
+        "0.05 for rounded-square (velocity 0.2 m/s), 0.01 for kelly",
     )
     parser.add_argument("--seed", type=int, default=0, help="seed of the simulated noise")
     parser.add_argument("--rig", type=Path, help="take the [estimator] settings from this rig file")
