@@ -41,7 +41,7 @@ from services.runtime import HealthReport, Now, main
 BACKOFF_INITIAL_S = 0.25
 STATUS_PERIOD_S = 1.0
 POLL_FAILURES_FOR_LINK_DOWN = 3
-PARK_TIMEOUT_S = 2.0
+PARK_TIMEOUT_S = 2.5
 STAGE = "servo"
 
 log = logging.getLogger("gazed.servo")
