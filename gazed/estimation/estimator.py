@@ -281,6 +281,10 @@ class TrackEstimator(ABC):
 
         finite_t = np.isfinite(t)
         good = present & finite_t & np.isfinite(z).all(axis=-1) & _positive_definite(R)
+        if good.all() and (self.status == TRACKING).all():
+            dt = t - self.t_s
+            if (dt > 0).all() and (t - self.t_measured_s <= self.coast_max_s).all():
+                return self._step_all(t, z, R, dt)  # the common case: every track updates
         outcome[present & ~good] = Outcome.NONFINITE
         running = self.status != EMPTY
         reference_s = np.where(self.status == TRACKING, self.t_s, self.t_measured_s)
@@ -315,15 +319,28 @@ class TrackEstimator(ABC):
         np.add.at(self.counts, (np.arange(n), outcome), 1)
         rejected = present & ~good & ~late & (outcome != Outcome.NONFINITE)
         self.counts[rejected, Outcome.NONFINITE] += 1  # rejected, then dropped by the coast
-        stepped = (self.status == TRACKING) & (outcome != Outcome.IDLE)
-        if stepped.any() and len(self.model_names) > 1:
+        self._observe_maneuvers((self.status == TRACKING) & (outcome != Outcome.IDLE), t)
+        return outcome
+
+    def _step_all(self, t: np.ndarray, z: np.ndarray, R: np.ndarray, dt: np.ndarray) -> np.ndarray:
+        """`step` when every track is running and has a usable, later measurement."""
+        every = slice(None)
+        self._predict(every, dt)
+        self.t_s[:] = t
+        outcome = np.full(self.n_tracks, Outcome.ACCEPTED, dtype=np.int64)
+        self._filter(np.arange(self.n_tracks), t, z, R, outcome)
+        np.add.at(self.counts, (np.arange(self.n_tracks), outcome), 1)
+        self._observe_maneuvers(self.status == TRACKING, t)
+        return outcome
+
+    def _observe_maneuvers(self, stepped: np.ndarray, t: np.ndarray) -> None:
+        if len(self.model_names) > 1 and stepped.any():
             idx = np.flatnonzero(stepped)
             sel = _select(stepped)
             s_dot, theta_dot = self._rates(sel)
             self._maneuvers.observe(
                 idx, t[idx], np.argmax(self._probabilities(sel), axis=-1), s_dot, theta_dot
             )
-        return outcome
 
     def forecast(self, t_s: np.ndarray) -> Forecast:
         """Every track predicted to t_s (N,) without changing it: [p, v] and its covariance.
@@ -459,8 +476,14 @@ class TrackEstimator(ABC):
 
 
 def _positive_definite(R: np.ndarray) -> np.ndarray:
-    """(N,) True where R is finite, symmetric and positive definite."""
+    """(N,) True where R is finite, symmetric and positive definite (one Cholesky for the
+    batch; eigenvalues only when some matrix fails it)."""
     finite = np.isfinite(R).all(axis=(-1, -2))
-    Rf = np.where(finite[:, None, None], R, np.eye(R.shape[-1]))
-    symmetric = np.all(np.abs(Rf - Rf.mT) <= 1e-9 * (1.0 + np.abs(Rf)), axis=(-1, -2))
-    return finite & symmetric & (np.linalg.eigvalsh(Rf)[:, 0] > 0)
+    Rf = R if finite.all() else np.where(finite[:, None, None], R, np.eye(R.shape[-1]))
+    symmetric = (np.abs(Rf - Rf.mT) <= 1e-9 * (1.0 + np.abs(Rf))).all(axis=(-1, -2))
+    try:
+        np.linalg.cholesky(Rf)
+        definite = True
+    except np.linalg.LinAlgError:
+        definite = np.linalg.eigvalsh(0.5 * (Rf + Rf.mT))[:, 0] > 0
+    return finite & symmetric & definite

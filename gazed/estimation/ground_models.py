@@ -98,6 +98,19 @@ class GroundModelBank:
     def names(self) -> tuple[str, ...]:
         return tuple(m.name for m in self.models)
 
+    def _tiled(self, K: int) -> tuple[np.ndarray, ...]:
+        """The per-model constants repeated for K states of every model (cached per K)."""
+        cache = self.__dict__.setdefault("_tiles", {})
+        if K not in cache:
+            cache[K] = (
+                np.tile(self._turns, K),
+                np.tile(self._accel, K),
+                np.tile(self._F_diagonal, (K, 1)),
+                np.tile(self._G_poly, (K, 1, 1)),
+                np.tile(self._q, (K, 1)),
+            )
+        return cache[K]
+
     def propagate(self, x: np.ndarray, dt: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """f(x), its Jacobian ∇f and Q over an interval dt.
 
@@ -111,7 +124,7 @@ class GroundModelBank:
         T = np.repeat(np.asarray(dt, dtype=float).ravel(), M)
         if T.size != K * M:
             raise ValueError(f"dt has {T.size // M} intervals for {K} states")
-        turns, accel = np.tile(self._turns, K), np.tile(self._accel, K)
+        turns, accel, F_diagonal, G_poly, q = self._tiled(K)
         x = x.reshape(-1, STATE_DIM)
         s, th = x[:, IS], x[:, ITH]
         a = accel * x[:, ISD]  # the ṡ the model propagates (CD), else 0
@@ -132,7 +145,7 @@ class GroundModelBank:
         xn[:, ITD] = w
 
         F = np.zeros((K * M, STATE_DIM * STATE_DIM))
-        F[:, ::7] = np.tile(self._F_diagonal, (K, 1))  # the diagonal
+        F[:, ::7] = F_diagonal  # the diagonal
         F = F.reshape(K * M, STATE_DIM, STATE_DIM)
         F[:, IX, IS] = T * ex  # ∂X/∂s
         F[:, IY, IS] = T * ey
@@ -156,7 +169,7 @@ class GroundModelBank:
         powers[:, 0, 1] = T
         powers[:, 0, 2] = T2
         powers[:, 0, 3] = T2 * T
-        g = (powers @ np.tile(self._G_poly, (K, 1, 1)))[:, 0, :]
+        g = (powers @ G_poly)[:, 0, :]
         G = np.zeros((K * M, STATE_DIM, 2))
         G[:, IX, 0] = c * g[:, 0]
         G[:, IY, 0] = sn * g[:, 0]
@@ -166,7 +179,7 @@ class GroundModelBank:
         G[:, IY, 1] = c * s * g[:, 3]
         G[:, ITH, 1] = g[:, 4]
         G[:, ITD, 1] = g[:, 5]
-        Q = (G * np.tile(self._q, (K, 1))[:, None, :]) @ G.mT
+        Q = (G * q[:, None, :]) @ G.mT
         square = (*shape, STATE_DIM)
         return xn.reshape(shape), F.reshape(square), Q.reshape(square)
 
