@@ -124,9 +124,9 @@ class ServoService:
             self.counts["errors"] += 1
             self.last_error = str(exc)
         self._publish_status(now)
-        return self._wait_s(now)
+        return self._wait_s(time.monotonic())  # not `now`: a poll may have taken a while
 
-    def _wait_s(self, now: Now) -> float:
+    def _wait_s(self, mono_s: float) -> float:
         times = [self._next_status_s]
         if not self.driver.is_connected:
             times.append(self._next_connect_s)
@@ -136,7 +136,7 @@ class ServoService:
                 times.append(self._next_command_s)
             if not self.holding and self._last_demand_s is not None:
                 times.append(self._last_demand_s + self.command_timeout_s)
-        return max(0.0, min(times) - now.mono_s)
+        return max(0.0, min(times) - mono_s)
 
     # --- link --------------------------------------------------------------------------------
 
