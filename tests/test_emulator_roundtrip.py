@@ -6,11 +6,12 @@ pose is what the head reports."""
 from __future__ import annotations
 
 import math
+import subprocess
 import time
 from pathlib import Path
 
 import pytest
-from conftest import poll_until
+from conftest import PYTHON, REPO, child_env, poll_until
 
 from gazed.config import parse_rig
 from gazed.servo import make_codec
@@ -146,3 +147,26 @@ def test_closing_removes_the_link_and_the_host_sees_the_port_vanish(tmp_path: Pa
     with pytest.raises(ConnectionError):
         driver.query_position()
     driver.disconnect()
+
+
+def test_the_emulator_runs_alone(tmp_path: Path) -> None:
+    rig_path = tmp_path / "rig.toml"
+    link = tmp_path / "head"
+    rig_path.write_text(
+        f'[rig]\nname = "alone"\n[servo]\nprotocol = "flir-ptu"\nport = "{link}"\nbaud = 115200\n'
+    )
+    emulator = subprocess.Popen(
+        [PYTHON, "-m", "gazed.sim.head_emulator", "--rig", str(rig_path)],
+        cwd=REPO,
+        env=child_env(),
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        assert "flir-ptu head on /dev/pts/" in emulator.stdout.readline()
+        with ServoDriver(make_codec("flir-ptu"), SerialTransport(str(link), 115200), 1.0) as driver:
+            assert driver.query_position().pan_rad == 0.0
+    finally:
+        emulator.terminate()
+        assert emulator.wait(10) == 0
+    assert not link.exists()
