@@ -143,13 +143,6 @@ class Odometry(Message):
     dead_reckoned: bool = Field(
         False, description="Computed from commands: the device cannot report position."
     )
-    command_t_capture_ns: int | None = Field(
-        None, ge=0, description="t_capture_ns of the demand last written to the head."
-    )
-    command_stamps: tuple[Stamp, ...] = Field(
-        default=(),
-        description="That demand's stamps, ending ('servo', t_ns) when its bytes were written.",
-    )
 
 
 class ServoStatus(Message):

@@ -57,6 +57,9 @@ GAZE_DEMAND = Topic("gaze/demand", GazeDemand, "gaze", ("servo",))
 GAZE_STATE = Topic("gaze/state", GazeState, "gaze", ("gazed run",))
 SERVO_ODOMETRY = Topic("servo/odometry", Odometry, "servo", ("vision", "estimator", "gaze"))
 SERVO_STATUS = Topic("servo/status", ServoStatus, "servo", ("gazed status",))
+# Each demand as written to the head (limited), its stamps ending ("servo", t) at the moment its
+# bytes were written: the end of the loop for `gazed latency` and `gazed eval loop`.
+SERVO_COMMAND = Topic("servo/command", GazeDemand, "servo", ("gazed latency", "estimator"))
 SUPERVISOR_STATUS = Topic("supervisor/status", SupervisorStatus, "supervisor", ("gazed status",))
 
 TOPICS: tuple[Topic, ...] = (
@@ -71,6 +74,7 @@ TOPICS: tuple[Topic, ...] = (
     GAZE_STATE,
     SERVO_ODOMETRY,
     SERVO_STATUS,
+    SERVO_COMMAND,
     SUPERVISOR_STATUS,
 )
 

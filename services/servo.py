@@ -2,17 +2,18 @@
 controller that takes angular demands and propagates odometry).
 
 Inputs: `gaze/demand` (joint angles and rates).
-Outputs: `servo/odometry` (joint angles, rates, the time the reply was read; each carries the
-stamps of the demand last written, ending `("servo", t)` when its bytes were written) and
-`servo/status` (link state, holding, errors, clamps, refusals, reconnects; on every change and
-once a second).
+Outputs: `servo/odometry` (joint angles, rates, the time the reply was read),
+`servo/command` (each fresh demand as written, limited, its stamps ending `("servo", t)` when
+its bytes were written) and `servo/status` (link state, holding, errors, clamps, refusals,
+reconnects; on every change and once a second).
 Settings: [head] signs, zero offsets, joint, rate and acceleration limits, park angles; [servo]
 protocol and its keys, port, baud, timeout_ms, command_timeout_ms, odometry_rate_hz,
 command_rate_hz, reconnect_max_s.
 
 Every demand is limited (`DemandLimiter`: non-finite refused, joint limits — brought in by one
-device unit, so rounding never crosses them — and rate limits clamped, all counted) and becomes the target of the set-point generator, whose set-points — never a jump
-— are written at once for a fresh demand and at `command_rate_hz` while a move is under way.
+device unit, so rounding never crosses them — and rate limits clamped, all counted) and
+becomes the target of the set-point generator, whose set-points — never a jump — are written at
+once for a fresh demand and at `command_rate_hz` while a move is under way.
 No fresh demand within `command_timeout_ms` -> hold (decelerate to rest). Position is polled at
 `odometry_rate_hz`; a head that cannot report it (Pelco-D without the extended queries) gets its
 odometry dead-reckoned from the set-points, marked `dead_reckoned`. A failed link (port gone,
@@ -29,13 +30,13 @@ import time
 from gazed.bus import Bus
 from gazed.config import Rig
 from gazed.geometry.kinematics import device_from_joint, joint_from_device
-from gazed.messages import GazeDemand, Odometry, ServoStatus, Stamp
+from gazed.messages import GazeDemand, Odometry, ServoStatus
 from gazed.servo import CodecError, HandshakeError, make_codec
 from gazed.servo.driver import DeviceError, DevicePosition, ServoDriver, ServoTimeout
 from gazed.servo.limits import DemandLimiter, Target
 from gazed.servo.setpoints import SetpointGenerator
 from gazed.servo.transport import LinkError, SerialTransport
-from gazed.topics import GAZE_DEMAND, SERVO_ODOMETRY, SERVO_STATUS
+from gazed.topics import GAZE_DEMAND, SERVO_COMMAND, SERVO_ODOMETRY, SERVO_STATUS
 from services.runtime import HealthReport, Now, main
 
 BACKOFF_INITIAL_S = 0.25
@@ -73,6 +74,7 @@ class ServoService:
         self.demands = bus.subscribe(GAZE_DEMAND, capacity=64)
         self.odometry = bus.publisher(SERVO_ODOMETRY)
         self.status = bus.publisher(SERVO_STATUS)
+        self.commands = bus.publisher(SERVO_COMMAND)
         self.command_period_s = 1.0 / rig.servo.command_rate_hz
         self.poll_period_s = 1.0 / rig.servo.odometry_rate_hz
         self.command_timeout_s = rig.servo.command_timeout_ms / 1000.0
@@ -97,9 +99,7 @@ class ServoService:
         self._last_demand_s: float | None = None
         self._poll_failures = 0
         self._written: tuple[float, float] | None = None
-        self._fresh: GazeDemand | None = None
-        self._command_t_capture_ns: int | None = None
-        self._command_stamps: tuple[Stamp, ...] = ()
+        self._fresh: tuple[GazeDemand, Target] | None = None
         self._last_reading: tuple[float, float, int] | None = None
         self._write_ms = 0.0
         self._poll_ms = 0.0
@@ -197,7 +197,7 @@ class ServoService:
         demand, target = latest
         self.setpoints.track(target, now.mono_s)
         self._last_demand_s = now.mono_s
-        self._fresh = demand
+        self._fresh = (demand, target)
         self._next_command_s = now.mono_s
         self.holding = False
 
@@ -222,8 +222,16 @@ class ServoService:
         self._written = setpoint
         self.counts["commands"] += 1
         if self._fresh is not None:
-            self._command_t_capture_ns = self._fresh.t_capture_ns
-            self._command_stamps = (*self._fresh.stamps, (STAGE, t_ns))
+            demand, target = self._fresh
+            written = demand.model_copy(
+                update={
+                    "pan_rad": target.pan_rad,
+                    "tilt_rad": target.tilt_rad,
+                    "pan_rate_rad_s": target.pan_rate_rad_s,
+                    "tilt_rate_rad_s": target.tilt_rate_rad_s,
+                }
+            )
+            self.commands.put(written.stamped(STAGE, t_ns))
             self._fresh = None
         self._next_command_s = now.mono_s + self.command_period_s
 
@@ -285,8 +293,6 @@ class ServoService:
                 pan_rate_rad_s=pan_rate,
                 tilt_rate_rad_s=tilt_rate,
                 dead_reckoned=dead,
-                command_t_capture_ns=self._command_t_capture_ns,
-                command_stamps=self._command_stamps,
             )
         )
         self.counts["odometry"] += 1

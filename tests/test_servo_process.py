@@ -21,7 +21,7 @@ from gazed.config import load_rig
 from gazed.messages import GazeDemand
 from gazed.servo import make_codec
 from gazed.sim.head_emulator import HeadEmulator
-from gazed.topics import GAZE_DEMAND, SERVO_ODOMETRY, SERVO_STATUS
+from gazed.topics import GAZE_DEMAND, SERVO_COMMAND, SERVO_ODOMETRY, SERVO_STATUS
 
 PORTS = {"pelco-d": 17511, "visca": 17512, "flir-ptu": 17513, "dynamixel": 17514}
 SERVO_KEYS = {
@@ -70,15 +70,18 @@ head_latency_ms = 5
 
 
 class Loop:
-    """The test's side of the bus: publishes demands, keeps the newest odometry and status."""
+    """The test's side of the bus: publishes demands, keeps the newest odometry, status and
+    written command."""
 
     def __init__(self, bus: Bus) -> None:
         self.bus = bus
         self.demands = bus.publisher(GAZE_DEMAND)
         self._odometry = bus.subscribe(SERVO_ODOMETRY)
         self._status = bus.subscribe(SERVO_STATUS)
+        self._commands = bus.subscribe(SERVO_COMMAND)
         self.odometry = None
         self.status = None
+        self.command = None
         self.odometry_count = 0
 
     def update(self) -> Loop:
@@ -87,6 +90,8 @@ class Loop:
             self.odometry_count += 1
         for message in self._status.take():
             self.status = message
+        for message in self._commands.take():
+            self.command = message
         return self
 
     def demand(
@@ -164,8 +169,8 @@ def test_reaches_commanded_angles_and_parks_on_sigterm(tmp_path: Path, protocol:
             truth = head.pose_at(time.monotonic())
             assert near(truth.pan_rad, target[0], pan_unit)
             assert near(truth.tilt_rad, target[1], tilt_unit)
-            # odometry carries the demand's stamps and the moment its bytes were written
-            stamps = loop.odometry.command_stamps
+            # servo/command carries the demand's stamps and the moment its bytes were written
+            stamps = loop.command.stamps
             assert [stage for stage, _ in stamps] == ["test", "servo"]
             assert 0 < stamps[1][1] - stamps[0][1] < 2_000_000_000
             assert loop.odometry.dead_reckoned is False

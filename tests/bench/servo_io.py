@@ -30,7 +30,7 @@ sys.path.insert(0, str(REPO))
 from gazed.bus import Bus  # noqa: E402
 from gazed.config import load_rig  # noqa: E402
 from gazed.messages import GazeDemand  # noqa: E402
-from gazed.topics import GAZE_DEMAND, SERVO_ODOMETRY, SERVO_STATUS  # noqa: E402
+from gazed.topics import GAZE_DEMAND, SERVO_COMMAND, SERVO_ODOMETRY, SERVO_STATUS  # noqa: E402
 
 # usual baud rates (PROTOCOLS.md): Pelco-D 2400/9600, VISCA 9600, PTU 9600, Dynamixel 57600
 CASES = [
@@ -101,6 +101,7 @@ def run_case(protocol: str, baud: int, extra: str, seconds: float) -> dict[str, 
             with Bus(rig, "bench", router=True) as bus:
                 odometry = bus.subscribe(SERVO_ODOMETRY, capacity=100000)
                 status = bus.subscribe(SERVO_STATUS)
+                commands = bus.subscribe(SERVO_COMMAND, capacity=100000)
                 publisher = bus.publisher(GAZE_DEMAND)
                 head = spawn("-m", "gazed.sim.head_emulator", "--rig", str(rig_path))
                 while not (directory / "head").exists():
@@ -110,7 +111,7 @@ def run_case(protocol: str, baud: int, extra: str, seconds: float) -> dict[str, 
                     wait_connected(bus, status)
                     odometry.take()
                     if demands:
-                        results.update(measure_latency(bus, publisher, odometry, seconds))
+                        results.update(measure_latency(bus, publisher, odometry, commands, seconds))
                     else:
                         results["odometry_max_hz"] = measure_rate(bus, odometry, seconds / 2)
                 finally:
@@ -132,7 +133,7 @@ def measure_rate(bus: Bus, odometry, seconds: float) -> float:
     return statistics.median(counts)
 
 
-def measure_latency(bus: Bus, publisher, odometry, seconds: float) -> dict[str, float]:
+def measure_latency(bus: Bus, publisher, odometry, commands, seconds: float) -> dict[str, float]:
     latencies_ms: dict[int, float] = {}
     received = 0
     period_s = 1.0 / DEMAND_RATE_HZ
@@ -151,9 +152,9 @@ def measure_latency(bus: Bus, publisher, odometry, seconds: float) -> dict[str, 
             k += 1
             next_s += period_s
         bus.wait(max(0.0, next_s - time.monotonic()))
-        for message in odometry.take():
-            received += 1
-            stamps = dict(message.command_stamps)
+        received += len(odometry.take())
+        for message in commands.take():
+            stamps = dict(message.stamps)
             if "bench" in stamps and "servo" in stamps:
                 latencies_ms[stamps["bench"]] = (stamps["servo"] - stamps["bench"]) / 1e6
     elapsed = time.monotonic() - started
