@@ -24,6 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
+from gazed.config import TRAJECTORY_NAMES
+
 OBSERVATION_S = 0.04  # seed 000 §4.2: the rounded square is 50 observations of 40 ms a side
 PEDESTRIAN_FRAME_S = 0.04  # ETH/UCY: 10 frame_id units = 0.4 s
 
@@ -344,7 +346,7 @@ def read_pedestrians(path: Path) -> dict[int, tuple[np.ndarray, np.ndarray]]:
 
 Trajectory = SegmentPath | RecordedTrack
 
-NAMES = ("rounded-square", "oval", "stop-and-go", "figure-eight", "random")
+NAMES = TRAJECTORY_NAMES
 
 
 def make_trajectory(

@@ -1,0 +1,176 @@
+"""The `sim` process: the simulated world (DESIGN §9).
+
+Inputs: the serial bytes the `servo` process writes to the emulated head's pty (the rig's
+`[servo] port` is a symlink to it; the head answers in the rig's protocol).
+Outputs: `sim/frame` (what the camera sees, published `[sim] visual_latency_ms` after capture
+but stamped with the true capture time) and `sim/truth` (the target's ground position and
+velocity, its height, the true head pose, at the capture time of every frame, published at once).
+Settings: [camera] size, intrinsics and rate; [head] kinematics and limits (the emulated axes);
+[servo] protocol and port; [sim] seed, trajectory and its speed/scale/centre, target size,
+distractor, the true camera pose, latency, noise, flicker, blur, and the emulated head's keys.
+
+Frames are rendered at their capture instants on the camera's clock from the head's true pose
+at that instant (`HeadEmulator.pose_at`) and the targets' states; a capture that falls more
+than a frame behind (an overloaded machine) is skipped and counted, never queued.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+
+from gazed.bus import Bus
+from gazed.config import Rig
+from gazed.geometry.camera import CameraModel
+from gazed.geometry.pose import CameraPose
+from gazed.messages import FrameHeader, SimTruth
+from gazed.sim.head_emulator import HeadEmulator
+from gazed.sim.renderer import Body, Renderer
+from gazed.sim.trajectories import Trajectory, make_trajectory
+from gazed.topics import SIM_FRAME, SIM_TRUTH
+from services.runtime import HealthReport, Now, main
+
+STAGE = "sim"
+
+
+@dataclass(frozen=True)
+class Pending:
+    """A rendered frame waiting out the visual latency."""
+
+    publish_at_s: float
+    header: FrameHeader
+    pixels: np.ndarray
+
+
+def trajectories(rig: Rig) -> tuple[Trajectory, Trajectory | None]:
+    """The target's trajectory and the distractor's (None without one), from [sim]."""
+    sim = rig.sim
+    base_dir = rig.source_path.parent if rig.source_path is not None else None
+
+    def build(spec: str, seed: int) -> Trajectory:
+        return make_trajectory(
+            spec,
+            seed=seed,
+            speed_m_s=sim.trajectory_speed_m_s,
+            scale=sim.trajectory_scale,
+            centre_xy_m=sim.area_centre_xy_m,
+            base_dir=base_dir,
+        )
+
+    return build(sim.trajectory, sim.seed), (
+        build(sim.distractor, sim.seed + 1) if sim.distractor else None
+    )
+
+
+class SimService:
+    def __init__(self, rig: Rig, bus: Bus, emulator: HeadEmulator | None = None) -> None:
+        self.rig = rig
+        sim = rig.sim
+        self.camera = CameraModel.from_section(rig.camera)
+        self.pose = CameraPose.from_rig(rig)
+        self.renderer = Renderer(
+            self.camera,
+            self.pose,
+            seed=sim.seed,
+            noise_std=sim.noise_std_levels,
+            flicker_amplitude=sim.flicker_amplitude,
+            motion_blur_exposure_s=sim.motion_blur_exposure_ms / 1000.0,
+        )
+        self.target, self.distractor = trajectories(rig)
+        self.emulator = emulator if emulator is not None else HeadEmulator(rig)
+        if emulator is None:
+            self.emulator.open()
+            self.emulator.start()
+        self.frames = bus.publisher(SIM_FRAME)
+        self.truth = bus.publisher(SIM_TRUTH)
+        self.period_s = rig.camera.frame_period_s
+        self.latency_s = sim.visual_latency_ms / 1000.0
+        self.t0_s = time.monotonic()
+        self.next_capture_s = self.t0_s
+        self.seq = 0
+        self.pending: deque[Pending] = deque()
+        self.counts = {"frames": 0, "skipped": 0}
+        self.render_ms = 0.0
+
+    def step(self, now: Now) -> float:
+        if now.mono_s - self.next_capture_s > self.period_s:  # fell behind: skip, never queue
+            missed = int((now.mono_s - self.next_capture_s) / self.period_s)
+            self.counts["skipped"] += missed
+            self.next_capture_s += missed * self.period_s
+        while now.mono_s >= self.next_capture_s:
+            self._capture(self.next_capture_s, now)
+            self.next_capture_s += self.period_s
+        while self.pending and self.pending[0].publish_at_s <= time.monotonic():
+            frame = self.pending.popleft()
+            self.frames.put_frame(frame.header.stamped(STAGE), frame.pixels)
+            self.counts["frames"] += 1
+        wake = [self.next_capture_s] + ([self.pending[0].publish_at_s] if self.pending else [])
+        return max(0.0, min(wake) - time.monotonic())
+
+    def _capture(self, t_s: float, now: Now) -> None:
+        """Render the frame whose light hits the sensor at monotonic `t_s`; publish its truth."""
+        world_t_s = t_s - self.t0_s
+        t_capture_ns = now.wall_ns - round((now.mono_s - t_s) * 1e9)
+        head = self.emulator.pose_at(t_s)
+        target = self.target.state(world_t_s)
+        bodies = [
+            Body(target.xy_m, self.rig.sim.target_height_m, self.rig.sim.target_width_m, texture=0)
+        ]
+        if self.distractor is not None:
+            other = self.distractor.state(world_t_s)
+            bodies.append(
+                Body(
+                    other.xy_m, self.rig.sim.target_height_m, self.rig.sim.target_width_m, texture=1
+                )
+            )
+        started = time.perf_counter()
+        pixels = self.renderer.render(
+            self.seq,
+            head.pan_rad,
+            head.tilt_rad,
+            bodies,
+            t_s=world_t_s,
+            pan_rate_rad_s=head.pan_rate_rad_s,
+            tilt_rate_rad_s=head.tilt_rate_rad_s,
+        )
+        self.render_ms = (time.perf_counter() - started) * 1e3
+        header = FrameHeader(
+            t_capture_ns=t_capture_ns,
+            seq=self.seq,
+            width=self.camera.width_px,
+            height=self.camera.height_px,
+            encoding="bgr8",
+        )
+        self.pending.append(Pending(t_s + self.latency_s, header, pixels))
+        self.truth.put(
+            SimTruth(
+                t_capture_ns=t_capture_ns,
+                seq=self.seq,
+                target_xy_m=target.xy_m,
+                target_velocity_m_s=target.velocity_m_s,
+                target_height_m=self.rig.sim.target_height_m,
+                head=head,
+            ).stamped(STAGE, t_capture_ns)
+        )
+        self.seq += 1
+
+    def health(self) -> HealthReport:
+        return HealthReport(
+            counters=dict(self.counts),
+            stage_ms={"render": round(self.render_ms, 3)},
+            notes={"trajectory": self.rig.sim.trajectory, "serial": str(self.emulator.link_path)},
+        )
+
+    def close(self) -> None:
+        self.emulator.close()
+
+
+def build(rig: Rig, bus: Bus) -> SimService:
+    return SimService(rig, bus)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main("sim", build))
