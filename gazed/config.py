@@ -652,6 +652,9 @@ class GazeSection(Section):
     )
 
 
+TRAJECTORY_NAMES = ("rounded-square", "oval", "stop-and-go", "figure-eight", "random")
+
+
 class SimSection(Section):
     seed: int = Field(1, ge=0, description="Seed of everything random in the simulated world.")
     trajectory: str = Field(
@@ -697,6 +700,40 @@ class SimSection(Section):
         le=10,
         description="Emulated head: play between motor (what the encoder reads) and camera.",
     )
+    trajectory_speed_m_s: float = Field(
+        1.0, gt=0, le=50, description="Target speed of rounded-square, stop-and-go, figure-eight, random."
+    )
+    trajectory_scale: float = Field(
+        1.0, gt=0, le=100, description="Multiplies the oval's and figure eight's lengths (and the oval's speeds)."
+    )
+    area_centre_xy_m: tuple[float, float] = Field(
+        (0.0, 0.0), description="Ground point the trajectory is centred on (recorded tracks are moved there)."
+    )
+    target_height_m: float = Field(1.7, gt=0, le=20, description="Height of the target's body.")
+    target_width_m: float = Field(0.5, gt=0, le=20, description="Width of the target's body.")
+    distractor: str = Field(
+        "", description="Trajectory of a second mover (same forms as trajectory); empty for none."
+    )
+    noise_std_levels: float = Field(
+        2.0, ge=0, le=64, description="Sensor noise: standard deviation in grey levels (0-255)."
+    )
+    flicker_amplitude: float = Field(
+        0.0, ge=0, lt=1, description="Illumination flicker: relative amplitude of a 2 Hz brightness swing."
+    )
+    motion_blur_exposure_ms: float = Field(
+        0.0, ge=0, le=1000, description="Exposure over which the head's rotation blurs the frame (0: no blur)."
+    )
+
+    @model_validator(mode="after")
+    def _trajectories(self) -> SimSection:
+        for key in ("trajectory", "distractor"):
+            value = getattr(self, key)
+            if key == "distractor" and value == "":
+                continue
+            if value not in TRAJECTORY_NAMES and not value.startswith("file:"):
+                names = ", ".join(TRAJECTORY_NAMES)
+                raise ValueError(f"{key}: unknown trajectory {value!r} (expected one of {names} or file:PATH[#ped_id])")
+        return self
 
 
 class ServiceSpec(Section):
