@@ -4,7 +4,7 @@ Seed 000 §2 (after [3]): "a similar motion process running at coarse scale acro
 image [that] distinguishes between different regions using magnitude of motion, direction of
 motion, and area of the moving region". Here: the ego-compensated motion-energy pyramid (see
 `motion_energy`) at a coarse level, its active pixels grouped into 8-connected regions, each
-region's centroid, area and energy (in level-0 units), and its speed from matching it to the
+region's centroid, area and energy (summed |L0| in grey levels, per level-0 pixel), and its speed from matching it to the
 nearest region of the previous frame once that frame's regions are moved by the head's rotation.
 
 The interest value is hand-coded, as in the paper: each region's share of the frame's total
@@ -20,6 +20,7 @@ import cv2
 import numpy as np
 
 from gazed.vision.detector import FramePair
+from gazed.vision.motion_energy import UNITS_PER_GREY
 
 
 @dataclass(frozen=True)
@@ -44,7 +45,7 @@ class CandidateFinder:
         self, *, level: int, energy_threshold: float, min_area_px: float, max_count: int
     ) -> None:
         self.level = level
-        self.energy_threshold = energy_threshold
+        self.energy_threshold = energy_threshold * UNITS_PER_GREY  # in the pyramid's units
         self.min_area_px = min_area_px
         self.max_count = max_count
         self._previous: list[tuple[float, float, float]] = []  # u, v, radius (px)
@@ -75,7 +76,7 @@ class CandidateFinder:
             if area < self.min_area_px:
                 continue
             u, v = su[i] / sums[i] * scale, sv[i] / sums[i] * scale
-            found.append((u, v, area, float(sums[i] * scale * scale)))
+            found.append((u, v, area, float(sums[i] * scale * scale) / UNITS_PER_GREY))
         previous = [(*pair.step.transport(u, v), r) for u, v, r in self._previous]
         self._previous = [(u, v, max(np.sqrt(a), 2.0 * scale)) for u, v, a, _ in found]
         velocities = [self._velocity(u, v, previous, pair.step.dt_s) for u, v, _, _ in found]

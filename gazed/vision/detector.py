@@ -28,8 +28,8 @@ class FramePair:
     `gray`: uint8 (H, W). `previous`: the previous grey frame or None (first frame, or after a
     gap or reset). `step`: the head's rotation from the previous capture to this one; an
     identity step when compensation is off (no odometry, or switched off in the rig).
-    `energy`: the motion-energy pyramid of this pair, level 0 first (see `motion_energy`), when
-    the pipeline computed it.
+    `energy`: the motion-energy pyramid of this pair, level 0 first, int16 in
+    `motion_energy.UNITS_PER_GREY` per grey level, when the pipeline computed it.
     """
 
     gray: np.ndarray

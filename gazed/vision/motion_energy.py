@@ -21,6 +21,8 @@ PRESMOOTH_SIGMA_PX = 1.0
 # Pixels this close to the border of the warped previous frame get no energy (the Laplacian's
 # 5x5 support reaches this far).
 BORDER_MARGIN_PX = 3
+FIXED_POINT_BITS = 2
+UNITS_PER_GREY = 1 << FIXED_POINT_BITS  # the pyramid is int16 in quarter grey levels
 
 
 def presmooth(gray: np.ndarray) -> np.ndarray:
@@ -31,31 +33,42 @@ def presmooth(gray: np.ndarray) -> np.ndarray:
 def energy_pyramid(
     current: np.ndarray, previous: np.ndarray, H: np.ndarray | None, levels: int
 ) -> list[np.ndarray]:
-    """Motion-energy pyramid (float32, level 0 first) of two presmoothed uint8 frames.
+    """Motion-energy pyramid (int16, `UNITS_PER_GREY` per grey level, level 0 first) of two
+    presmoothed uint8 frames.
 
     `H` maps previous pixels to current ones (None: the head did not move)."""
     h, w = current.shape
     if H is not None:
         previous = cv2.warpPerspective(previous, H, (w, h), flags=cv2.INTER_LINEAR)
-    difference = cv2.subtract(current, previous, dtype=cv2.CV_16S).astype(np.float32)
-    band = difference - cv2.pyrUp(cv2.pyrDown(difference), dstsize=(w, h))  # L0
-    energy = np.abs(band)
+    # fixed point: int16 in quarter grey levels, exact for D, fine enough for the energies
+    difference = cv2.subtract(current, previous, dtype=cv2.CV_16S)
+    difference <<= FIXED_POINT_BITS
+    band = cv2.pyrUp(cv2.pyrDown(difference), dstsize=(w, h))
+    energy = cv2.absdiff(difference, band)  # |L0|, L0 = D - expand(reduce(D))
     if H is not None:
-        energy *= _covered(H, w, h)
+        _clear_uncovered(energy, H)
     pyramid = [energy]
     for _ in range(levels - 1):
         pyramid.append(cv2.pyrDown(pyramid[-1]))
     return pyramid
 
 
-def _covered(H: np.ndarray, w: int, h: int) -> np.ndarray:
-    """1 where the warped previous frame has data (its image quadrilateral, shrunk), else 0."""
+def _clear_uncovered(energy: np.ndarray, H: np.ndarray) -> None:
+    """Zero the border strips the warped previous frame does not cover (its image quadrilateral
+    shrunk by the margin; the strips are as wide as the quadrilateral's deepest edge point, so
+    a slanted edge clears a few covered pixels too)."""
+    h, w = energy.shape
+    corners = np.array([[0, 0], [w - 1, 0], [w - 1, h - 1], [0, h - 1]], float)
+    x, y = cv2.perspectiveTransform(corners.reshape(-1, 1, 2), H).reshape(-1, 2).T
     m = BORDER_MARGIN_PX
-    corners = np.array([[m, m], [w - 1 - m, m], [w - 1 - m, h - 1 - m], [m, h - 1 - m]], float)
-    warped = cv2.perspectiveTransform(corners.reshape(-1, 1, 2), H).reshape(-1, 2)
-    mask = np.zeros((h, w), np.float32)
-    cv2.fillConvexPoly(mask, np.round(warped * 16).astype(np.int32), 1.0, cv2.LINE_8, 4)
-    return mask
+    left = int(np.clip(np.ceil(max(x[0], x[3])) + m, 0, w))
+    right = int(np.clip(np.floor(min(x[1], x[2])) - m + 1, 0, w))
+    top = int(np.clip(np.ceil(max(y[0], y[1])) + m, 0, h))
+    bottom = int(np.clip(np.floor(min(y[2], y[3])) - m + 1, 0, h))
+    energy[:, :left] = 0
+    energy[:, right:] = 0
+    energy[:top, :] = 0
+    energy[bottom:, :] = 0
 
 
 class MotionEnergy:

@@ -292,9 +292,14 @@ class _Constraints:
     def __init__(self, measurement: _Measurement, pixels: np.ndarray) -> None:
         self.measurement = measurement
         self.pixels = pixels
-        self.nx = measurement.nx[pixels]
-        self.ny = measurement.ny[pixels]
-        self.weight = measurement.gradient[pixels] ** 2
+        self.nx = measurement.nx[pixels].astype(np.float64)
+        self.ny = measurement.ny[pixels].astype(np.float64)
+        weight = measurement.gradient[pixels].astype(np.float64) ** 2
+        # the weighted products of the normal equations, for every constraint
+        self.products = np.stack(
+            [weight * self.nx * self.nx, weight * self.nx * self.ny, weight * self.ny * self.ny]
+        )
+        self.wn = np.stack([weight * self.nx, weight * self.ny])
 
     def fit(self, d: np.ndarray, tolerance_px: float, noise_px: float) -> _Fit:
         """One Gauss-Newton step from the hypothesis d: re-sample the previous frame at s + d,
@@ -303,14 +308,13 @@ class _Constraints:
         |∇E|² (i.e. ∇E·d' = -E_t)."""
         r = self.measurement.independent_flow(d)[self.pixels]
         nx, ny = self.nx, self.ny
-        near = np.abs(r - (nx * d[0] + ny * d[1])) < tolerance_px
+        near = (np.abs(r - (nx * d[0] + ny * d[1])) < tolerance_px).astype(np.float64)
         estimate = np.asarray(d, float)
-        w = self.weight * near
-        # normal equations of sum w (nx dx + ny dy - r)^2
-        a, b, c = float(w @ (nx * nx)), float(w @ (nx * ny)), float(w @ (ny * ny))
+        # normal equations of sum w (nx dx + ny dy - r)^2 over the near constraints
+        a, b, c = self.products @ near
         det = a * c - b * b
         if det > 1e-9 * (a + c) ** 2 and a + c > 0:
-            p, q = float(w @ (nx * r)), float(w @ (ny * r))
+            p, q = self.wn @ (near * r)
             estimate = np.array([(c * p - b * q) / det, (a * q - b * p) / det])
         residual = nx * estimate[0] + ny * estimate[1] - r
         inliers = np.abs(residual) <= noise_px

@@ -33,6 +33,7 @@ import cv2
 import numpy as np
 
 from gazed.vision.detector import DetectorOutput, FramePair
+from gazed.vision.motion_energy import UNITS_PER_GREY
 from gazed.vision.position_history import PositionHistory
 
 SearchMode = Literal["full", "predictive"]
@@ -119,7 +120,7 @@ class PyramidDetector:
     ) -> None:
         self.search = search
         self.window_px = window_px
-        self.energy_threshold = energy_threshold
+        self.energy_threshold = energy_threshold * UNITS_PER_GREY  # in the pyramid's units
         self.fill_count = fill_fraction * window_px * window_px
         self.level: int | None = None  # the tracked object's level ℓ (predictive search)
         self._history = PositionHistory(VELOCITY_POINTS)

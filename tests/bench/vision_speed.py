@@ -1,0 +1,116 @@
+"""Milliseconds per frame of each detector at 320x240 and 640x480, on one core.
+
+    python tests/bench/vision_speed.py [--frames N]
+
+Synthetic sequences (gazed.vision.synthetic): for `flow` and `pyramid` the head pursues a
+textured target while turning at up to ~60°/s (ego-motion compensation on); for `background`
+the head is still and a walker crosses the view. Frames are rendered beforehand. A frame's time
+is one pipeline step — grey conversion, ego-motion, the detector (for `pyramid` including the
+motion-energy pyramid) — with the candidates off, then with them on (they add the whole-frame
+motion energy and its regions). OpenCV is limited to one thread. Prints median and p99 of the
+thread's CPU time and of the wall time.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+
+import cv2
+import numpy as np
+
+from gazed.config import VisionSection
+from gazed.geometry.camera import CameraModel
+from gazed.geometry.kinematics import HeadKinematics
+from gazed.messages import HeadPose
+from gazed.vision.pipeline import VisionPipeline
+from gazed.vision.synthetic import SyntheticScene, still_head
+
+RATE_HZ = 25.0
+SEQUENCE = 60  # frames rendered per configuration, replayed until enough are timed
+
+
+def pursuit(t: float) -> HeadPose:
+    w, a = 2 * math.pi * 2.5, math.radians(1.2)
+    pan_rate, tilt_rate = math.radians(37.0), math.radians(-20.0)
+    return HeadPose(
+        pan_rad=-0.8 + pan_rate * t + a * math.sin(w * t),
+        tilt_rad=0.4 + tilt_rate * t + a * math.cos(w * t),
+        pan_rate_rad_s=pan_rate + a * w * math.cos(w * t),
+        tilt_rate_rad_s=tilt_rate - a * w * math.sin(w * t),
+    )
+
+
+def frames(detector: str, width: int, height: int) -> tuple[CameraModel, list]:
+    camera = CameraModel.from_fov(width, height, math.radians(60))
+    if detector == "background":
+        scene = SyntheticScene(
+            camera,
+            HeadKinematics(),
+            still_head(),
+            lambda t: (-0.5 + 0.35 * t, 0.0),
+            seed=2,
+            target_brightness=-60.0,
+            field_rad=0.8,
+        )
+    else:
+        scene = SyntheticScene(
+            camera,
+            HeadKinematics(),
+            pursuit,
+            lambda t: (-0.8 + math.radians(37.0) * t + 0.01, 0.4 + math.radians(-20.0) * t),
+            seed=2,
+            field_rad=1.4,
+        )
+    return camera, scene.frames(RATE_HZ, SEQUENCE)
+
+
+def measure(detector: str, width: int, height: int, count: int, candidates: bool) -> dict:
+    """Per-frame CPU time of this thread and wall time (ms) of one pipeline step: grey
+    conversion + detector (+ motion energy for `pyramid`) (+ candidates if on)."""
+    camera, sequence = frames(detector, width, height)
+    cpu_ms: list[float] = []
+    wall_ms: list[float] = []
+    while len(cpu_ms) < count:
+        pipeline = VisionPipeline(
+            camera, HeadKinematics(), VisionSection(candidates=candidates), detector
+        )
+        for i, (image, truth) in enumerate(sequence):
+            cpu0, wall0 = time.thread_time(), time.perf_counter()
+            gray = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+            pipeline.process(gray, round(truth.t_s * 1e9), truth.head)
+            cpu1, wall1 = time.thread_time(), time.perf_counter()
+            if i < 15:  # warm-up, and the background model's learning
+                continue
+            cpu_ms.append((cpu1 - cpu0) * 1e3)
+            wall_ms.append((wall1 - wall0) * 1e3)
+    return {"cpu": np.array(cpu_ms), "wall": np.array(wall_ms)}
+
+
+def cell(values: np.ndarray) -> str:
+    return f"{np.median(values):5.2f} / {np.percentile(values, 99):5.2f}"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--frames", type=int, default=400, help="timed frames per configuration")
+    args = parser.parse_args()
+    cv2.setNumThreads(1)
+    print(f"vision speed, one core, {args.frames} timed frames each; ms per frame, median / p99")
+    print("cpu: this thread's CPU time (what one core spends); wall: elapsed, includes waiting")
+    print("for the CPU on a shared machine")
+    header = f"{'detector':<11}{'size':>9}   {'detector cpu':>13} {'detector wall':>13}"
+    print(header + f"   {'+candidates cpu':>15} {'+candidates wall':>16}")
+    for detector in ("flow", "pyramid", "background"):
+        for width, height in ((320, 240), (640, 480)):
+            alone = measure(detector, width, height, args.frames, candidates=False)
+            both = measure(detector, width, height, args.frames, candidates=True)
+            print(
+                f"{detector:<11}{width:>4}x{height:<4}   {cell(alone['cpu']):>13} "
+                f"{cell(alone['wall']):>13}   {cell(both['cpu']):>15} {cell(both['wall']):>16}"
+            )
+
+
+if __name__ == "__main__":
+    main()
