@@ -1,5 +1,6 @@
 """What point and line calibration share (seed 000 §3.1-3.2): checked gaze angles, the
-fitted homography in canonical form, residuals in metres and leave-one-out diagnosis."""
+fitted homography in canonical form, the least-squares solve, residuals in metres and
+leave-one-out errors."""
 
 from __future__ import annotations
 
@@ -17,13 +18,21 @@ from gazed.geometry.kinematics import HeadKinematics
 # still determines the eight unknowns.
 CONDITION_LIMIT = 1e-10
 
-# An entry stands out when the others, fitted without it, place it this many times further off
-# than their own rms residual (and the fit without it is well determined).
-OUTLIER_RATIO = 6.0
-
 
 class CalibrationError(ValueError):
     """Calibration input that cannot give a homography; the message names the entries at fault."""
+
+
+@dataclass(frozen=True)
+class Outlier:
+    """The entry that disagrees with the rest (outlier.py): its index, the angle (rad) by which
+    the homography of the others misses its measured gaze, and the chi-square tail
+    probabilities of the fit with and without it."""
+
+    index: int
+    miss_rad: float
+    probability_with: float
+    probability_without: float
 
 
 @dataclass(frozen=True, eq=False)
@@ -33,13 +42,18 @@ class CalibrationResult:
     `residuals_m[i]`: ground distance between where M puts entry i and where the file says it is
     (a line: rms distance of its traced samples from the ground line). `leave_one_out_m[i]`: the
     same for the homography fitted without entry i (None when fewer than 5 entries, or when the
-    others alone are degenerate); an entry with a large value disagrees with the rest."""
+    others alone are degenerate); an entry with a large value disagrees with the rest.
+    Point calibration also gives the rms angle residual (rad) and the outlier test's verdict:
+    `consistent` is False when the entries disagree beyond the head's angle noise, `outlier`
+    names the one entry whose removal explains it."""
 
     homography: GroundHomography
     labels: tuple[str, ...]
     residuals_m: np.ndarray
     leave_one_out_m: tuple[float | None, ...]
-    others_rms_m: tuple[float | None, ...]
+    angle_rms_rad: float | None = None
+    consistent: bool | None = None
+    outlier: Outlier | None = None
 
     @property
     def n(self) -> int:
@@ -52,21 +66,6 @@ class CalibrationResult:
     @property
     def max_m(self) -> float:
         return float(np.max(self.residuals_m))
-
-    def outlier(self) -> int | None:
-        """Index of the entry that stands out: removing it leaves the best-fitting set, and that
-        set places it more than OUTLIER_RATIO times its own rms residual away. None if none."""
-        candidates = [
-            (rms, i)
-            for i, rms in enumerate(self.others_rms_m)
-            if rms is not None and self.leave_one_out_m[i] is not None
-        ]
-        if len(candidates) < 2:
-            return None
-        others_rms, worst = min(candidates)
-        error = self.leave_one_out_m[worst]
-        assert error is not None
-        return worst if error > OUTLIER_RATIO * max(others_rms, 1e-9) else None
 
 
 def checked_frontal(
@@ -116,25 +115,20 @@ def leave_one_out(
     n: int,
     fit: Callable[[list[int]], GroundHomography],
     error_m: Callable[[GroundHomography, int], float],
-) -> tuple[tuple[float | None, ...], tuple[float | None, ...]]:
-    """For each entry i: (error of i under the fit of the others, rms error of the others under
-    that fit). None where fewer than 5 entries or the others alone are degenerate."""
+) -> tuple[float | None, ...]:
+    """For each entry i, its error under the fit of the others; None where fewer than 5
+    entries or the others alone are degenerate."""
     if n < 5:
-        return (None,) * n, (None,) * n
+        return (None,) * n
     held_out: list[float | None] = []
-    others_rms: list[float | None] = []
     for i in range(n):
-        others = [j for j in range(n) if j != i]
         try:
-            homography = fit(others)
+            homography = fit([j for j in range(n) if j != i])
         except CalibrationError:
             held_out.append(None)
-            others_rms.append(None)
             continue
         held_out.append(_error_or_inf(error_m, homography, i))
-        errors = [_error_or_inf(error_m, homography, j) for j in others]
-        others_rms.append(float(np.sqrt(np.mean(np.square(errors)))))
-    return tuple(held_out), tuple(others_rms)
+    return tuple(held_out)
 
 
 def _error_or_inf(

@@ -35,22 +35,25 @@ def require_general_position(
     if n < 4:
         raise CalibrationError(f"need at least 4 {kind} to fix the homography, got {n}")
     unit = entries / np.linalg.norm(entries, axis=1, keepdims=True)
-    for i in range(n):
-        for j in range(i + 1, n):
-            join = np.cross(unit[i], unit[j])
-            size = np.linalg.norm(join)
-            if size < DEPENDENCE_TOLERANCE:
-                raise CalibrationError(
-                    f"{labels[i]} and {labels[j]} are the same {kind[:-1]}{where}"
-                )
-            members = np.flatnonzero(np.abs(unit @ (join / size)) < DEPENDENCE_TOLERANCE)
-            if len(members) >= n - 1:
-                names = _join_names([labels[k] for k in members])
-                raise CalibrationError(
-                    f"{names} {_dependence(kind, join / size)}{where}: with {n} {kind}, "
-                    f"{len(members)} of them {_cannot(kind)} leave the homography undetermined "
-                    f"(need 4 {kind} with no 3 {_relation(kind)})"
-                )
+    joins = np.cross(unit[:, None, :], unit[None, :, :])  # (n, n, 3): line through / meet of i, j
+    sizes = np.linalg.norm(joins, axis=2)
+    upper = np.triu(np.ones((n, n), dtype=bool), k=1)
+    repeated = np.argwhere(upper & (sizes < DEPENDENCE_TOLERANCE))
+    if len(repeated):
+        i, j = repeated[0]
+        raise CalibrationError(f"{labels[i]} and {labels[j]} are the same {kind[:-1]}{where}")
+    joins = joins / np.where(sizes > 0, sizes, 1.0)[..., None]
+    dependent = np.abs(np.einsum("ijc,kc->ijk", joins, unit)) < DEPENDENCE_TOLERANCE
+    counts = np.where(upper, dependent.sum(axis=2), 0)
+    i, j = np.unravel_index(np.argmax(counts), counts.shape)
+    if counts[i, j] >= n - 1:
+        members = np.flatnonzero(dependent[i, j])
+        names = _join_names([labels[k] for k in members])
+        raise CalibrationError(
+            f"{names} {_dependence(kind, joins[i, j])}{where}: with {n} {kind}, "
+            f"{len(members)} of them {_cannot(kind)} leave the homography undetermined "
+            f"(need 4 {kind} with no 3 {_relation(kind)})"
+        )
 
 
 def _dependence(kind: str, common: np.ndarray) -> str:

@@ -73,7 +73,9 @@ class HeadKinematics:
             return rot_y(pan_rad) @ rot_x(-tilt_rad)
         return rot_x(-tilt_rad) @ rot_y(pan_rad)
 
-    def rotation_derivatives(self, pan_rad: float, tilt_rad: float) -> tuple[np.ndarray, np.ndarray]:
+    def rotation_derivatives(
+        self, pan_rad: float, tilt_rad: float
+    ) -> tuple[np.ndarray, np.ndarray]:
         """(dR/dpan, dR/dtilt) of `rotation`, each 3x3."""
         if self.kinematics == "pan-tilt":
             return (

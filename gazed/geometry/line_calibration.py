@@ -134,14 +134,16 @@ def calibrate_lines(
     homography = fit_lines(samples, ground, labels)
 
     def fit(indices: list[int]) -> GroundHomography:
-        return fit_lines([samples[i] for i in indices], ground[indices], [labels[i] for i in indices])
+        return fit_lines(
+            [samples[i] for i in indices], ground[indices], [labels[i] for i in indices]
+        )
 
     def error_m(h: GroundHomography, i: int) -> float:
         return float(np.sqrt(np.mean(line_distances_m(h, samples[i], ground[i]) ** 2)))
 
     residuals = np.array([error_m(homography, i) for i in range(len(lines))])
-    held_out, others_rms = leave_one_out(len(lines), fit, error_m)
-    return CalibrationResult(homography, tuple(labels), residuals, held_out, others_rms)
+    held_out = leave_one_out(len(lines), fit, error_m)
+    return CalibrationResult(homography, tuple(labels), residuals, held_out)
 
 
 def _ground_normaliser(lines: np.ndarray) -> np.ndarray:

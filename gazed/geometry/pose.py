@@ -22,6 +22,8 @@ import numpy as np
 
 from gazed.config import Rig
 from gazed.geometry.camera import CameraModel
+from gazed.geometry.ground import GroundGeometry
+from gazed.geometry.height import HeightCorrection
 from gazed.geometry.homography import GroundHomography
 from gazed.geometry.kinematics import FLIP_Y, HeadKinematics, rot_x, rot_z
 
@@ -71,11 +73,18 @@ class CameraPose:
         xc, yc, zc = self.centre_m
         return GroundHomography.from_matrix(np.array([zc * b0 - xc * b2, zc * b1 - yc * b2, -b2]))
 
+    def ground_geometry(self, camera: CameraModel, target_height_m: float = 0.0) -> GroundGeometry:
+        """A GroundGeometry with the true M (and the height correction for targets at h)."""
+        height = HeightCorrection(self.centre_m, target_height_m) if target_height_m > 0 else None
+        return GroundGeometry(camera, self.head, self.frontal_to_ground(), height)
+
     def gaze_angles(self, points_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(pan, tilt) in radians that centre world point(s) (..., 3) on the optical axis."""
         return self.head.angles_from_direction(self.base_directions(points_m))
 
-    def camera_directions(self, points_m: np.ndarray, pan_rad: float, tilt_rad: float) -> np.ndarray:
+    def camera_directions(
+        self, points_m: np.ndarray, pan_rad: float, tilt_rad: float
+    ) -> np.ndarray:
         """World point(s) (..., 3) as OpenCV camera-frame directions (x right, y down, z forward)
         for the head at (pan, tilt)."""
         camera_to_base = self.head.camera_to_base(pan_rad, tilt_rad)

@@ -1,0 +1,198 @@
+"""Image measurements <-> ground plane for a calibrated rig (seed 000 §3, DESIGN §4).
+
+A target seen at pixel (u, v) with the head at (pan, tilt) lies on the base-frame ray
+d = R(pan, tilt) · flip_y · K^-1 (u, v, 1) (kinematics.py), which meets the ground at
+X ≃ M d (homography.py; no need to pass through the frontal plane, so any ray below the horizon
+works), then moves by the height correction (height.py). The way back centres a ground point:
+d ≃ M^-1 (X, Y, 1) and (pan, tilt) = angles_from_direction(d).
+
+Velocities come by the chain rule through the analytic Jacobians: the ground velocity of a
+target whose pixel moves at (u', v') while the head turns at (pan', tilt') is
+J_angles (pan', tilt') + J_pixel (u', v'), where (u', v') is the total rate of change of the
+target's pixel as a tracker sees it across frames (ego-motion included). Covariances are
+propagated to first order from independent angle, angle-rate, pixel and pixel-rate noise.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from gazed.config import HeadSection, Rig
+from gazed.geometry.camera import CameraModel
+from gazed.geometry.height import HeightCorrection
+from gazed.geometry.homography import GroundHomography
+from gazed.geometry.kinematics import FLIP_Y, HeadKinematics
+
+# Central-difference steps for the derivative of the velocity by the position inputs.
+ANGLE_STEP_RAD = 1e-6
+PIXEL_STEP_PX = 1e-3
+
+
+class MissingCalibrationError(ValueError):
+    """The rig has no [calibration] homography."""
+
+
+@dataclass(frozen=True)
+class MeasurementNoise:
+    """Standard deviations of an image measurement's inputs, independent, the same per axis."""
+
+    angle_rad: float
+    angle_rate_rad_s: float
+    pixel_px: float
+    pixel_rate_px_s: float
+
+    @classmethod
+    def from_head(
+        cls, head: HeadSection, pixel_px: float, pixel_rate_px_s: float
+    ) -> MeasurementNoise:
+        """Angle noise from the rig's [head]; pixel noise is the detector's."""
+        return cls(head.angle_noise_rad, head.angle_rate_noise_rad_s, pixel_px, pixel_rate_px_s)
+
+    def covariance(self) -> np.ndarray:
+        """8x8, order (pan, tilt, u, v, pan_rate, tilt_rate, u_rate, v_rate)."""
+        stds = [self.angle_rad] * 2 + [self.pixel_px] * 2
+        stds += [self.angle_rate_rad_s] * 2 + [self.pixel_rate_px_s] * 2
+        return np.diag(np.square(stds))
+
+
+@dataclass(frozen=True)
+class GazeSample:
+    """One image measurement: head angles and rates at capture time (odometry interpolated),
+    the target's pixel and the pixel's rate of change."""
+
+    pan_rad: float
+    tilt_rad: float
+    u_px: float
+    v_px: float
+    pan_rate_rad_s: float = 0.0
+    tilt_rate_rad_s: float = 0.0
+    u_rate_px_s: float = 0.0
+    v_rate_px_s: float = 0.0
+
+
+@dataclass(frozen=True, eq=False)
+class GroundMeasurement:
+    """Ground position (2,), velocity (2,) and their covariance (4x4, order X, Y, X', Y')."""
+
+    position_m: np.ndarray
+    velocity_m_s: np.ndarray
+    covariance: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class GroundGeometry:
+    """Camera, head, homography and optional height correction of one rig."""
+
+    camera: CameraModel
+    head: HeadKinematics
+    homography: GroundHomography
+    height: HeightCorrection | None = None
+
+    @classmethod
+    def from_rig(cls, rig: Rig) -> GroundGeometry:
+        """From [camera], [head] and [calibration]; raises MissingCalibrationError without a
+        homography."""
+        calibration = rig.calibration
+        if calibration.homography is None:
+            raise MissingCalibrationError(
+                f"rig '{rig.name}': [calibration] homography is missing: calibrate with "
+                "`gazed calibrate points FILE --write RIG` (or `lines`)"
+            )
+        return cls(
+            CameraModel.from_section(rig.camera),
+            HeadKinematics.from_section(rig.head),
+            GroundHomography.from_matrix(np.array(calibration.homography)),
+            HeightCorrection.from_section(calibration),
+        )
+
+    def ray(
+        self,
+        pan_rad: float,
+        tilt_rad: float,
+        u_px: float | np.ndarray | None = None,
+        v_px: float | np.ndarray | None = None,
+    ) -> np.ndarray:
+        """Base-frame ray(s) (..., 3) through pixel(s) (u, v); the optical axis when omitted."""
+        if u_px is None or v_px is None:
+            return self.head.gaze(pan_rad, tilt_rad)
+        return self.camera.ray(u_px, v_px) @ self.head.camera_to_base(pan_rad, tilt_rad).T
+
+    def ground_from_gaze(
+        self,
+        pan_rad: float,
+        tilt_rad: float,
+        u_px: float | np.ndarray | None = None,
+        v_px: float | np.ndarray | None = None,
+    ) -> np.ndarray:
+        """Ground position(s) (..., 2) of the target at pixel(s) (u, v) (the image centre when
+        omitted) with the head at (pan, tilt), height-corrected. Raises HorizonError for a ray
+        at or above the horizon."""
+        hit = self.homography.ground_from_direction(self.ray(pan_rad, tilt_rad, u_px, v_px))
+        return hit if self.height is None else self.height.target_from_hit(hit)
+
+    def ground_jacobian(
+        self, pan_rad: float, tilt_rad: float, u_px: float, v_px: float
+    ) -> np.ndarray:
+        """d(X, Y)/d(pan, tilt, u, v) of `ground_from_gaze`, 2x4."""
+        c = FLIP_Y @ self.camera.ray(u_px, v_px)
+        rotation = self.head.rotation(pan_rad, tilt_rad)
+        d_pan, d_tilt = self.head.rotation_derivatives(pan_rad, tilt_rad)
+        ray_derivatives = np.column_stack(
+            [d_pan @ c, d_tilt @ c, rotation @ FLIP_Y @ self.camera.ray_jacobian(u_px, v_px)]
+        )
+        jacobian = self.homography.ground_jacobian(rotation @ c) @ ray_derivatives
+        return jacobian if self.height is None else self.height.jacobian_scale * jacobian
+
+    def measure(self, sample: GazeSample, noise: MeasurementNoise) -> GroundMeasurement:
+        """Ground position, velocity and their 4x4 covariance from one image measurement.
+
+        Covariance F Σ F^T with F = [[J, 0], [d(J r)/dz, J]] (4x8), z = (pan, tilt, u, v),
+        r = their rates, J = `ground_jacobian`; d(J r)/dz by central differences of J."""
+        z = np.array([sample.pan_rad, sample.tilt_rad, sample.u_px, sample.v_px])
+        rates = np.array(
+            [sample.pan_rate_rad_s, sample.tilt_rate_rad_s, sample.u_rate_px_s, sample.v_rate_px_s]
+        )
+        position = self.ground_from_gaze(*z)
+        jacobian = self.ground_jacobian(*z)
+        velocity_by_z = np.zeros((2, 4))
+        for k, step in enumerate((ANGLE_STEP_RAD, ANGLE_STEP_RAD, PIXEL_STEP_PX, PIXEL_STEP_PX)):
+            dz = np.zeros(4)
+            dz[k] = step
+            difference = self.ground_jacobian(*(z + dz)) - self.ground_jacobian(*(z - dz))
+            velocity_by_z[:, k] = difference @ rates / (2.0 * step)
+        f = np.block([[jacobian, np.zeros((2, 4))], [velocity_by_z, jacobian]])
+        return GroundMeasurement(position, jacobian @ rates, f @ noise.covariance() @ f.T)
+
+    def gaze_from_ground(self, x_m: float, y_m: float) -> tuple[float, float]:
+        """Joint angles (pan, tilt) that centre the target at ground position (x, y) — any
+        ground point, also one behind the frontal plane."""
+        pan, tilt = self.head.angles_from_direction(self._direction_to(x_m, y_m))
+        return float(pan), float(tilt)
+
+    def gaze_jacobian(self, x_m: float, y_m: float) -> np.ndarray:
+        """d(pan, tilt)/d(X, Y) of `gaze_from_ground`, 2x2."""
+        direction = self._direction_to(x_m, y_m)
+        jacobian = self.head.direction_angles_jacobian(direction) @ self.homography.inverse[:, :2]
+        return jacobian if self.height is None else jacobian / self.height.jacobian_scale
+
+    def gaze_rates_from_ground(
+        self, x_m: float, y_m: float, x_rate_m_s: float, y_rate_m_s: float
+    ) -> tuple[float, float]:
+        """Joint rates (pan', tilt') that keep a target moving at (X', Y') centred."""
+        pan_rate, tilt_rate = self.gaze_jacobian(x_m, y_m) @ np.array([x_rate_m_s, y_rate_m_s])
+        return float(pan_rate), float(tilt_rate)
+
+    def pixel_from_ground(
+        self, x_m: float, y_m: float, pan_rad: float, tilt_rad: float
+    ) -> np.ndarray:
+        """Pixel (2,) where the target at ground position (x, y) appears with the head at
+        (pan, tilt); raises ValueError if it is behind the camera."""
+        direction = self._direction_to(x_m, y_m)
+        return self.camera.pixel(self.head.camera_to_base(pan_rad, tilt_rad).T @ direction)
+
+    def _direction_to(self, x_m: float, y_m: float) -> np.ndarray:
+        target = np.array([x_m, y_m], dtype=float)
+        hit = target if self.height is None else self.height.hit_from_target(target)
+        return self.homography.direction_from_ground(hit)
