@@ -97,11 +97,23 @@ class HeadKinematics:
 
     def frontal_from_angles(self, pan_rad: float, tilt_rad: float) -> tuple[float, float]:
         """Where the optical axis meets the frontal plane z = 1."""
-        if math.cos(pan_rad) <= 0 or math.cos(tilt_rad) <= 0:
+        if math.cos(pan_rad) <= 1e-12 or math.cos(tilt_rad) <= 1e-12:
             raise ValueError("gaze does not meet the frontal plane (|pan| or |tilt| >= 90°)")
         if self.kinematics == "pan-tilt":
             return math.tan(pan_rad), math.tan(tilt_rad) / math.cos(pan_rad)
         return math.tan(pan_rad) / math.cos(tilt_rad), math.tan(tilt_rad)
+
+    def frontal_jacobian(self, pan_rad: float, tilt_rad: float) -> np.ndarray:
+        """d(x, y)/d(pan, tilt) of `frontal_from_angles`, 2x2."""
+        p, t = pan_rad, tilt_rad
+        sec_p, sec_t = 1.0 / math.cos(p), 1.0 / math.cos(t)
+        if self.kinematics == "pan-tilt":
+            # x = tan p, y = tan t sec p
+            return np.array(
+                [[sec_p**2, 0.0], [math.tan(t) * sec_p * math.tan(p), sec_t**2 * sec_p]]
+            )
+        # x = tan p sec t, y = tan t
+        return np.array([[sec_p**2 * sec_t, math.tan(p) * sec_t * math.tan(t)], [0.0, sec_t**2]])
 
     def angles_from_frontal(self, x: float, y: float) -> tuple[float, float]:
         """Joint angles that centre the frontal-plane point (x, y) (the inverse of the above)."""
