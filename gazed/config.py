@@ -617,6 +617,18 @@ class EstimatorSection(Section):
         le=1000,
         description="Re-initialise the filter after this many consecutive gate failures.",
     )
+    pixel_noise_px: float = Field(
+        2.0, gt=0, le=1000, description="Std of a detection's target pixel (the live measurement's noise)."
+    )
+    pixel_rate_noise_px_s: float = Field(
+        30.0, gt=0, le=100000, description="Std of a detection's independent image velocity."
+    )
+    actuation_latency_default_ms: float = Field(
+        20.0,
+        ge=0,
+        le=5000,
+        description="Actuation latency assumed until servo/command stamps have measured it.",
+    )
     coast_max_ms: float = Field(
         2000.0,
         gt=0,
@@ -647,6 +659,24 @@ class GazeSection(Section):
         gt=0,
         description="No detection for this long in pursuit -> lost (coast on prediction).",
     )
+    saccade_tolerance_deg: float = Field(
+        0.5, gt=0, le=20, description="A saccade has arrived when the head is this close to its goal, at rest."
+    )
+    saccade_timeout_ms: float = Field(3000.0, gt=0, description="A saccade not settled after this -> search.")
+    candidate_min_score: float = Field(
+        0.0, description="Motion candidates scoring below this do not draw a saccade."
+    )
+    residual_gain: float = Field(
+        0.3, ge=0, le=1, description="Pursuit feedback: share of the smoothed prediction residual added to the demand."
+    )
+    residual_smoothing: float = Field(
+        0.2, gt=0, le=1, description="Weight of each new residual in its running mean (1: no smoothing)."
+    )
+    lost_search_growth_deg_s: float = Field(
+        2.0, ge=0, le=180, description="Lost: the search region around the prediction grows this fast at least."
+    )
+    lost_search_max_deg: float = Field(10.0, ge=0, le=90, description="Lost: largest search radius.")
+    lost_scan_hz: float = Field(1.0, gt=0, le=20, description="Lost: turns per second of the search circle.")
     search_after_ms: float = Field(
         3000.0, gt=0, description="Lost for this long -> back to search."
     )

@@ -1,0 +1,490 @@
+"""The gaze controller: a finite state machine choosing where the head should look (seed 000
+§1-2 and §6, DESIGN §7; seed 004 §2 and §5 for static vs dynamic look-and-move).
+
+States and transitions (each published with its reason):
+
+    park    --head at the park pose-----------------------------> search
+    search  --target in the fovea-------------------------------> pursuit
+            --a detection or a motion candidate elsewhere-------> saccade
+    saccade --head settled on the target (settle_ms)------------> pursuit
+            --the move takes too long---------------------------> search
+    pursuit --no detection for lost_after_ms--------------------> lost
+    lost    --a detection again----------------------------------> pursuit
+            --lost for search_after_ms---------------------------> search
+    trace   (entered and left by `gazed calibrate trace`)
+
+- search holds the head (or scans) and watches the whole-frame motion candidates;
+- saccade is a ballistic move to where the target will be when the move ends; detections are
+  ignored until the head has settled;
+- pursuit demands the predicted position and rates for the instant the demand acts (the
+  prediction extrapolated to now + actuation latency), plus a feedback term on the residual
+  between where the target was seen and where it had been predicted to be; before the
+  estimator has a prediction, the detection itself (its angles and angular rates);
+- lost coasts on the estimator's prediction and searches around it in a region that grows
+  with the prediction's covariance (or with time where the prediction carries none);
+- `look-and-move` control (seed 004 §2: a PTZ camera that cannot image while moving) replaces
+  continuous pursuit by move, settle, look: it waits for a detection captured after the head
+  settled, then moves to where the target will be once the move and the settling are over.
+
+Every demand is clamped to the joint and rate limits (counted); the feed-forward rates also
+change by at most the acceleration limit per tick.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass
+
+from gazed.config import Rig
+from gazed.gaze.aim import angle_between, move_duration_s
+from gazed.geometry.camera import CameraModel
+from gazed.geometry.kinematics import HeadKinematics
+from gazed.geometry.target_angles import target_angles
+from gazed.messages import (
+    Candidates,
+    Detection,
+    GazeDemand,
+    GazeState,
+    GazeStateName,
+    Odometry,
+    Prediction,
+    Stamp,
+)
+from gazed.servo.limits import DemandLimiter
+
+STAGE = "gaze"
+STILL_RATE_RAD_S = math.radians(2.0)  # below this the head counts as at rest
+PREDICTION_FRESH_S = 0.5  # an older prediction is not used for pursuit
+
+
+@dataclass(frozen=True)
+class Aim:
+    """A target direction at an instant, with its angular rates."""
+
+    t_ns: int
+    pan_rad: float
+    tilt_rad: float
+    pan_rate_rad_s: float = 0.0
+    tilt_rate_rad_s: float = 0.0
+
+    def at(self, t_ns: int) -> tuple[float, float]:
+        dt = (t_ns - self.t_ns) / 1e9
+        return self.pan_rad + self.pan_rate_rad_s * dt, self.tilt_rad + self.tilt_rate_rad_s * dt
+
+
+@dataclass(frozen=True)
+class Decision:
+    demand: GazeDemand | None
+    transition: GazeState | None
+
+
+class GazeController:
+    """Feed it what arrives (`odometry`, `prediction`, `detection`, `candidates`), call
+    `tick(wall_ns, mono_s)` at the control rate, publish what it decides."""
+
+    def __init__(self, rig: Rig, mono_s: float) -> None:
+        gaze = rig.gaze
+        self.gaze = gaze
+        self.camera = CameraModel.from_section(rig.camera)
+        self.kinematics = HeadKinematics.from_section(rig.head)
+        self.limiter = DemandLimiter(rig.head)
+        self.rate_max = rig.head.rate_max_rad_s
+        self.accel_max = rig.head.accel_max_rad_s2
+        self.park = rig.head.park_rad
+        self.fovea_rad = math.radians(gaze.fovea_half_angle_deg)
+        self.camera_xyz_m = rig.calibration.camera_xyz_m
+        self.state: GazeStateName = "park"
+        self.entered_s = mono_s
+        self.entered_ns = 0
+        self.odometry: Odometry | None = None
+        self.prediction: Prediction | None = None
+        self.found: Detection | None = None  # latest detection with the target, taken into account
+        self.candidates: Candidates | None = None
+        self.goal: Aim | None = None  # saccade or look-and-move target
+        self.settled_since_s: float | None = None
+        self.looking = True  # look-and-move: waiting for a fresh look (else moving)
+        self.look_since_ns = 0  # look-and-move: a look needs a frame captured from here on
+        self.correction = (0.0, 0.0)
+        self.predictions: deque[Prediction] = deque(maxlen=64)
+        self.last_rates = (0.0, 0.0)
+        self.last_tick_s = mono_s
+        self.pending: GazeState | None = None
+        self.counts = {
+            "transitions": 0,
+            "saccades": 0,
+            "ignored_while_moving": 0,
+            "stale_predictions": 0,
+        }
+
+    # -- inputs ----------------------------------------------------------------------------
+
+    def on_odometry(self, odometry: Odometry) -> None:
+        self.odometry = odometry
+
+    def on_prediction(self, prediction: Prediction) -> None:
+        self.prediction = prediction
+        self.predictions.append(prediction)
+
+    def on_detection(self, detection: Detection) -> None:
+        if not detection.found or detection.head is None:
+            return
+        if self.state == "saccade" or (self.gaze.control == "look-and-move" and not self.looking):
+            self.counts["ignored_while_moving"] += 1  # captured mid-move: blurred, off its track
+            return
+        if self.state == "pursuit":
+            self._update_correction(detection)
+        self.found = detection
+
+    def on_candidates(self, candidates: Candidates) -> None:
+        self.candidates = candidates
+
+    # -- the loop body ------------------------------------------------------------------------
+
+    def tick(self, wall_ns: int, mono_s: float) -> Decision:
+        dt_s = max(mono_s - self.last_tick_s, 1e-3)
+        self.last_tick_s = mono_s
+        handler = {
+            "park": self._park,
+            "search": self._search,
+            "saccade": self._saccade,
+            "pursuit": self._pursuit,
+            "lost": self._lost,
+            "trace": self._hold,
+        }[self.state]
+        demand = handler(wall_ns, mono_s)
+        if demand is not None:
+            demand = self._limited(demand, dt_s)
+            if demand is None:  # a non-finite number reached the demand: hold instead
+                demand = self._hold(wall_ns, mono_s)
+        transition, self.pending = self.pending, None
+        return Decision(demand, transition)
+
+    def enter(self, state: GazeStateName, reason: str, wall_ns: int, mono_s: float) -> None:
+        if state == self.state:
+            return
+        self.pending = GazeState(
+            t_capture_ns=wall_ns,
+            stamps=((STAGE, wall_ns),),
+            state=state,
+            previous=self.state,
+            reason=reason,
+        )
+        self.state = state
+        self.entered_s = mono_s
+        self.entered_ns = wall_ns
+        self.settled_since_s = None
+        self.counts["transitions"] += 1
+
+    # -- states ------------------------------------------------------------------------------
+
+    def _park(self, wall_ns: int, mono_s: float) -> GazeDemand:
+        if self._at(self.park[0], self.park[1], math.radians(1.0)):
+            self.enter("search", "head parked", wall_ns, mono_s)
+        return self._demand("park", self.park[0], self.park[1], wall_ns)
+
+    def _search(self, wall_ns: int, mono_s: float) -> GazeDemand | None:
+        detection = self._recent_found(wall_ns, since_ns=self.entered_ns)
+        if detection is not None:
+            target = self._detection_aim(detection)
+            offset = self._offset_from_axis(target, detection)
+            if offset <= self.fovea_rad:
+                self.enter("pursuit", "target in the fovea", wall_ns, mono_s)
+                return self._pursuit(wall_ns, mono_s)
+            return self._start_saccade(target, "detection outside the fovea", wall_ns, mono_s)
+        candidate = self._best_candidate(wall_ns)
+        if candidate is not None:
+            return self._start_saccade(candidate, "motion candidate", wall_ns, mono_s)
+        return self._hold(wall_ns, mono_s)
+
+    def _start_saccade(
+        self, target: Aim, reason: str, wall_ns: int, mono_s: float
+    ) -> GazeDemand | None:
+        """Aim where the target will be when the move (at the head's limits) is over."""
+        if self.odometry is None:
+            return self._hold(wall_ns, mono_s)
+        pan_now, tilt_now = target.at(wall_ns)
+        duration_s = max(
+            move_duration_s(pan_now - self.odometry.pan_rad, self.rate_max[0], self.accel_max[0]),
+            move_duration_s(tilt_now - self.odometry.tilt_rad, self.rate_max[1], self.accel_max[1]),
+        )
+        arrival_ns = wall_ns + round((duration_s + self.gaze.settle_ms / 1000.0) * 1e9)
+        pan, tilt = target.at(arrival_ns)
+        self.goal = Aim(arrival_ns, pan, tilt)
+        self.counts["saccades"] += 1
+        self.enter("saccade", reason, wall_ns, mono_s)
+        return self._demand("position", pan, tilt, wall_ns)
+
+    def _saccade(self, wall_ns: int, mono_s: float) -> GazeDemand | None:
+        assert self.goal is not None
+        if self._settled_at(self.goal.pan_rad, self.goal.tilt_rad, mono_s):
+            self.found = None  # only detections from after the move count
+            self.enter("pursuit", "settled on the target", wall_ns, mono_s)
+            self.looking = True
+            return self._hold(wall_ns, mono_s)
+        if mono_s - self.entered_s > self.gaze.saccade_timeout_ms / 1000.0:
+            self.enter("search", "saccade did not settle", wall_ns, mono_s)
+            return self._hold(wall_ns, mono_s)
+        return self._demand("position", self.goal.pan_rad, self.goal.tilt_rad, wall_ns)
+
+    def _pursuit(self, wall_ns: int, mono_s: float) -> GazeDemand | None:
+        since_ns = self.entered_ns - round(self.gaze.lost_after_ms * 1e6)
+        detection = self._recent_found(wall_ns, since_ns=since_ns)
+        if detection is None and mono_s - self.entered_s > self.gaze.lost_after_ms / 1000.0:
+            self.enter("lost", f"no detection for {self.gaze.lost_after_ms:g} ms", wall_ns, mono_s)
+            return self._lost(wall_ns, mono_s)
+        if self.gaze.control == "look-and-move":
+            return self._look_and_move(wall_ns, mono_s)
+        return self._follow(wall_ns, correction=True)
+
+    def _look_and_move(self, wall_ns: int, mono_s: float) -> GazeDemand | None:
+        if self.looking:
+            fresh = self.found is not None and self.found.t_capture_ns >= max(
+                self.look_since_ns, self.entered_ns
+            )
+            if not fresh:
+                return self._hold(wall_ns, mono_s)
+            assert self.found is not None
+            aim = self._aim(wall_ns) or self._detection_aim(self.found)
+            assert self.odometry is not None
+            pan_now, tilt_now = aim.at(wall_ns)
+            duration_s = max(
+                move_duration_s(
+                    pan_now - self.odometry.pan_rad, self.rate_max[0], self.accel_max[0]
+                ),
+                move_duration_s(
+                    tilt_now - self.odometry.tilt_rad, self.rate_max[1], self.accel_max[1]
+                ),
+            )
+            arrival_ns = wall_ns + round((duration_s + self.gaze.settle_ms / 1000.0) * 1e9)
+            pan, tilt = aim.at(arrival_ns)
+            self.goal = Aim(arrival_ns, pan, tilt)
+            self.looking = False
+            self.settled_since_s = None
+            return self._demand("position", pan, tilt, wall_ns, self.found)
+        assert self.goal is not None
+        if self._settled_at(self.goal.pan_rad, self.goal.tilt_rad, mono_s):
+            self.looking = True
+            self.look_since_ns = wall_ns
+        return self._demand("position", self.goal.pan_rad, self.goal.tilt_rad, wall_ns)
+
+    def _lost(self, wall_ns: int, mono_s: float) -> GazeDemand | None:
+        detection = self._recent_found(wall_ns, since_ns=self.entered_ns)
+        if detection is not None:
+            self.enter("pursuit", "target seen again", wall_ns, mono_s)
+            return self._pursuit(wall_ns, mono_s)
+        lost_s = mono_s - self.entered_s
+        if lost_s > self.gaze.search_after_ms / 1000.0:
+            self.enter("search", f"lost for {lost_s:.1f} s", wall_ns, mono_s)
+            return self._hold(wall_ns, mono_s)
+        if self._aim(wall_ns) is None:  # nothing to coast on
+            return self._hold(wall_ns, mono_s)
+        demand = self._follow(wall_ns, correction=False)
+        assert demand is not None
+        radius = self._search_radius_rad(lost_s)
+        phase = 2.0 * math.pi * self.gaze.lost_scan_hz * lost_s
+        return demand.model_copy(
+            update={
+                "pan_rad": demand.pan_rad + radius * math.cos(phase),
+                "tilt_rad": demand.tilt_rad + radius * math.sin(phase),
+            }
+        )
+
+    def _hold(self, wall_ns: int, mono_s: float) -> GazeDemand | None:
+        del mono_s
+        if self.odometry is None:
+            return None
+        return self._demand("hold", self.odometry.pan_rad, self.odometry.tilt_rad, wall_ns)
+
+    # -- pursuit demands ------------------------------------------------------------------------
+
+    def _aim(self, wall_ns: int) -> Aim | None:
+        """The estimator's latest prediction, if fresh, as an aim."""
+        p = self.prediction
+        if p is None:
+            return None
+        if (wall_ns - p.t_effect_ns) / 1e9 > PREDICTION_FRESH_S:
+            self.counts["stale_predictions"] += 1
+            return None
+        return Aim(p.t_effect_ns, p.pan_rad, p.tilt_rad, p.pan_rate_rad_s, p.tilt_rate_rad_s)
+
+    def _follow(self, wall_ns: int, correction: bool) -> GazeDemand | None:
+        """Position and rates for the instant the demand acts (now + actuation latency)."""
+        aim = self._aim(wall_ns)
+        source: Prediction | Detection | None = self.prediction
+        if aim is None:
+            if self.found is None:
+                return self._hold(wall_ns, 0.0)
+            aim, source = self._detection_aim(self.found), self.found
+        actuation_s = self.prediction.actuation_latency_s if self.prediction is not None else 0.0
+        pan, tilt = aim.at(wall_ns + round(actuation_s * 1e9))
+        if correction:
+            gain = self.gaze.residual_gain
+            pan, tilt = pan + gain * self.correction[0], tilt + gain * self.correction[1]
+        return self._demand(
+            "pursuit", pan, tilt, wall_ns, source, (aim.pan_rate_rad_s, aim.tilt_rate_rad_s)
+        )
+
+    def _update_correction(self, detection: Detection) -> None:
+        """The residual between where the target was seen and where it had been predicted to be
+        at that instant, smoothed; bounded by the fovea."""
+        predicted = [p for p in self.predictions if p.t_effect_ns <= detection.t_capture_ns]
+        if not predicted:
+            return
+        p = predicted[-1]
+        seen = self._detection_aim(detection)
+        pan_p, tilt_p = Aim(
+            p.t_effect_ns, p.pan_rad, p.tilt_rad, p.pan_rate_rad_s, p.tilt_rate_rad_s
+        ).at(detection.t_capture_ns)
+        alpha = self.gaze.residual_smoothing
+        bound = self.fovea_rad
+        self.correction = (
+            max(
+                -bound,
+                min(
+                    bound, self.correction[0] + alpha * (seen.pan_rad - pan_p - self.correction[0])
+                ),
+            ),
+            max(
+                -bound,
+                min(
+                    bound,
+                    self.correction[1] + alpha * (seen.tilt_rad - tilt_p - self.correction[1]),
+                ),
+            ),
+        )
+
+    def _detection_aim(self, detection: Detection) -> Aim:
+        assert detection.head is not None
+        head = detection.head
+        target = target_angles(
+            self.camera,
+            self.kinematics,
+            head.pan_rad,
+            head.tilt_rad,
+            detection.u_px,
+            detection.v_px,
+        )
+        pan_rate, tilt_rate = target.rates(detection.du_px_s, detection.dv_px_s)
+        return Aim(detection.t_capture_ns, target.pan_rad, target.tilt_rad, pan_rate, tilt_rate)
+
+    def _search_radius_rad(self, lost_s: float) -> float:
+        """Grows with the prediction's position covariance seen from the camera, or with time."""
+        p = self.prediction
+        grow = math.radians(self.gaze.lost_search_growth_deg_s) * lost_s
+        camera = self.camera_xyz_m
+        if (
+            p is not None
+            and p.position_cov_m2 is not None
+            and p.ground_xy_m is not None
+            and camera is not None
+        ):
+            (a, b), (c, d) = p.position_cov_m2
+            sigma_m = math.sqrt(max(0.5 * (a + d + math.hypot(a - d, b + c)), 0.0))
+            distance_m = math.hypot(
+                p.ground_xy_m[0] - camera[0], p.ground_xy_m[1] - camera[1], camera[2]
+            )
+            grow = max(grow, sigma_m / distance_m)
+        return min(grow, math.radians(self.gaze.lost_search_max_deg))
+
+    # -- helpers ---------------------------------------------------------------------------------
+
+    def _recent_found(self, wall_ns: int, since_ns: int) -> Detection | None:
+        d = self.found
+        if d is None or d.t_capture_ns < since_ns:
+            return None
+        if (wall_ns - d.t_capture_ns) / 1e6 > self.gaze.lost_after_ms:
+            return None
+        return d
+
+    def _best_candidate(self, wall_ns: int) -> Aim | None:
+        c = self.candidates
+        if c is None or c.head is None or not c.candidates or c.t_capture_ns < self.entered_ns:
+            return None
+        if (wall_ns - c.t_capture_ns) / 1e6 > self.gaze.lost_after_ms:
+            return None
+        best = max(c.candidates, key=lambda k: k.score)
+        if best.score < self.gaze.candidate_min_score:
+            return None
+        head = c.head
+        target = target_angles(
+            self.camera, self.kinematics, head.pan_rad, head.tilt_rad, best.u_px, best.v_px
+        )
+        pan_rate, tilt_rate = target.rates(best.du_px_s, best.dv_px_s)
+        return Aim(c.t_capture_ns, target.pan_rad, target.tilt_rad, pan_rate, tilt_rate)
+
+    def _offset_from_axis(self, target: Aim, detection: Detection) -> float:
+        assert detection.head is not None
+        head = detection.head
+        return angle_between(
+            target.pan_rad, target.tilt_rad, head.pan_rad, head.tilt_rad, self.kinematics
+        )
+
+    def _at(self, pan_rad: float, tilt_rad: float, tolerance_rad: float) -> bool:
+        o = self.odometry
+        if o is None:
+            return False
+        still = (
+            abs(o.pan_rate_rad_s) < STILL_RATE_RAD_S and abs(o.tilt_rate_rad_s) < STILL_RATE_RAD_S
+        )
+        return (
+            still
+            and angle_between(o.pan_rad, o.tilt_rad, pan_rad, tilt_rad, self.kinematics)
+            <= tolerance_rad
+        )
+
+    def _settled_at(self, pan_rad: float, tilt_rad: float, mono_s: float) -> bool:
+        """At the goal and at rest for settle_ms."""
+        if not self._at(pan_rad, tilt_rad, math.radians(self.gaze.saccade_tolerance_deg)):
+            self.settled_since_s = None
+            return False
+        if self.settled_since_s is None:
+            self.settled_since_s = mono_s
+        return mono_s - self.settled_since_s >= self.gaze.settle_ms / 1000.0
+
+    def _demand(
+        self,
+        kind: str,
+        pan_rad: float,
+        tilt_rad: float,
+        wall_ns: int,
+        source: Prediction | Detection | None = None,
+        rates: tuple[float, float] = (0.0, 0.0),
+    ) -> GazeDemand:
+        stamps: tuple[Stamp, ...] = source.stamps if source is not None else ()
+        return GazeDemand(
+            t_capture_ns=source.t_capture_ns if source is not None else wall_ns,
+            stamps=(*stamps, (STAGE, wall_ns)),
+            kind=kind,
+            pan_rad=pan_rad,
+            tilt_rad=tilt_rad,
+            pan_rate_rad_s=rates[0],
+            tilt_rate_rad_s=rates[1],
+        )
+
+    def _limited(self, demand: GazeDemand, dt_s: float) -> GazeDemand | None:
+        """Joint and rate limits (counted), and the acceleration limit on feed-forward rates;
+        None (counted) for a demand with a non-finite number."""
+        target = self.limiter.limit(demand)
+        if target is None:
+            self.last_rates = (0.0, 0.0)
+            return None
+        rates = (target.pan_rate_rad_s, target.tilt_rate_rad_s)
+        if demand.kind == "pursuit":
+            rates = tuple(
+                last + max(-a * dt_s, min(a * dt_s, r - last))
+                for r, last, a in zip(rates, self.last_rates, self.accel_max, strict=True)
+            )
+        self.last_rates = rates if demand.kind == "pursuit" else (0.0, 0.0)
+        return demand.model_copy(
+            update={
+                "pan_rad": target.pan_rad,
+                "tilt_rad": target.tilt_rad,
+                "pan_rate_rad_s": rates[0],
+                "tilt_rate_rad_s": rates[1],
+            }
+        )
+
+    @property
+    def clamps(self) -> int:
+        return self.limiter.clamps

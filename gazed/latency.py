@@ -1,0 +1,41 @@
+"""Latencies measured live from message stamps (DESIGN §3: the stamps are the measure).
+
+`LatencyWindow` keeps the latest samples of one latency and gives their median, robust to the
+odd late message; `stage_gap_s` reads the time between two stages of one message's stamps.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+
+import numpy as np
+
+from gazed.messages import Message
+
+
+class LatencyWindow:
+    """The median of the last `size` samples (seconds); `default_s` until the first."""
+
+    def __init__(self, default_s: float, size: int = 50) -> None:
+        self.default_s = default_s
+        self._samples: deque[float] = deque(maxlen=size)
+
+    def add(self, latency_s: float) -> None:
+        if np.isfinite(latency_s) and latency_s >= 0:
+            self._samples.append(latency_s)
+
+    @property
+    def count(self) -> int:
+        return len(self._samples)
+
+    @property
+    def median_s(self) -> float:
+        return float(np.median(self._samples)) if self._samples else self.default_s
+
+
+def stage_gap_s(message: Message, first: str, last: str) -> float | None:
+    """Seconds from stage `first`'s stamp to stage `last`'s in one message (None if absent)."""
+    stamps = dict(message.stamps)
+    if first not in stamps or last not in stamps:
+        return None
+    return (stamps[last] - stamps[first]) / 1e9

@@ -1,0 +1,228 @@
+"""The `estimator` process: detections -> target on the ground -> filter -> prediction over the
+loop's latency (DESIGN §5; seed 000 §4-6).
+
+Inputs: `vision/detection` (the target's pixel and independent image velocity, with the head
+pose at capture), `servo/command` (the stamps of the demands as written: the actuation latency).
+Outputs: `estimator/state` (the filter's state, covariance, model probabilities) and
+`estimator/prediction` (pan, tilt and their rates for the instant the demand made from it will
+act: now + the actuation latency, i.e. capture + visual latency + actuation latency) after every
+detection; `estimator/event` when the most likely model changes.
+Settings: [estimator] filter and its noises, gate, coasting; [camera], [head] and
+[calibration] (homography, height correction) for the geometry.
+
+A frame without a detection (or without a head pose, or with a ray above the horizon) is a
+predict-only step: the track coasts. Both latencies are measured live from stamps: visual as
+the time from capture to the detection's arrival here, actuation as the median time from this
+process's stamp to the servo's write stamp on `servo/command`.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+
+import numpy as np
+
+from gazed.bus import Bus
+from gazed.config import Rig
+from gazed.estimation import PredictedState, build_estimator
+from gazed.estimation.observation import gaze_measurement, ground_measurement
+from gazed.geometry.camera import CameraModel
+from gazed.geometry.ground import GroundGeometry, MeasurementNoise
+from gazed.geometry.homography import HorizonError
+from gazed.geometry.kinematics import HeadKinematics
+from gazed.latency import LatencyWindow, stage_gap_s
+from gazed.messages import Detection, EstimatorState, ManeuverEvent, Prediction
+from gazed.topics import (
+    ESTIMATOR_EVENT,
+    ESTIMATOR_PREDICTION,
+    ESTIMATOR_STATE,
+    SERVO_COMMAND,
+    VISION_DETECTION,
+)
+from services.runtime import HealthReport, Now, main
+
+STAGE = "estimator"
+IDLE_S = 1.0
+
+log = logging.getLogger("gazed.estimator")
+
+
+class EstimatorService:
+    def __init__(self, rig: Rig, bus: Bus) -> None:
+        section = rig.estimator
+        self.filter = section.filter
+        self.estimator = build_estimator(section)
+        self.camera = CameraModel.from_section(rig.camera)
+        self.kinematics = HeadKinematics.from_section(rig.head)
+        # image-cv works on gaze angles alone; every other mode needs the ground homography
+        self.geometry = GroundGeometry.from_rig(rig) if self.filter != "image-cv" else None
+        self.noise = MeasurementNoise.from_head(
+            rig.head, section.pixel_noise_px, section.pixel_rate_noise_px_s
+        )
+        self.detections = bus.subscribe(VISION_DETECTION, capacity=64)
+        self.commands = bus.subscribe(SERVO_COMMAND, capacity=256)
+        self.states = bus.publisher(ESTIMATOR_STATE)
+        self.predictions = bus.publisher(ESTIMATOR_PREDICTION)
+        self.events = bus.publisher(ESTIMATOR_EVENT)
+        self.visual = LatencyWindow(default_s=0.0)
+        self.actuation = LatencyWindow(default_s=section.actuation_latency_default_ms / 1000.0)
+        self.counts = {
+            "detections": 0,
+            "measured": 0,
+            "coasted": 0,
+            "no_head_pose": 0,
+            "above_horizon": 0,
+        }
+        self.stage_ms = 0.0
+
+    def step(self, now: Now) -> float:
+        for command in self.commands.take():
+            gap = stage_gap_s(command, STAGE, "servo")
+            if gap is not None:
+                self.actuation.add(gap)
+        for detection in self.detections.take():
+            started = time.perf_counter()
+            self._observe(detection, now)
+            self._publish(detection, time.time_ns())
+            self.stage_ms = (time.perf_counter() - started) * 1e3
+        return IDLE_S
+
+    def _observe(self, detection: Detection, now: Now) -> None:
+        self.counts["detections"] += 1
+        self.visual.add((now.wall_ns - detection.t_capture_ns) / 1e9)
+        t_s = detection.t_capture_ns / 1e9
+        if not detection.found:
+            self._coast(t_s)
+            return
+        try:
+            if self.geometry is None:
+                measurement = gaze_measurement(detection, self.camera, self.kinematics, self.noise)
+            else:
+                measurement = ground_measurement(detection, self.geometry, self.noise)
+        except HorizonError:
+            self.counts["above_horizon"] += 1
+            self._coast(t_s)
+            return
+        except ValueError:
+            self.counts["no_head_pose"] += 1
+            self._coast(t_s)
+            return
+        self.estimator.update(measurement)
+        self.counts["measured"] += 1
+
+    def _coast(self, t_s: float) -> None:
+        self.estimator.coast(t_s)
+        self.counts["coasted"] += 1
+
+    def _publish(self, detection: Detection, t_ns: int) -> None:
+        stamps = (*detection.stamps, (STAGE, t_ns))
+        t_effect_ns = t_ns + round(self.actuation.median_s * 1e9)
+        predicted = self.estimator.predict(t_effect_ns / 1e9)
+        if predicted is None:
+            return
+        now_state = self.estimator.predict(detection.t_capture_ns / 1e9)
+        probabilities = self.estimator.model_probabilities()
+        coasting = not detection.found
+        if now_state is not None:
+            self.states.put(
+                EstimatorState(
+                    t_capture_ns=detection.t_capture_ns,
+                    stamps=stamps,
+                    filter=self.filter,
+                    x=tuple(
+                        float(v) for v in np.concatenate([now_state.position, now_state.velocity])
+                    ),
+                    P=tuple(tuple(float(v) for v in row) for row in now_state.covariance),
+                    model_probabilities=probabilities,
+                    most_likely=self.estimator.most_likely(),
+                    ground_xy_m=_pair(now_state.position) if self.geometry is not None else None,
+                    ground_velocity_m_s=_pair(now_state.velocity)
+                    if self.geometry is not None
+                    else None,
+                    coasting=coasting,
+                )
+            )
+        self.predictions.put(
+            self._prediction(detection, predicted, stamps, t_effect_ns, t_ns, coasting)
+        )
+        for event in self.estimator.drain_events():
+            self.events.put(
+                ManeuverEvent(
+                    t_capture_ns=detection.t_capture_ns,
+                    stamps=stamps,
+                    model=event.model,
+                    previous_model=event.previous_model,
+                    t_start_ns=round(event.t_start_s * 1e9),
+                    previous_duration_s=event.previous_duration_s,
+                    mean_s_dot_m_s2=event.mean_s_dot_m_s2,
+                    mean_theta_dot_rad_s=event.mean_theta_dot_rad_s,
+                )
+            )
+
+    def _prediction(
+        self,
+        detection: Detection,
+        predicted: PredictedState,
+        stamps: tuple[tuple[str, int], ...],
+        t_effect_ns: int,
+        t_ns: int,
+        coasting: bool,
+    ) -> Prediction:
+        if self.geometry is None:  # image-cv: the state is the gaze itself
+            pan, tilt = (float(v) for v in predicted.position)
+            pan_rate, tilt_rate = (float(v) for v in predicted.velocity)
+            ground = velocity = cov = None
+        else:
+            x, y = (float(v) for v in predicted.position)
+            vx, vy = (float(v) for v in predicted.velocity)
+            pan, tilt = self.geometry.gaze_from_ground(x, y)
+            pan_rate, tilt_rate = self.geometry.gaze_rates_from_ground(x, y, vx, vy)
+            ground, velocity = (x, y), (vx, vy)
+            c = predicted.covariance
+            cov = ((float(c[0, 0]), float(c[0, 1])), (float(c[1, 0]), float(c[1, 1])))
+        return Prediction(
+            t_capture_ns=detection.t_capture_ns,
+            stamps=stamps,
+            filter=self.filter,
+            t_effect_ns=t_effect_ns,
+            horizon_s=(t_effect_ns - detection.t_capture_ns) / 1e9,
+            pan_rad=pan,
+            tilt_rad=tilt,
+            pan_rate_rad_s=pan_rate,
+            tilt_rate_rad_s=tilt_rate,
+            ground_xy_m=ground,
+            ground_velocity_m_s=velocity,
+            position_cov_m2=cov,
+            visual_latency_s=(t_ns - detection.t_capture_ns) / 1e9,
+            actuation_latency_s=self.actuation.median_s,
+            coasting=coasting,
+        )
+
+    def health(self) -> HealthReport:
+        counters = dict(self.counts)
+        counters.update(self.estimator.health())
+        return HealthReport(
+            counters=counters,
+            stage_ms={
+                "step": round(self.stage_ms, 3),
+                "visual_latency": round(self.visual.median_s * 1e3, 2),
+                "actuation_latency": round(self.actuation.median_s * 1e3, 2),
+            },
+            notes={"filter": self.filter, "most_likely": self.estimator.most_likely()},
+        )
+
+    def close(self) -> None:
+        pass
+
+
+def _pair(values: np.ndarray) -> tuple[float, float]:
+    return float(values[0]), float(values[1])
+
+
+def build(rig: Rig, bus: Bus) -> EstimatorService:
+    return EstimatorService(rig, bus)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main("estimator", build))

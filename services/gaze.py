@@ -1,0 +1,85 @@
+"""The `gaze` process: decides where the head looks (DESIGN §7; seed 000 §1-2, §6).
+
+Inputs: `estimator/prediction`, `vision/detection`, `vision/candidates`, `servo/odometry`.
+Outputs: `gaze/demand` (joint angles and feed-forward rates, limited) at `[gaze] rate_hz` and at
+once after each new prediction; `gaze/state` on every transition, with its reason.
+Settings: [gaze] (control mode, rates, fovea, settling, lost and search timing, feedback gain),
+[head] (limits, park pose, kinematics), [camera] (pixels to angles), [calibration]
+camera_xyz_m (the lost-search region in angles).
+
+The state machine itself is `gazed.gaze.controller.GazeController`; this module only moves
+messages in and out of it.
+"""
+
+from __future__ import annotations
+
+import logging
+
+from gazed.bus import Bus
+from gazed.config import Rig
+from gazed.gaze.controller import GazeController
+from gazed.topics import (
+    ESTIMATOR_PREDICTION,
+    GAZE_DEMAND,
+    GAZE_STATE,
+    SERVO_ODOMETRY,
+    VISION_CANDIDATES,
+    VISION_DETECTION,
+)
+from services.runtime import HealthReport, Now, main
+
+log = logging.getLogger("gazed.gaze")
+
+
+class GazeService:
+    def __init__(self, rig: Rig, bus: Bus) -> None:
+        self.controller = GazeController(rig, Now.read().mono_s)
+        self.period_s = 1.0 / rig.gaze.rate_hz
+        self.predictions = bus.subscribe(ESTIMATOR_PREDICTION, capacity=16)
+        self.detections = bus.subscribe(VISION_DETECTION, capacity=16)
+        self.candidates = bus.subscribe(VISION_CANDIDATES, capacity=4)
+        self.odometry = bus.subscribe(SERVO_ODOMETRY, capacity=16)
+        self.demands = bus.publisher(GAZE_DEMAND)
+        self.states = bus.publisher(GAZE_STATE)
+        self.next_tick_s = 0.0
+        self.demands_sent = 0
+
+    def step(self, now: Now) -> float:
+        c = self.controller
+        for odometry in self.odometry.take():
+            c.on_odometry(odometry)
+        for candidates in self.candidates.take():
+            c.on_candidates(candidates)
+        for detection in self.detections.take():
+            c.on_detection(detection)
+        fresh = self.predictions.take()
+        for prediction in fresh:
+            c.on_prediction(prediction)
+        if fresh or now.mono_s >= self.next_tick_s:  # a new prediction acts at once
+            self.next_tick_s = now.mono_s + self.period_s
+            decision = c.tick(now.wall_ns, now.mono_s)
+            if decision.transition is not None:
+                t = decision.transition
+                log.info("%s -> %s: %s", t.previous, t.state, t.reason)
+                self.states.put(t)
+            if decision.demand is not None:
+                self.demands.put(decision.demand)
+                self.demands_sent += 1
+        return max(0.0, self.next_tick_s - now.mono_s)
+
+    def health(self) -> HealthReport:
+        c = self.controller
+        counters = dict(c.counts)
+        counters.update(demands=self.demands_sent, clamps=c.clamps, refused=c.limiter.refused)
+        return HealthReport(counters=counters, notes={"state": c.state})
+
+    def close(self) -> None:
+        pass
+
+
+def build(rig: Rig, bus: Bus) -> GazeService:
+    return GazeService(rig, bus)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main("gaze", build))
