@@ -1,0 +1,274 @@
+"""The gaze state machine, driven by scripted messages and an injected clock."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from gazed.config import parse_rig
+from gazed.gaze.aim import move_duration_s
+from gazed.gaze.controller import GazeController
+from gazed.geometry.camera import CameraModel
+from gazed.messages import Candidate, Candidates, Detection, HeadPose, Odometry, Prediction
+
+RIG = parse_rig(
+    '[rig]\nname = "g"\n'
+    "[head]\npan_max_deg = 60\npan_rate_max_deg_s = 100\npan_accel_max_deg_s2 = 400\n"
+    "tilt_rate_max_deg_s = 100\ntilt_accel_max_deg_s2 = 400\n"
+    "[gaze]\nsettle_ms = 100\nlost_after_ms = 300\nsearch_after_ms = 1000\nresidual_gain = 0\n"
+)
+CAMERA = CameraModel.from_section(RIG.camera)
+F = CAMERA.K[0, 0]
+T0 = 1_000_000_000_000_000_000  # wall ns
+
+
+class Clock:
+    def __init__(self) -> None:
+        self.wall_ns = T0
+        self.mono_s = 100.0
+
+    def advance(self, seconds: float) -> None:
+        self.wall_ns += round(seconds * 1e9)
+        self.mono_s += seconds
+
+
+def odometry(clock: Clock, pan_deg: float, tilt_deg: float, rate_deg_s: float = 0.0) -> Odometry:
+    return Odometry(
+        t_capture_ns=clock.wall_ns,
+        pan_rad=math.radians(pan_deg),
+        tilt_rad=math.radians(tilt_deg),
+        pan_rate_rad_s=math.radians(rate_deg_s),
+    )
+
+
+def detection(
+    clock: Clock, u: float, v: float, head_deg=(0.0, 0.0), du: float = 0.0, age_s: float = 0.0
+) -> Detection:
+    return Detection(
+        t_capture_ns=clock.wall_ns - round(age_s * 1e9),
+        stamps=(("vision", clock.wall_ns),),
+        seq=1,
+        detector="flow",
+        found=True,
+        u_px=u,
+        v_px=v,
+        du_px_s=du,
+        width_px=640,
+        height_px=480,
+        head=HeadPose(pan_rad=math.radians(head_deg[0]), tilt_rad=math.radians(head_deg[1])),
+    )
+
+
+def prediction(
+    clock: Clock,
+    pan_deg: float,
+    tilt_deg: float,
+    pan_rate_deg_s: float = 0.0,
+    actuation_s: float = 0.02,
+) -> Prediction:
+    return Prediction(
+        t_capture_ns=clock.wall_ns - 150_000_000,
+        stamps=(("vision", clock.wall_ns), ("estimator", clock.wall_ns)),
+        filter="imm",
+        t_effect_ns=clock.wall_ns + round(actuation_s * 1e9),
+        horizon_s=0.17,
+        pan_rad=math.radians(pan_deg),
+        tilt_rad=math.radians(tilt_deg),
+        pan_rate_rad_s=math.radians(pan_rate_deg_s),
+        tilt_rate_rad_s=0.0,
+        visual_latency_s=0.15,
+        actuation_latency_s=actuation_s,
+    )
+
+
+def in_search(clock: Clock) -> GazeController:
+    c = GazeController(RIG, clock.mono_s)
+    c.on_odometry(odometry(clock, 0.0, 0.0))
+    decision = c.tick(clock.wall_ns, clock.mono_s)
+    assert decision.transition is not None and decision.transition.state == "search"
+    assert decision.transition.reason == "head parked"
+    assert decision.demand.kind == "park"
+    clock.advance(0.02)
+    return c
+
+
+def in_pursuit(clock: Clock) -> GazeController:
+    c = in_search(clock)
+    c.on_detection(detection(clock, 330.0, 245.0))
+    decision = c.tick(clock.wall_ns, clock.mono_s)
+    assert (
+        decision.transition.state == "pursuit"
+        and decision.transition.reason == "target in the fovea"
+    )
+    return c
+
+
+def test_starts_parked_then_searches_holding_still() -> None:
+    clock = Clock()
+    c = GazeController(RIG, clock.mono_s)
+    first = c.tick(clock.wall_ns, clock.mono_s)
+    assert first.demand.kind == "park" and first.transition is None  # parking needs no odometry
+    c.on_odometry(odometry(clock, 5.0, 0.0))
+    assert c.tick(clock.wall_ns, clock.mono_s).demand.kind == "park"
+    assert c.state == "park"  # not there yet
+    c = in_search(Clock())
+    hold = c.tick(c.entered_ns + 1, c.entered_s + 0.01).demand
+    assert hold.kind == "hold" and hold.pan_rad == 0.0
+
+
+def test_detection_outside_the_fovea_draws_a_saccade_to_where_the_target_will_be() -> None:
+    clock = Clock()
+    c = in_search(clock)
+    # 200 px right of centre, moving right at 100 px/s: the saccade leads it by the move time
+    c.on_detection(detection(clock, 519.5, 239.5, du=100.0))
+    decision = c.tick(clock.wall_ns, clock.mono_s)
+    assert (
+        decision.transition.state == "saccade"
+        and decision.transition.reason == "detection outside the fovea"
+    )
+    seen_deg = math.degrees(math.atan(200.0 / F))
+    rate_deg_s = math.degrees(100.0 / F * math.cos(math.atan(200 / F)) ** 2)
+    lead_s = move_duration_s(math.radians(seen_deg), math.radians(100), math.radians(400)) + 0.1
+    assert decision.demand.kind == "position"
+    assert math.degrees(decision.demand.pan_rad) == pytest.approx(
+        seen_deg + rate_deg_s * lead_s, abs=0.01
+    )
+    # detections during the move are ignored
+    c.on_detection(detection(clock, 100.0, 100.0))
+    assert c.counts["ignored_while_moving"] == 1
+    goal_deg = math.degrees(decision.demand.pan_rad)
+    clock.advance(0.2)
+    c.on_odometry(odometry(clock, goal_deg, 0.0))
+    assert c.tick(clock.wall_ns, clock.mono_s).transition is None  # at the goal, not yet settled
+    clock.advance(0.11)
+    c.on_odometry(odometry(clock, goal_deg, 0.0))
+    settled = c.tick(clock.wall_ns, clock.mono_s)
+    assert (
+        settled.transition.state == "pursuit"
+        and settled.transition.reason == "settled on the target"
+    )
+
+
+def test_motion_candidate_draws_a_saccade_and_weak_ones_do_not() -> None:
+    clock = Clock()
+    c = in_search(clock)
+    head = HeadPose(pan_rad=0.0, tilt_rad=0.0)
+    weak = Candidates(
+        t_capture_ns=clock.wall_ns,
+        seq=2,
+        width_px=640,
+        height_px=480,
+        head=head,
+        candidates=(Candidate(u_px=100.0, v_px=239.5, area_px=50.0, energy=1.0, score=-1.0),),
+    )
+    c.on_candidates(weak)
+    assert c.tick(clock.wall_ns, clock.mono_s).transition is None
+    strong = weak.model_copy(
+        update={
+            "candidates": (Candidate(u_px=100.0, v_px=239.5, area_px=400.0, energy=9.0, score=3.0),)
+        }
+    )
+    c.on_candidates(strong)
+    decision = c.tick(clock.wall_ns, clock.mono_s)
+    assert (
+        decision.transition.state == "saccade" and decision.transition.reason == "motion candidate"
+    )
+    assert math.degrees(decision.demand.pan_rad) == pytest.approx(
+        -math.degrees(math.atan(219.5 / F)), abs=0.01
+    )
+
+
+def test_pursuit_demands_the_prediction_at_the_instant_it_acts() -> None:
+    clock = Clock()
+    c = in_pursuit(clock)
+    clock.advance(0.04)
+    c.on_detection(detection(clock, 320.0, 240.0))
+    c.on_prediction(prediction(clock, 10.0, -5.0, pan_rate_deg_s=20.0, actuation_s=0.03))
+    clock.advance(0.01)  # the tick comes 10 ms after the prediction was made
+    demand = c.tick(clock.wall_ns, clock.mono_s).demand
+    assert demand.kind == "pursuit"
+    # predicted for t_effect = made + 30 ms; demanded for now + 30 ms: 10 ms further at 20°/s
+    assert math.degrees(demand.pan_rad) == pytest.approx(10.0 + 20.0 * 0.01, abs=1e-6)
+    assert math.degrees(demand.tilt_rad) == pytest.approx(-5.0, abs=1e-6)
+    assert demand.stamps[-1][0] == "gaze" and [s for s, _ in demand.stamps[:-1]] == [
+        "vision",
+        "estimator",
+    ]
+    assert demand.t_capture_ns == clock.wall_ns - 10_000_000 - 150_000_000
+    # feed-forward rate limited by the acceleration limit (400°/s² over one tick from 0)
+    assert math.degrees(demand.pan_rate_rad_s) <= 20.0 + 1e-9
+
+
+def test_pursuit_clamps_to_the_joint_limits() -> None:
+    clock = Clock()
+    c = in_pursuit(clock)
+    c.on_prediction(prediction(clock, 75.0, 0.0))
+    demand = c.tick(clock.wall_ns, clock.mono_s).demand
+    assert math.degrees(demand.pan_rad) == pytest.approx(60.0)
+    assert c.clamps == 1
+
+
+def test_lost_coasts_searches_a_growing_region_then_gives_up() -> None:
+    clock = Clock()
+    c = in_pursuit(clock)
+    for _ in range(8):  # 320 ms without a detection, predictions still coming (coasting)
+        clock.advance(0.04)
+        c.on_prediction(prediction(clock, 5.0, -2.0))
+        decision = c.tick(clock.wall_ns, clock.mono_s)
+    assert (
+        decision.transition.state == "lost"
+        and decision.transition.reason == "no detection for 300 ms"
+    )
+    radii = []
+    for _ in range(10):
+        clock.advance(0.05)
+        c.on_prediction(prediction(clock, 5.0, -2.0))
+        d = c.tick(clock.wall_ns, clock.mono_s).demand
+        radii.append(math.hypot(math.degrees(d.pan_rad) - 5.0, math.degrees(d.tilt_rad) + 2.0))
+    assert radii[-1] > radii[0] > 0  # the region grows (2°/s by default)
+    assert radii[-1] == pytest.approx(2.0 * 0.5, abs=0.05)
+    c.on_detection(detection(clock, 330.0, 240.0))
+    back = c.tick(clock.wall_ns, clock.mono_s)
+    assert back.transition.state == "pursuit" and back.transition.reason == "target seen again"
+    # lost again, and for longer than search_after_ms this time
+    for _ in range(40):
+        clock.advance(0.04)
+        c.on_prediction(prediction(clock, 5.0, -2.0))
+        decision = c.tick(clock.wall_ns, clock.mono_s)
+        if decision.transition is not None and decision.transition.state == "search":
+            break
+    assert c.state == "search" and decision.transition.reason.startswith("lost for 1.")
+
+
+def test_look_and_move_moves_only_after_a_fresh_look() -> None:
+    rig = RIG.model_copy(update={"gaze": RIG.gaze.model_copy(update={"control": "look-and-move"})})
+    clock = Clock()
+    c = GazeController(rig, clock.mono_s)
+    c.on_odometry(odometry(clock, 0.0, 0.0))
+    c.tick(clock.wall_ns, clock.mono_s)
+    clock.advance(0.02)
+    c.on_detection(detection(clock, 330.0, 240.0, du=50.0))
+    c.on_prediction(prediction(clock, 1.0, 0.0, pan_rate_deg_s=5.0))
+    first = c.tick(clock.wall_ns, clock.mono_s)
+    assert first.transition.state == "pursuit"
+    move = first.demand  # the look that found it is fresh: move at once
+    assert move.kind == "position"
+    # to the prediction (1° at 5°/s for 20 ms from now: 0.9° now), led by the move and the settling
+    lead_s = move_duration_s(math.radians(0.9), math.radians(100), math.radians(400)) + 0.1
+    assert math.degrees(move.pan_rad) == pytest.approx(1.0 + 5.0 * (lead_s - 0.02), abs=1e-6)
+    c.on_detection(detection(clock, 200.0, 240.0))  # captured while moving: ignored
+    assert c.counts["ignored_while_moving"] == 1
+    goal = math.degrees(move.pan_rad)
+    for _ in range(4):  # arrive and settle (settle_ms = 100)
+        clock.advance(0.04)
+        c.on_odometry(odometry(clock, goal, 0.0))
+        assert c.tick(clock.wall_ns, clock.mono_s).demand.kind == "position"
+    assert c.looking
+    clock.advance(0.01)
+    hold = c.tick(clock.wall_ns, clock.mono_s).demand
+    assert hold.kind == "hold"  # waiting for a frame taken after settling
+    c.on_detection(detection(clock, 320.0, 240.0, head_deg=(goal, 0.0)))
+    c.on_prediction(prediction(clock, goal, 0.0))
+    assert c.tick(clock.wall_ns, clock.mono_s).demand.kind == "position"
+    assert not c.looking
