@@ -12,6 +12,7 @@ textured background, the head still or turning at up to 60°/s.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import cv2
@@ -286,3 +287,76 @@ def test_candidates_are_silent_under_pure_rotation(rotation_only: Frames) -> Non
     results = run(rotation_only, "flow")
     with_candidates = sum(bool(r.candidates) for r, _ in results)
     assert with_candidates <= 0.01 * len(results)
+
+
+# --- a lens with distortion -----------------------------------------------------------------
+
+DISTORTED = CameraModel.from_intrinsics(
+    640,
+    480,
+    CAMERA.K[0, 0],
+    CAMERA.K[1, 1],
+    CAMERA.K[0, 2],
+    CAMERA.K[1, 2],
+    (-0.25, 0.08, 0.0, 0.0),
+)
+
+
+def through_the_lens(frames: Frames) -> Frames:
+    """The ideal frames as the distorted camera sees them, the truth in its own pixels."""
+    w, h = DISTORTED.width_px, DISTORTED.height_px
+    grid = np.stack(np.meshgrid(np.arange(w), np.arange(h)), axis=-1).astype(np.float32)
+    ideal = cv2.undistortPoints(
+        grid.reshape(-1, 1, 2), DISTORTED.K, DISTORTED.distortion, P=DISTORTED.K
+    )
+    ideal = ideal.reshape(h, w, 2)
+
+    def lens(u: float, v: float) -> np.ndarray:
+        return DISTORTED.pixel(CAMERA.K_inv @ np.array([u, v, 1.0]))
+
+    seen = []
+    for image, truth in frames:
+        image = cv2.remap(
+            image, ideal[..., 0], ideal[..., 1], cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT
+        )
+        if truth.target_visible:
+            uv = lens(truth.u_px, truth.v_px)
+            step = 1e-3
+            velocity = (
+                lens(truth.u_px + truth.du_px_s * step, truth.v_px + truth.dv_px_s * step) - uv
+            ) / step
+            truth = dataclasses.replace(
+                truth, u_px=uv[0], v_px=uv[1], du_px_s=velocity[0], dv_px_s=velocity[1]
+            )
+        seen.append((image, truth))
+    return seen
+
+
+def run_with(camera: CameraModel, frames: Frames, detector: str, **vision: object):
+    pipeline = VisionPipeline(camera, KINEMATICS, VisionSection(**vision), detector)
+    return [
+        (pipeline.process(cv2.cvtColor(i, cv2.COLOR_BGR2GRAY), round(t.t_s * 1e9), t.head), t)
+        for i, t in frames
+    ]
+
+
+@pytest.mark.parametrize(
+    ("detector", "settings"), [DETECTORS[0], DETECTORS[2]], ids=["flow", "pyramid"]
+)
+def test_distorted_lens_pursuit_in_the_cameras_own_pixels(
+    pursuit: Frames, detector: str, settings: dict
+) -> None:
+    position, velocity, found = errors(
+        run_with(DISTORTED, through_the_lens(pursuit), detector, **settings)
+    )
+    assert found >= 0.85
+    assert np.median(position) <= 2.0
+    assert np.median(velocity) <= 0.10
+
+
+def test_distorted_lens_rotation_needs_the_distortion_model(rotation_only: Frames) -> None:
+    frames = through_the_lens(rotation_only)
+    modelled = run_with(DISTORTED, frames, "pyramid", pyramid_search="full")
+    ignored = run_with(CAMERA, frames, "pyramid", pyramid_search="full")
+    assert sum(r.output.found for r, _ in modelled) <= 0.01 * len(frames)
+    assert sum(r.output.found for r, _ in ignored) >= 0.5 * len(frames)

@@ -21,6 +21,7 @@ PRESMOOTH_SIGMA_PX = 1.0
 # Pixels this close to the border of the warped previous frame get no energy (the Laplacian's
 # 5x5 support reaches this far).
 BORDER_MARGIN_PX = 3
+STILL_PX = 0.01  # a warp moving no corner further than this is skipped
 FIXED_POINT_BITS = 2
 UNITS_PER_GREY = 1 << FIXED_POINT_BITS  # the pyramid is int16 in quarter grey levels
 
@@ -38,6 +39,8 @@ def energy_pyramid(
 
     `H` maps previous pixels to current ones (None: the head did not move)."""
     h, w = current.shape
+    if H is not None and _moves_less_than(H, w, h, STILL_PX):
+        H = None  # a still head: nothing to warp
     if H is not None:
         previous = cv2.warpPerspective(previous, H, (w, h), flags=cv2.INTER_LINEAR)
     # fixed point: int16 in quarter grey levels, exact for D, fine enough for the energies
@@ -51,6 +54,13 @@ def energy_pyramid(
     for _ in range(levels - 1):
         pyramid.append(cv2.pyrDown(pyramid[-1]))
     return pyramid
+
+
+def _moves_less_than(H: np.ndarray, w: int, h: int, tolerance_px: float) -> bool:
+    """Does H move every corner of the image by less than `tolerance_px`?"""
+    corners = np.array([[0, 0], [w - 1, 0], [w - 1, h - 1], [0, h - 1]], float)
+    moved = cv2.perspectiveTransform(corners.reshape(-1, 1, 2), H).reshape(-1, 2)
+    return bool(np.abs(moved - corners).max() < tolerance_px)
 
 
 def _clear_uncovered(energy: np.ndarray, H: np.ndarray) -> None:

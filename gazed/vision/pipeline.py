@@ -6,6 +6,8 @@ previous frame, works out the head's rotation between the two (or an identity st
 compensation is off: no pose for either frame, or `[vision] compensate_ego_motion = false`),
 computes the motion-energy pyramid once if the detector or the candidates need it, and runs
 both. Frames out of time order or further apart than `frame_gap_max_ms` restart the detectors.
+A camera with lens distortion has its frames remapped to the ideal pinhole first and the results
+mapped back to its own pixels (see `undistort`).
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ from gazed.vision.ego_motion import EgoMotion
 from gazed.vision.motion_energy import MotionEnergy
 from gazed.vision.normal_flow import NormalFlowDetector
 from gazed.vision.pyramid_search import PyramidDetector
+from gazed.vision.undistort import Undistortion
 
 
 def make_detector(name: str, vision: VisionSection, camera: CameraModel) -> Detector:
@@ -91,6 +94,7 @@ class VisionPipeline:
             if vision.candidates
             else None
         )
+        self.undistortion = Undistortion(camera) if camera.has_distortion else None
         self._energy = MotionEnergy(vision.pyramid_levels)
         self._previous: tuple[np.ndarray, int, HeadPose | None] | None = None
         self.restarts = 0
@@ -104,6 +108,10 @@ class VisionPipeline:
 
     def process(self, gray: np.ndarray, t_capture_ns: int, head: HeadPose | None) -> VisionResult:
         """Run the detector (and candidates) on one grey frame captured at `t_capture_ns`."""
+        started = time.perf_counter()
+        if self.undistortion is not None:
+            gray = self.undistortion.frame(gray)
+        undistort_s = time.perf_counter() - started
         previous = self._previous
         if previous is not None:
             dt_s = (t_capture_ns - previous[1]) * 1e-9
@@ -133,7 +141,9 @@ class VisionPipeline:
         pair = FramePair(gray, t_capture_ns * 1e-9, prev_gray, step, compensated, energy)
         started = time.perf_counter()
         output = self.detector.detect(pair)
-        detector_s = time.perf_counter() - started
+        if self.undistortion is not None:
+            output = self.undistortion.output(output)
+        detector_s = time.perf_counter() - started + undistort_s
         if self.detector.needs_energy:
             detector_s += energy_s
         output = dataclasses.replace(output, processing_ms=detector_s * 1e3)
@@ -142,5 +152,7 @@ class VisionPipeline:
         if self.candidates is not None:
             started = time.perf_counter()
             candidates = self.candidates.find(pair)
+            if self.undistortion is not None:
+                candidates = [self.undistortion.region(c) for c in candidates]
             candidates_s = time.perf_counter() - started + energy_s
         return VisionResult(output, candidates, compensated, candidates_s * 1e3)
