@@ -105,8 +105,8 @@ def canonical_homography(
     wrong = [labels[i] for i, lam in enumerate(lams) if np.any(lam * sign <= 0)]
     if wrong:
         raise CalibrationError(
-            f"{', '.join(wrong)}: the homography that fits the others puts them above the horizon; "
-            "their angles or ground coordinates are wrong"
+            f"{', '.join(wrong)}: the fitted homography puts these gazes on the other side of the "
+            "horizon from the rest: some angles or ground coordinates are wrong (two swapped?)"
         )
     return GroundHomography.from_matrix(matrix * sign)
 
