@@ -255,8 +255,9 @@ def _report(solved: Solved) -> str:
         )
         for row in (header, *body)
     ]
-    worst = int(np.argmax(result.residuals_m))
-    lines.append(f"rms {result.rms_m:.3f} m, max {result.max_m:.3f} m ({result.labels[worst]})")
+    worst = result.labels[int(np.argmax(result.residuals_m))]
+    at = f" ({worst})" if round(result.max_m, 3) > 0 else ""
+    lines.append(f"rms {result.rms_m:.3f} m, max {result.max_m:.3f} m{at}")
     lines.append(
         "loo_m: how far the homography of all the other entries places this one "
         "(large: this entry disagrees with the rest)"
