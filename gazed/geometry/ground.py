@@ -136,32 +136,33 @@ class GroundGeometry:
         self, pan_rad: float, tilt_rad: float, u_px: float, v_px: float
     ) -> np.ndarray:
         """d(X, Y)/d(pan, tilt, u, v) of `ground_from_gaze`, 2x4."""
-        c = FLIP_Y @ self.camera.ray(u_px, v_px)
-        rotation = self.head.rotation(pan_rad, tilt_rad)
-        d_pan, d_tilt = self.head.rotation_derivatives(pan_rad, tilt_rad)
-        ray_derivatives = np.column_stack(
-            [d_pan @ c, d_tilt @ c, rotation @ FLIP_Y @ self.camera.ray_jacobian(u_px, v_px)]
-        )
-        jacobian = self.homography.ground_jacobian(rotation @ c) @ ray_derivatives
-        return jacobian if self.height is None else self.height.jacobian_scale * jacobian
+        return self._jacobian(pan_rad, tilt_rad, *self._camera_ray(u_px, v_px))
 
     def measure(self, sample: GazeSample, noise: MeasurementNoise) -> GroundMeasurement:
         """Ground position, velocity and their 4x4 covariance from one image measurement.
 
         Covariance F Σ F^T with F = [[J, 0], [d(J r)/dz, J]] (4x8), z = (pan, tilt, u, v),
         r = their rates, J = `ground_jacobian`; d(J r)/dz by central differences of J."""
-        z = np.array([sample.pan_rad, sample.tilt_rad, sample.u_px, sample.v_px])
+        pan, tilt, u, v = sample.pan_rad, sample.tilt_rad, sample.u_px, sample.v_px
         rates = np.array(
             [sample.pan_rate_rad_s, sample.tilt_rate_rad_s, sample.u_rate_px_s, sample.v_rate_px_s]
         )
-        position = self.ground_from_gaze(*z)
-        jacobian = self.ground_jacobian(*z)
-        velocity_by_z = np.zeros((2, 4))
-        for k, step in enumerate((ANGLE_STEP_RAD, ANGLE_STEP_RAD, PIXEL_STEP_PX, PIXEL_STEP_PX)):
-            dz = np.zeros(4)
-            dz[k] = step
-            difference = self.ground_jacobian(*(z + dz)) - self.ground_jacobian(*(z - dz))
-            velocity_by_z[:, k] = difference @ rates / (2.0 * step)
+        ray = self._camera_ray(u, v)
+        hit = self.homography.ground_from_direction(self.head.rotation(pan, tilt) @ ray[0])
+        position = hit if self.height is None else self.height.target_from_hit(hit)
+        jacobian = self._jacobian(pan, tilt, *ray)
+        h, p = ANGLE_STEP_RAD, PIXEL_STEP_PX
+        differences = (
+            self._jacobian(pan + h, tilt, *ray) - self._jacobian(pan - h, tilt, *ray),
+            self._jacobian(pan, tilt + h, *ray) - self._jacobian(pan, tilt - h, *ray),
+            self._jacobian(pan, tilt, *self._camera_ray(u + p, v))
+            - self._jacobian(pan, tilt, *self._camera_ray(u - p, v)),
+            self._jacobian(pan, tilt, *self._camera_ray(u, v + p))
+            - self._jacobian(pan, tilt, *self._camera_ray(u, v - p)),
+        )
+        velocity_by_z = np.column_stack(
+            [d @ rates / (2.0 * step) for d, step in zip(differences, (h, h, p, p), strict=True)]
+        )
         f = np.block([[jacobian, np.zeros((2, 4))], [velocity_by_z, jacobian]])
         return GroundMeasurement(position, jacobian @ rates, f @ noise.covariance() @ f.T)
 
@@ -191,6 +192,19 @@ class GroundGeometry:
         (pan, tilt); raises ValueError if it is behind the camera."""
         direction = self._direction_to(x_m, y_m)
         return self.camera.pixel(self.head.camera_to_base(pan_rad, tilt_rad).T @ direction)
+
+    def _camera_ray(self, u_px: float, v_px: float) -> tuple[np.ndarray, np.ndarray]:
+        """The pixel's ray in the camera frame (y up) (3,) and its derivative by (u, v) (3x2)."""
+        return FLIP_Y @ self.camera.ray(u_px, v_px), FLIP_Y @ self.camera.ray_jacobian(u_px, v_px)
+
+    def _jacobian(
+        self, pan_rad: float, tilt_rad: float, ray: np.ndarray, ray_by_pixel: np.ndarray
+    ) -> np.ndarray:
+        rotation = self.head.rotation(pan_rad, tilt_rad)
+        d_pan, d_tilt = self.head.rotation_derivatives(pan_rad, tilt_rad)
+        ray_derivatives = np.column_stack([d_pan @ ray, d_tilt @ ray, rotation @ ray_by_pixel])
+        jacobian = self.homography.ground_jacobian(rotation @ ray) @ ray_derivatives
+        return jacobian if self.height is None else self.height.jacobian_scale * jacobian
 
     def _direction_to(self, x_m: float, y_m: float) -> np.ndarray:
         target = np.array([x_m, y_m], dtype=float)
