@@ -118,7 +118,9 @@ def test_write_stores_the_homography_keeping_comments_and_layout(
 ) -> None:
     rig_path = tmp_path / "lawn.toml"
     rig_path.write_text(RIG)
+    rig_path.chmod(0o644)
     code, out, err = run(["points", str(LAWN_POINTS), "--write", str(rig_path), "--json"], capsys)
+    assert rig_path.stat().st_mode & 0o777 == 0o644
     assert code == 0 and f"wrote [calibration] homography to {rig_path}" in err
     written = rig_path.read_text()
     for original in RIG.splitlines():

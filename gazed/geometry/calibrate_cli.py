@@ -27,6 +27,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import shutil
 import sys
 import tempfile
 from collections.abc import Callable
@@ -127,6 +128,7 @@ def write_homography(rig_path: Path, matrix: np.ndarray, note: str) -> None:
         "w", encoding="utf-8", dir=rig_path.parent, prefix=f".{rig_path.name}.", delete=False
     ) as handle:
         handle.write(text)
+    shutil.copymode(rig_path, handle.name)
     os.replace(handle.name, rig_path)
 
 
