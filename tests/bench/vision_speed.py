@@ -66,46 +66,60 @@ def frames(detector: str, width: int, height: int) -> tuple[CameraModel, list]:
     return camera, scene.frames(RATE_HZ, SEQUENCE)
 
 
-def measure(detector: str, width: int, height: int, count: int, candidates: bool) -> dict:
-    """Per-frame CPU time of this thread and wall time (ms) of one pipeline step: grey
-    conversion + detector (+ motion energy for `pyramid`) (+ candidates if on)."""
-    camera, sequence = frames(detector, width, height)
-    cpu_ms: list[float] = []
-    wall_ms: list[float] = []
-    while len(cpu_ms) < count:
-        pipeline = VisionPipeline(
-            camera, HeadKinematics(), VisionSection(candidates=candidates), detector
-        )
-        for i, (image, truth) in enumerate(sequence):
-            cpu0, wall0 = time.thread_time(), time.perf_counter()
-            gray = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
-            pipeline.process(gray, round(truth.t_s * 1e9), truth.head)
-            cpu1, wall1 = time.thread_time(), time.perf_counter()
-            if i < 15:  # warm-up, and the background model's learning
-                continue
-            cpu_ms.append((cpu1 - cpu0) * 1e3)
-            wall_ms.append((wall1 - wall0) * 1e3)
-    return {"cpu": np.array(cpu_ms), "wall": np.array(wall_ms)}
+def one_pass(
+    camera: CameraModel, sequence: list, detector: str, candidates: bool, times: dict
+) -> None:
+    """One pass over a sequence with a fresh pipeline: per-frame CPU time of this thread and
+    wall time (ms) of a step — grey conversion + detector (+ motion energy for `pyramid`)
+    (+ candidates if on)."""
+    pipeline = VisionPipeline(
+        camera, HeadKinematics(), VisionSection(candidates=candidates), detector
+    )
+    for i, (image, truth) in enumerate(sequence):
+        cpu0, wall0 = time.thread_time(), time.perf_counter()
+        gray = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+        pipeline.process(gray, round(truth.t_s * 1e9), truth.head)
+        cpu1, wall1 = time.thread_time(), time.perf_counter()
+        if i < 15:  # warm-up, and the background model's learning
+            continue
+        times["cpu"].append((cpu1 - cpu0) * 1e3)
+        times["wall"].append((wall1 - wall0) * 1e3)
 
 
-def cell(values: np.ndarray) -> str:
+def cell(values: list[float]) -> str:
     return f"{np.median(values):5.2f} / {np.percentile(values, 99):5.2f}"
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--frames", type=int, default=400, help="timed frames per configuration")
+    parser.add_argument("--frames", type=int, default=405, help="timed frames per configuration")
     args = parser.parse_args()
     cv2.setNumThreads(1)
-    print(f"vision speed, one core, {args.frames} timed frames each; ms per frame, median / p99")
-    print("cpu: this thread's CPU time (what one core spends); wall: elapsed, includes waiting")
-    print("for the CPU on a shared machine")
+    configs = [
+        (detector, width, height, candidates)
+        for detector in ("flow", "pyramid", "background")
+        for width, height in ((320, 240), (640, 480))
+        for candidates in (False, True)
+    ]
+    sequences = {(d, w, h): frames(d, w, h) for d, w, h, _ in configs}
+    times = {config: {"cpu": [], "wall": []} for config in configs}
+    # round robin, one pass of each configuration per round, so a change in the machine's
+    # load during the run affects them all alike
+    rounds = -(-args.frames // (SEQUENCE - 15))
+    for _ in range(rounds):
+        for config in configs:
+            detector, width, height, candidates = config
+            camera, sequence = sequences[(detector, width, height)]
+            one_pass(camera, sequence, detector, candidates, times[config])
+    print(f"vision speed, one core, {rounds * (SEQUENCE - 15)} timed frames each; ms per frame,")
+    print("median / p99. cpu: this thread's CPU time (what one core spends); wall: elapsed,")
+    print("including any wait for the CPU on a shared machine")
     header = f"{'detector':<11}{'size':>9}   {'detector cpu':>13} {'detector wall':>13}"
     print(header + f"   {'+candidates cpu':>15} {'+candidates wall':>16}")
     for detector in ("flow", "pyramid", "background"):
         for width, height in ((320, 240), (640, 480)):
-            alone = measure(detector, width, height, args.frames, candidates=False)
-            both = measure(detector, width, height, args.frames, candidates=True)
+            alone = times[(detector, width, height, False)]
+            both = times[(detector, width, height, True)]
             print(
                 f"{detector:<11}{width:>4}x{height:<4}   {cell(alone['cpu']):>13} "
                 f"{cell(alone['wall']):>13}   {cell(both['cpu']):>15} {cell(both['wall']):>16}"
