@@ -9,6 +9,7 @@ import subprocess
 from collections import deque
 from pathlib import Path
 
+import cv2
 import numpy as np
 import pytest
 import zenoh
@@ -252,3 +253,59 @@ def test_vision_process_end_to_end(tmp_path: Path) -> None:
     ]
     assert np.median(errors) <= 2.0
     assert published_candidates and all(c.width_px == 320 for c in published_candidates)
+
+
+def test_vision_process_reads_a_video_file_as_its_camera(tmp_path: Path) -> None:
+    """An OpenCV source: the file is paced like a camera, loops when it ends (reported as a
+    reopen), and its frames are detected; no odometry, so compensation is off."""
+    clip = tmp_path / "walker.avi"
+    camera = CameraModel.from_fov(320, 240, math.radians(60))
+    walker = SyntheticScene(
+        camera,
+        HeadKinematics(),
+        lambda t: HeadPose(pan_rad=0.0, tilt_rad=0.0),
+        lambda t: (-0.1 + 0.15 * t, 0.0),
+        seed=33,
+        field_rad=0.8,
+    )
+    writer = cv2.VideoWriter(str(clip), cv2.VideoWriter_fourcc(*"MJPG"), 25.0, (320, 240))
+    for i in range(20):
+        writer.write(walker.render(i / 25.0, i)[0])
+    writer.release()
+    body = RIG_BODY.replace('source = "sim"', f'source = "{clip}"\nreopen_max_s = 0.2')
+    body = body.replace('detector = "flow"', 'detector = "pyramid"')
+    path = write_rig(tmp_path, body, name=unique_rig_name("file"), port=17603)
+    rig = load_rig(path)
+    with Bus(rig, "test", router=True) as bus:
+        detections = bus.subscribe(VISION_DETECTION)
+        healths = bus.subscribe(health("vision"))
+        child = subprocess.Popen(
+            [PYTHON, "-m", "services.vision", "--rig", str(path)],
+            cwd=REPO,
+            env=child_env(),
+            stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT,
+            text=True,
+        )
+        try:
+            got: list[Detection] = []
+            poll_until(
+                lambda: got.extend(detections.take()) or sum(d.found for d in got) >= 10, 30.0
+            )
+
+            def looped() -> Health | None:
+                for report in healths.take():
+                    if report.counters.get("source_reopens", 0) >= 1:
+                        return report
+                return None
+
+            report = poll_until(looped, 20.0)
+        finally:
+            child.terminate()
+            output, _ = child.communicate(timeout=20)
+    assert child.returncode == 0, output
+    assert not any(d.compensated for d in got)
+    assert all(d.head is None and d.width_px == 320 for d in got)
+    assert report.notes["compensation"] == "off (no odometry at the frames' capture times)"
+    assert report.notes.get("source_error") == "file ended"
+    assert report.counters["found"] >= 10
