@@ -3,7 +3,8 @@
 The energy pyramid (see `motion_energy`) is searched with small square windows (16x16 in the
 paper). A pixel is *active* when its energy exceeds `energy_threshold`; a window's position is
 the mean position of its active pixels ("the positions of local energy change are integrated to
-find the object center"). The confidence is the window's share of the level's active energy.
+find the object center") — of those of its strongest connected region when there are several,
+one object being assumed. The confidence is the window's share of the level's active energy.
 
 - `full` — the 5-level search (seed 004 §2.1, §3, Fig. 6): the whole coarsest level is examined,
   its strongest region centres a window one level finer, and so on towards level 0 until a
