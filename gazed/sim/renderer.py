@@ -19,6 +19,10 @@ from gazed.geometry.camera import CameraModel
 from gazed.geometry.pose import CameraPose
 
 SKY_BGR = (235, 206, 160)
+SUBPIXEL_BITS = 4  # fillConvexPoly's fixed-point vertices
+SUBPIXEL = 1 << SUBPIXEL_BITS
+HAZE_START_TEXELS = 1.5  # texels per pixel where the ground starts fading to its mean colour
+HAZE_FULL_TEXELS = 4.0
 NOISE_POOL = 8
 
 
@@ -33,20 +37,19 @@ class Body:
 
 
 def ground_texture(seed: int, size_px: int = 1536) -> np.ndarray:
-    """A seeded lawn: sums of blurred noise at several scales (features of 2 to 64 texels,
-    enough for optical flow at every distance), green. BGR uint8."""
+    """A seeded gravel yard: sums of blurred noise at several scales (features of 4 to 64
+    texels, enough for optical flow at every distance, none so fine that it aliases early).
+    Grey uint8: one channel warps three times faster than three."""
     rng = np.random.default_rng([seed, 1])
     height = np.zeros((size_px, size_px), np.float32)
-    for octave, weight in ((2, 0.25), (4, 0.3), (8, 0.2), (16, 0.15), (64, 0.1)):
+    for octave, weight in ((4, 0.35), (8, 0.3), (16, 0.2), (64, 0.15)):
         small = rng.standard_normal((size_px // octave, size_px // octave)).astype(np.float32)
         big = cv2.resize(
             np.pad(small, 1, mode="wrap"), None, fx=octave, fy=octave, interpolation=cv2.INTER_CUBIC
         )
         height += weight * big[octave : octave + size_px, octave : octave + size_px]
     height = (height - height.mean()) / (height.std() + 1e-6)
-    value = np.clip(110 + 45 * height, 0, 255)
-    texture = np.stack([0.45 * value, 0.85 * value, 0.6 * value], axis=-1)
-    return np.clip(texture, 0, 255).astype(np.uint8)
+    return np.clip(110 + 45 * height, 0, 255).astype(np.uint8)
 
 
 def body_texture(seed: int, index: int, size_px: tuple[int, int] = (48, 128)) -> np.ndarray:
@@ -69,8 +72,8 @@ def body_texture(seed: int, index: int, size_px: tuple[int, int] = (48, 128)) ->
 class Renderer:
     """Renders frames for one camera and pose; `render(seq, pan, tilt, bodies)` -> BGR uint8.
 
-    The lawn is textured over a square of `texel_m` x 1536 (46 m at 3 cm) centred on the world
-    origin; beyond it the ground has the lawn's mean colour."""
+    The ground is textured over a square of `texel_m` x 1536 (46 m at 3 cm) centred on the world
+    origin; beyond it the ground has its mean grey."""
 
     def __init__(
         self,
@@ -92,7 +95,7 @@ class Renderer:
         self.flicker_hz = flicker_hz
         self.motion_blur_exposure_s = motion_blur_exposure_s
         self.ground = ground_texture(seed)
-        self._far_ground = tuple(float(c) for c in self.ground.reshape(-1, 3).mean(axis=0))
+        self._far_ground = float(self.ground.mean())
         self.bodies = [body_texture(seed, i) for i in range(2)]
         size = self.ground.shape[0]
         # texture pixel (tx, ty) -> ground (X, Y): tx right = +X, ty down = -Y, centred on the origin
@@ -105,6 +108,13 @@ class Renderer:
         )
         h, w = camera.height_px, camera.width_px
         self._noise = self._noise_pool(noise_std, (h, w, 3))
+        # the haze's coarse grid over the image: pixel corners and a step of about 16 px
+        self._haze_shape = (h // 16 + 1, w // 16 + 1)
+        us = np.linspace(0, w - 1, self._haze_shape[1])
+        vs = np.linspace(0, h - 1, self._haze_shape[0])
+        uu, vv = np.meshgrid(us, vs)
+        self._haze_grid = np.stack([uu.ravel(), vv.ravel(), np.ones(uu.size)])
+        self._haze_image = np.full((h, w), round(self._far_ground), np.uint8)
         self._columns = np.arange(w, dtype=np.float32)[None, :]
         self._rows = np.arange(h, dtype=np.float32)[:, None]
 
@@ -137,14 +147,16 @@ class Renderer:
         camera = self.camera
         size = (camera.width_px, camera.height_px)
         image_from_ground = self.pose.ground_to_image(pan_rad, tilt_rad, camera)
-        frame = cv2.warpPerspective(
+        ground = cv2.warpPerspective(
             self.ground,
             image_from_ground @ self._texture_to_ground,
             size,
             flags=cv2.INTER_LINEAR,
-            borderMode=cv2.BORDER_CONSTANT,  # beyond the textured area: the lawn's mean colour
+            borderMode=cv2.BORDER_CONSTANT,  # beyond the textured area: the ground's mean grey
             borderValue=self._far_ground,
         )
+        self._haze(ground, image_from_ground)
+        frame = cv2.cvtColor(ground, cv2.COLOR_GRAY2BGR)
         self._paint_sky(frame, pan_rad, tilt_rad)
         for body in sorted(bodies, key=lambda b: -self._distance_m(b)):  # far ones first
             self._paint_body(frame, body, pan_rad, tilt_rad)
@@ -160,18 +172,60 @@ class Renderer:
             cv2.subtract(frame, negative, dst=frame)
         return frame
 
+    def _haze(self, frame: np.ndarray, image_from_ground: np.ndarray) -> None:
+        """Fade the ground to its mean colour where a pixel covers more than HAZE_START_TEXELS
+        texels (fully at HAZE_FULL_TEXELS): a texture sampled that sparsely would alias, and
+        shimmer with false motion as the head turns. The footprint is the largest singular
+        value of d(ground)/d(pixel) of the image->ground homography, on a coarse grid."""
+        g = np.linalg.inv(image_from_ground)
+        q = g @ self._haze_grid  # (3, n): ground point times 1/depth
+        w = q[2]
+        ground = q[:2] / np.where(np.abs(w) > 1e-12, w, 1e-12)
+        # d(ground)/d(pixel) = (G[:2] - ground ⊗ G[2]) / w, one 2x2 [[a, b], [c, d]] per grid point
+        a = (g[0, 0] - ground[0] * g[2, 0]) / w
+        b = (g[0, 1] - ground[0] * g[2, 1]) / w
+        c = (g[1, 0] - ground[1] * g[2, 0]) / w
+        d = (g[1, 1] - ground[1] * g[2, 1]) / w
+        # its largest singular value, in closed form
+        half_sum = 0.5 * (a * a + b * b + c * c + d * d)
+        determinant = a * d - b * c
+        sigma = np.sqrt(
+            half_sum + np.sqrt(np.maximum(half_sum * half_sum - determinant * determinant, 0.0))
+        )
+        footprint = sigma / self.texel_m
+        footprint[w <= 0] = HAZE_FULL_TEXELS  # above the horizon: painted as sky anyway
+        weight = np.clip(
+            (footprint - HAZE_START_TEXELS) / (HAZE_FULL_TEXELS - HAZE_START_TEXELS), 0.0, 1.0
+        )
+        coarse = weight.reshape(self._haze_shape).astype(np.float32)
+        hazy = np.nonzero(coarse.max(axis=1) > 0)[0]
+        if hazy.size == 0:
+            return
+        h, w_px = frame.shape[:2]
+        step = h / (self._haze_shape[0] - 1)
+        # rows whose coarse neighbours are all fully hazed take the colour; the rest blend
+        full_rows = coarse.min(axis=1) >= 1.0
+        solid = 0
+        while solid < len(full_rows) and full_rows[solid]:
+            solid += 1
+        top = max(int((solid - 1) * step), 0) if solid else 0
+        if top:
+            frame[:top] = self._haze_image[:top]
+        bottom = min(int(hazy.max() * step + step) + 1, h)
+        weights = cv2.resize(coarse, (w_px, h), interpolation=cv2.INTER_LINEAR)[top:bottom]
+        roi = frame[top:bottom]
+        roi[:] = cv2.blendLinear(roi, self._haze_image[top:bottom], 1.0 - weights, weights)
+
     def _paint_sky(self, frame: np.ndarray, pan_rad: float, tilt_rad: float) -> None:
-        """Pixels above the horizon see sky, not the mirror image of the ground behind the camera."""
+        """Pixels above the horizon see sky, not the mirror image of the ground behind the
+        camera: the image rectangle clipped to the horizon's sky side, filled."""
         line = self.pose.horizon_line(pan_rad, tilt_rad, self.camera)
-        w, h = self.camera.width_px - 1, self.camera.height_px - 1
-        corners = [line @ np.array([u, v, 1.0]) for u in (0, w) for v in (0, h)]
-        if max(corners) <= 0:  # all ground
-            return
-        if min(corners) > 0:
-            frame[:] = SKY_BGR
-            return
-        sky = (line[0] * self._columns + line[1] * self._rows + line[2]) > 0
-        frame[sky] = SKY_BGR
+        w, h = self.camera.width_px - 0.5, self.camera.height_px - 0.5
+        rectangle = [(-0.5, -0.5), (w, -0.5), (w, h), (-0.5, h)]
+        polygon = _clip_to_half_plane(rectangle, line)
+        if len(polygon) >= 3:
+            points = np.round(np.array(polygon) * SUBPIXEL).astype(np.int32)
+            cv2.fillConvexPoly(frame, points, SKY_BGR, lineType=cv2.LINE_8, shift=SUBPIXEL_BITS)
 
     def _distance_m(self, body: Body) -> float:
         return float(
@@ -234,3 +288,23 @@ class Renderer:
         )
         kernel /= kernel.sum()
         return cv2.filter2D(frame, -1, kernel)
+
+
+def _clip_to_half_plane(
+    polygon: list[tuple[float, float]], line: np.ndarray
+) -> list[tuple[float, float]]:
+    """The part of a convex polygon where line · (u, v, 1) > 0 (one Sutherland-Hodgman pass)."""
+
+    def side(p: tuple[float, float]) -> float:
+        return float(line[0] * p[0] + line[1] * p[1] + line[2])
+
+    clipped = []
+    for i, p in enumerate(polygon):
+        q = polygon[(i + 1) % len(polygon)]
+        sp, sq = side(p), side(q)
+        if sp > 0:
+            clipped.append(p)
+        if (sp > 0) != (sq > 0):
+            t = sp / (sp - sq)
+            clipped.append((p[0] + t * (q[0] - p[0]), p[1] + t * (q[1] - p[1])))
+    return clipped
