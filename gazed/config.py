@@ -700,6 +700,15 @@ class SimSection(Section):
         le=180,
         description="Ground-plane heading of the head's rest gaze, from +X towards +Y.",
     )
+    camera_pitch_deg: float = Field(
+        0.0,
+        ge=-90,
+        le=90,
+        description="True pitch of the head's base: the rest gaze's elevation (< 0 looks down).",
+    )
+    camera_roll_deg: float = Field(
+        0.0, ge=-45, le=45, description="True roll of the head's base about the rest gaze (> 0: right side down)."
+    )
     visual_latency_ms: float = Field(
         150.0,
         ge=0,

@@ -149,18 +149,16 @@ class Supervisor:
         self._changed = True
 
     def stop(self) -> None:
-        """SIGTERM every child, SIGKILL what is left after the grace period, reap all."""
+        """Stop the children in the reverse of their start order (gaze first, so no new demand;
+        servo before sim, so the head can park on its line), each SIGTERM then SIGKILL after
+        the grace period; reap all."""
         self.stopping = True
-        running = [
-            c for c in self.children.values() if c.popen is not None and c.popen.poll() is None
-        ]
-        for child in running:
+        for child in reversed(list(self.children.values())):
+            if child.popen is None or child.popen.poll() is not None:
+                continue
             _signal(child, signal.SIGTERM)
-        deadline = time.monotonic() + self.rig.services.stop_grace_s
-        for child in running:
-            assert child.popen is not None
             try:
-                child.popen.wait(timeout=max(0.0, deadline - time.monotonic()))
+                child.popen.wait(timeout=self.rig.services.stop_grace_s)
             except subprocess.TimeoutExpired:
                 log.warning(
                     "%s: no exit %.1f s after SIGTERM, killing",
@@ -215,7 +213,11 @@ class Supervisor:
                 self._exited(
                     child, child.popen.returncode, "no liveliness within ready_timeout_s", now_s
                 )
-            elif child.state == State.RUNNING and not child.alive and now_s - child.lost_s > EXIT_GRACE_S:
+            elif (
+                child.state == State.RUNNING
+                and not child.alive
+                and now_s - child.lost_s > EXIT_GRACE_S
+            ):
                 _signal(child, signal.SIGKILL)  # frozen: its lease expired
                 child.popen.wait()
                 self._exited(child, child.popen.returncode, "liveliness lost (frozen?)", now_s)

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import logging
 import time
+from dataclasses import replace
 
 import numpy as np
 
@@ -57,6 +58,10 @@ class EstimatorService:
         self.kinematics = HeadKinematics.from_section(rig.head)
         # image-cv works on gaze angles alone; every other mode needs the ground homography
         self.geometry = GroundGeometry.from_rig(rig) if self.filter != "image-cv" else None
+        # a detector that reports the ground contact point (`background`) needs no height correction
+        self.contact_geometry = (
+            replace(self.geometry, height=None) if self.geometry is not None else None
+        )
         self.noise = MeasurementNoise.from_head(
             rig.head, section.pixel_noise_px, section.pixel_rate_noise_px_s
         )
@@ -99,7 +104,11 @@ class EstimatorService:
             if self.geometry is None:
                 measurement = gaze_measurement(detection, self.camera, self.kinematics, self.noise)
             else:
-                measurement = ground_measurement(detection, self.geometry, self.noise)
+                geometry = (
+                    self.contact_geometry if detection.point == "ground-contact" else self.geometry
+                )
+                assert geometry is not None
+                measurement = ground_measurement(detection, geometry, self.noise)
         except HorizonError:
             self.counts["above_horizon"] += 1
             self._coast(t_s)

@@ -182,12 +182,14 @@ def test_pose_from_the_sim_rig_and_its_geometry() -> None:
     rig = load_rig(REPO / "configs" / "sim.toml")
     pose = CameraPose.from_rig(rig)
     assert pose.centre_m == pytest.approx(rig.sim.camera_xyz_m)
-    rest_gaze_on_ground = pose.base_to_world[:, 2]
+    rest_gaze = pose.base_to_world[:, 2]
     yaw = math.radians(rig.sim.camera_yaw_deg)
-    assert rest_gaze_on_ground == pytest.approx([math.cos(yaw), math.sin(yaw), 0.0], abs=1e-15)
+    pitch = math.radians(rig.sim.camera_pitch_deg)
+    expected = [math.cos(pitch) * math.cos(yaw), math.cos(pitch) * math.sin(yaw), math.sin(pitch)]
+    assert rest_gaze == pytest.approx(expected, abs=1e-15)
     assert pose.head.kinematics == rig.head.kinematics
-    # base axes: x right of the rest gaze, y up, columns orthonormal
-    assert pose.base_to_world[:, 1] == pytest.approx([0, 0, 1])
+    # base axes: x right of the rest gaze and level (no roll), columns orthonormal
+    assert pose.base_to_world[2, 0] == pytest.approx(0.0, abs=1e-15)
     assert pose.base_to_world.T @ pose.base_to_world == pytest.approx(np.eye(3))
     geometry = pose.ground_geometry(CAMERA, target_height_m=1.0)
     target = np.array([2.0, 5.0, 1.0])

@@ -56,10 +56,13 @@ class CameraPose:
 
     @classmethod
     def from_rig(cls, rig: Rig) -> CameraPose:
-        """The simulator's true pose: `[sim] camera_xyz_m`, `camera_yaw_deg`, `[head] kinematics`."""
+        """The simulator's true pose: `[sim] camera_xyz_m`, `camera_yaw_deg`, `camera_pitch_deg`,
+        `camera_roll_deg`, `[head] kinematics`."""
         return cls(
             np.array(rig.sim.camera_xyz_m),
             math.radians(rig.sim.camera_yaw_deg),
+            math.radians(rig.sim.camera_pitch_deg),
+            math.radians(rig.sim.camera_roll_deg),
             head=HeadKinematics.from_section(rig.head),
         )
 
