@@ -623,6 +623,11 @@ class EstimatorSection(Section):
     pixel_rate_noise_px_s: float = Field(
         30.0, gt=0, le=100000, description="Std of a detection's independent image velocity."
     )
+    predict_over_latency: bool = Field(
+        True,
+        description="Predict to the instant the demand acts; false predicts to the measurement's own "
+        "time (no latency compensation: the baseline `gazed eval loop --filter none` compares against).",
+    )
     actuation_latency_default_ms: float = Field(
         20.0,
         ge=0,

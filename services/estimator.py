@@ -53,6 +53,7 @@ class EstimatorService:
     def __init__(self, rig: Rig, bus: Bus) -> None:
         section = rig.estimator
         self.filter = section.filter
+        self.predict_over_latency = section.predict_over_latency
         self.estimator = build_estimator(section)
         self.camera = CameraModel.from_section(rig.camera)
         self.kinematics = HeadKinematics.from_section(rig.head)
@@ -126,7 +127,11 @@ class EstimatorService:
 
     def _publish(self, detection: Detection, t_ns: int) -> None:
         stamps = (*detection.stamps, (STAGE, t_ns))
-        t_effect_ns = t_ns + round(self.actuation.median_s * 1e9)
+        t_effect_ns = (
+            t_ns + round(self.actuation.median_s * 1e9)
+            if self.predict_over_latency
+            else detection.t_capture_ns
+        )
         predicted = self.estimator.predict(t_effect_ns / 1e9)
         if predicted is None:
             return

@@ -12,6 +12,10 @@ import importlib
 # name -> (module, one-line help)
 SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "estimator": ("gazed.eval.estimator", "score the estimation modes on scenarios or track files"),
+    "loop": (
+        "gazed.eval.loop",
+        "run the whole loop in the simulator on a private bus and score it",
+    ),
 }
 
 

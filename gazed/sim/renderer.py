@@ -53,20 +53,18 @@ def ground_texture(seed: int, size_px: int = 1536) -> np.ndarray:
 
 
 def body_texture(seed: int, index: int, size_px: tuple[int, int] = (48, 128)) -> np.ndarray:
-    """A seeded, high-contrast body (clothes-like blocks and stripes): (h, w, 3) BGR uint8."""
+    """A seeded, patterned body: a dark base colour under a dense pattern of small bright
+    patches (clothes with a print), textured evenly all over so that a motion detector's region
+    has its centroid at the body's middle, not wherever a few large patches happen to lie.
+    (h, w, 3) BGR uint8."""
     rng = np.random.default_rng([seed, 2, index])
     w, h = size_px
-    base = rng.integers(30, 120, 3)
-    texture = np.empty((h, w, 3), np.uint8)
-    texture[:] = base
-    for _ in range(12):
-        x0, y0 = int(rng.integers(0, w)), int(rng.integers(0, h))
-        x1, y1 = x0 + int(rng.integers(4, w // 2)), y0 + int(rng.integers(4, h // 4))
-        cv2.rectangle(
-            texture, (x0, y0), (x1, y1), tuple(int(c) for c in rng.integers(0, 256, 3)), -1
-        )
-    noise = rng.integers(-25, 26, (h, w, 1))
-    return np.clip(texture.astype(np.int16) + noise, 0, 255).astype(np.uint8)
+    cell = 6
+    cells = rng.integers(0, 256, (h // cell + 1, w // cell + 1, 3)).astype(np.uint8)
+    pattern = cv2.resize(cells, None, fx=cell, fy=cell, interpolation=cv2.INTER_NEAREST)[:h, :w]
+    base = rng.integers(20, 90, 3).astype(np.int16)
+    texture = (base + pattern.astype(np.int16)) // 2 + rng.integers(-20, 21, (h, w, 1))
+    return np.clip(texture, 0, 255).astype(np.uint8)
 
 
 class Renderer:

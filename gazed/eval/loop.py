@@ -1,0 +1,278 @@
+"""`gazed eval loop`: run a rig's whole loop in the simulator on a private bus and score it.
+
+The rig file is copied with a private rig name, loopback port and head pty, and the scenario's
+trajectory, filter, visual latency, seed and control mode; `gazed run` starts every process on
+it (the real entry points); once the supervisor reports them all up, what the bus carries for
+`--seconds` is recorded and scored (`loop_metrics`), with each process's CPU share over the
+same window. `--compare` runs `imm`, `image-cv` and `none` (the IMM without prediction over the
+latency) on the same seed, one after the other.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+import uuid
+from pathlib import Path
+from typing import Any
+
+import psutil
+import tomlkit
+
+from gazed.bus import Bus, BusError
+from gazed.config import RigError, load_rig
+from gazed.eval.loop_metrics import LoopRecord, score
+from gazed.geometry.pose import CameraPose
+from gazed.topics import ESTIMATOR_STATE, GAZE_STATE, SERVO_COMMAND, SIM_TRUTH, SUPERVISOR_STATUS
+
+FILTERS = ("imm", "innovation", "alphabeta", "image-cv", "none")
+COMPARED = ("imm", "image-cv", "none")
+START_TIMEOUT_S = 60.0
+
+
+def loop_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--rig", type=Path, required=True, help="the rig to run (its [sim] world)")
+    parser.add_argument(
+        "--scenario",
+        required=True,
+        help="a trajectory: rounded-square, oval, stop-and-go, figure-eight, random, file:PATH#ped_id",
+    )
+    parser.add_argument(
+        "--seconds", type=float, default=30.0, help="scored time after every process is up"
+    )
+    parser.add_argument(
+        "--filter", choices=FILTERS, help="estimator mode (none: IMM without prediction)"
+    )
+    parser.add_argument("--latency-ms", type=float, help="the simulated visual latency")
+    parser.add_argument("--seed", type=int, help="the simulated world's seed")
+    parser.add_argument("--control", choices=("pursuit", "look-and-move"), help="gaze control mode")
+    parser.add_argument(
+        "--compare", action="store_true", help=f"run {', '.join(COMPARED)} on the same seed"
+    )
+    parser.add_argument("--json", action="store_true", help="print JSON")
+
+
+def loop_command(args: argparse.Namespace) -> int:
+    try:
+        load_rig(args.rig)
+    except RigError as exc:
+        print(exc, file=sys.stderr)
+        return 2
+    filters = COMPARED if args.compare else (args.filter,)
+    results = []
+    for mode in filters:
+        try:
+            results.append(
+                run_loop(
+                    args.rig,
+                    args.scenario,
+                    args.seconds,
+                    mode,
+                    args.latency_ms,
+                    args.seed,
+                    args.control,
+                )
+            )
+        except (RuntimeError, RigError) as exc:
+            print(f"gazed eval loop: {exc}", file=sys.stderr)
+            return 1
+    if args.json:
+        print(json.dumps(results[0] if len(results) == 1 else {"runs": results}, indent=2))
+    else:
+        print(_table(results))
+    return 0
+
+
+def run_loop(
+    rig_path: Path,
+    scenario: str,
+    seconds: float,
+    filter_mode: str | None = None,
+    latency_ms: float | None = None,
+    seed: int | None = None,
+    control: str | None = None,
+) -> dict[str, Any]:
+    """Run the rig's processes on a private bus for `seconds` after they are all up; score."""
+    with tempfile.TemporaryDirectory(prefix="gazed-eval-") as directory:
+        private = private_rig(
+            rig_path, Path(directory), scenario, filter_mode, latency_ms, seed, control
+        )
+        rig = load_rig(private)
+        log_path = Path(directory) / "run.log"
+        with log_path.open("w") as log:
+            supervisor = subprocess.Popen(
+                [sys.executable, "-m", "gazed.cli", "run", str(private)],
+                stdout=log,
+                stderr=subprocess.STDOUT,
+            )
+        try:
+            record, cpu = _record(rig, supervisor, seconds, log_path)
+        finally:
+            supervisor.send_signal(signal.SIGTERM)
+            try:
+                supervisor.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                supervisor.kill()
+                supervisor.wait()
+        result: dict[str, Any] = {
+            "scenario": scenario,
+            "filter": filter_mode or rig.estimator.filter,
+            "seconds": seconds,
+        }
+        result.update(score(record, CameraPose.from_rig(rig), rig.gaze.fovea_half_angle_deg))
+        del result["frames"]
+        result["cpu_percent"] = cpu
+        return result
+
+
+def private_rig(
+    rig_path: Path,
+    directory: Path,
+    scenario: str,
+    filter_mode: str | None,
+    latency_ms: float | None,
+    seed: int | None,
+    control: str | None,
+) -> Path:
+    """A copy of the rig on a private bus and pty, with the run's settings."""
+    document = tomlkit.parse(rig_path.read_text())
+    base = rig_path.resolve().parent
+    document["rig"]["name"] = f"eval{uuid.uuid4().hex[:8]}"
+    bus = document.setdefault("bus", tomlkit.table())
+    bus["listen"] = [f"tcp/127.0.0.1:{_free_port()}"]
+    bus.pop("connect", None)
+    bus["router"] = True
+    if "zenoh_config_path" in bus:
+        bus["zenoh_config_path"] = str(base / str(bus["zenoh_config_path"]))
+    document.setdefault("servo", tomlkit.table())["port"] = str(directory / "head")
+    sim = document.setdefault("sim", tomlkit.table())
+    if scenario.startswith("file:"):
+        path, hash_, ped = scenario[len("file:") :].partition("#")
+        scenario = f"file:{(base / path).resolve()}{hash_}{ped}"
+    sim["trajectory"] = scenario
+    if latency_ms is not None:
+        sim["visual_latency_ms"] = latency_ms
+    if seed is not None:
+        sim["seed"] = seed
+    estimator = document.setdefault("estimator", tomlkit.table())
+    if filter_mode == "none":
+        estimator["filter"] = "imm"
+        estimator["predict_over_latency"] = False
+    elif filter_mode is not None:
+        estimator["filter"] = filter_mode
+    if control is not None:
+        document.setdefault("gaze", tomlkit.table())["control"] = control
+    services = document.setdefault("services", tomlkit.table())
+    sim_service = services.setdefault("sim", tomlkit.table())
+    sim_service["enabled"] = True
+    path = directory / "rig.toml"
+    path.write_text(tomlkit.dumps(document))
+    return path
+
+
+def _record(
+    rig: Any, supervisor: subprocess.Popen[bytes], seconds: float, log_path: Path
+) -> tuple[LoopRecord, dict[str, float]]:
+    bus = Bus(rig, "eval")
+    deadline = time.monotonic() + START_TIMEOUT_S
+    while True:
+        if supervisor.poll() is not None:
+            raise RuntimeError(
+                f"gazed run exited with {supervisor.returncode}:\n{log_path.read_text()[-2000:]}"
+            )
+        try:
+            bus.open()
+            break
+        except BusError:
+            if time.monotonic() > deadline:
+                raise RuntimeError("the private bus did not come up") from None
+            time.sleep(0.1)  # the supervisor's router is not listening yet
+    try:
+        truth, states = (
+            bus.subscribe(SIM_TRUTH, capacity=100000),
+            bus.subscribe(GAZE_STATE, capacity=10000),
+        )
+        commands, estimates = (
+            bus.subscribe(SERVO_COMMAND, capacity=100000),
+            bus.subscribe(ESTIMATOR_STATE, capacity=100000),
+        )
+        status = bus.subscribe(SUPERVISOR_STATUS)
+        pids = _wait_running(bus, status, supervisor, deadline, log_path)
+        for subscription in (truth, states, commands, estimates):
+            subscription.take()
+        processes = {name: psutil.Process(pid) for name, pid in pids.items()}
+        cpu_start = {name: _cpu_s(p) for name, p in processes.items()}
+        started = time.monotonic()
+        record = LoopRecord([], [], [], [])
+        while time.monotonic() - started < seconds:
+            bus.wait(0.5)
+            record.truth.extend(truth.take())
+            record.states.extend(states.take())
+            record.commands.extend(commands.take())
+            record.estimates.extend(estimates.take())
+            if supervisor.poll() is not None:
+                raise RuntimeError(
+                    f"gazed run stopped during the run:\n{log_path.read_text()[-2000:]}"
+                )
+        elapsed = time.monotonic() - started
+        cpu = {
+            name: round(100.0 * (_cpu_s(p) - cpu_start[name]) / elapsed, 1)
+            for name, p in processes.items()
+        }
+        return record, cpu
+    finally:
+        bus.close()
+
+
+def _wait_running(
+    bus: Bus, status: Any, supervisor: subprocess.Popen[bytes], deadline: float, log_path: Path
+) -> dict[str, int]:
+    """Pids of the processes once the supervisor reports every one running."""
+    while time.monotonic() < deadline:
+        bus.wait(0.5)
+        latest = status.latest()
+        if latest is not None and latest.state == "running":
+            running = {p.name: p.pid for p in latest.processes if p.state == "running" and p.pid}
+            if len(running) == len([p for p in latest.processes if p.state != "disabled"]):
+                return running
+        if supervisor.poll() is not None:
+            break
+    raise RuntimeError(f"the rig's processes did not all come up:\n{log_path.read_text()[-2000:]}")
+
+
+def _cpu_s(process: psutil.Process) -> float:
+    times = process.cpu_times()
+    return times.user + times.system
+
+
+def _free_port() -> int:
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def _table(results: list[dict[str, Any]]) -> str:
+    rows = [
+        ("filter", lambda r: r["filter"]),
+        ("acquired after (s)", lambda r: r["acquired_after_s"]),
+        ("gaze error rms (deg)", lambda r: (r["gaze_error_deg"] or {}).get("rms")),
+        ("gaze error p95 (deg)", lambda r: (r["gaze_error_deg"] or {}).get("p95")),
+        ("fovea fraction", lambda r: r["fovea_fraction"]),
+        ("saccades after acquisition", lambda r: r["saccades_after_acquisition"]),
+        ("ground rmse (m)", lambda r: r["ground_rmse_m"]),
+        ("processing p50 (ms)", lambda r: r["latency_ms"]["processing_p50"]),
+        ("processing p99 (ms)", lambda r: r["latency_ms"]["processing_p99"]),
+        ("end to end p50 (ms)", lambda r: r["latency_ms"]["end_to_end_p50"]),
+        ("cpu total (%)", lambda r: round(sum(r["cpu_percent"].values()), 1)),
+    ]
+    lines = [f"scenario {results[0]['scenario']}, {results[0]['seconds']:g} s"]
+    for label, get in rows:
+        lines.append(f"  {label:<28}" + "".join(f"{get(r)!s:>12}" for r in results))
+    return "\n".join(lines)

@@ -1,0 +1,124 @@
+"""Scores of a closed-loop run from what it published (seed 000 §6, Fig. 15: pursuit held without
+corrective saccades).
+
+- gaze error: the angle between the camera's optical axis (the true head pose at a frame's
+  capture) and the true direction to the target's middle (half its height above its ground
+  point), from `sim/truth`;
+- acquisition: the first frame from which the target stays within the fovea for
+  `ACQUIRED_FRAMES` frames in a row; fovea fraction, error RMS / p95 and saccades count from there;
+- ground RMSE: the estimator's ground position at a capture time against the truth then;
+- latency: processing from the frame's publication by `sim` (its arrival at `vision`) to the
+  command bytes written, and end to end from capture; the first write of each capture counts.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from gazed.geometry.pose import CameraPose
+from gazed.messages import EstimatorState, GazeDemand, GazeState, SimTruth
+
+ACQUIRED_FRAMES = 10
+
+
+@dataclass(frozen=True)
+class LoopRecord:
+    """What a run published, in arrival order."""
+
+    truth: list[SimTruth]
+    states: list[GazeState]
+    commands: list[GazeDemand]
+    estimates: list[EstimatorState]
+
+
+def gaze_errors_rad(truth: list[SimTruth], pose: CameraPose) -> np.ndarray:
+    """Per truth frame: angle between the optical axis and the target's middle."""
+    errors = []
+    for t in truth:
+        axis = pose.base_to_world @ pose.head.gaze(t.head.pan_rad, t.head.tilt_rad)
+        target = (
+            np.array([t.target_xy_m[0], t.target_xy_m[1], t.target_height_m / 2.0]) - pose.centre_m
+        )
+        cosine = float(axis @ target) / float(np.linalg.norm(axis) * np.linalg.norm(target))
+        errors.append(math.acos(max(-1.0, min(1.0, cosine))))
+    return np.asarray(errors)
+
+
+def acquisition_index(errors_rad: np.ndarray, fovea_rad: float) -> int | None:
+    """The first frame from which the target stays in the fovea for ACQUIRED_FRAMES frames."""
+    inside = errors_rad <= fovea_rad
+    run = 0
+    for k, ok in enumerate(inside):
+        run = run + 1 if ok else 0
+        if run >= ACQUIRED_FRAMES:
+            return k - ACQUIRED_FRAMES + 1
+    return None
+
+
+def score(record: LoopRecord, pose: CameraPose, fovea_half_angle_deg: float) -> dict[str, object]:
+    truth = sorted(record.truth, key=lambda t: t.t_capture_ns)
+    if not truth:
+        raise ValueError("no sim/truth was received: the simulator did not run")
+    errors = gaze_errors_rad(truth, pose)
+    fovea = math.radians(fovea_half_angle_deg)
+    start = acquisition_index(errors, fovea)
+    result: dict[str, object] = {"frames": len(truth)}
+    if start is None:
+        result.update(
+            acquired_after_s=None,
+            gaze_error_deg=None,
+            fovea_fraction=0.0,
+            saccades_after_acquisition=None,
+        )
+    else:
+        acquired_ns = truth[start].t_capture_ns
+        after = np.degrees(errors[start:])
+        saccades = sum(
+            1 for s in record.states if s.state == "saccade" and s.t_capture_ns >= acquired_ns
+        )
+        result.update(
+            acquired_after_s=round((acquired_ns - truth[0].t_capture_ns) / 1e9, 3),
+            gaze_error_deg={
+                "rms": round(float(np.sqrt(np.mean(after**2))), 4),
+                "p95": round(float(np.percentile(after, 95)), 4),
+            },
+            fovea_fraction=round(float(np.mean(after <= fovea_half_angle_deg)), 4),
+            saccades_after_acquisition=saccades,
+        )
+    result["ground_rmse_m"] = ground_rmse_m(truth, record.estimates)
+    result["latency_ms"] = latencies_ms(record.commands)
+    return result
+
+
+def ground_rmse_m(truth: list[SimTruth], estimates: list[EstimatorState]) -> float | None:
+    by_time = {t.t_capture_ns: t for t in truth}
+    squared = [
+        (e.ground_xy_m[0] - by_time[e.t_capture_ns].target_xy_m[0]) ** 2
+        + (e.ground_xy_m[1] - by_time[e.t_capture_ns].target_xy_m[1]) ** 2
+        for e in estimates
+        if e.ground_xy_m is not None and not e.coasting and e.t_capture_ns in by_time
+    ]
+    return round(math.sqrt(float(np.mean(squared))), 4) if squared else None
+
+
+def latencies_ms(commands: list[GazeDemand]) -> dict[str, float | None]:
+    processing, end_to_end = [], []
+    seen: set[int] = set()
+    for command in commands:
+        stamps = dict(command.stamps)
+        if "sim" not in stamps or "servo" not in stamps or command.t_capture_ns in seen:
+            continue
+        seen.add(command.t_capture_ns)
+        processing.append((stamps["servo"] - stamps["sim"]) / 1e6)
+        end_to_end.append((stamps["servo"] - command.t_capture_ns) / 1e6)
+    if not processing:
+        return {"processing_p50": None, "processing_p99": None, "end_to_end_p50": None}
+    p50, p99 = np.percentile(processing, [50, 99])
+    return {
+        "processing_p50": round(float(p50), 2),
+        "processing_p99": round(float(p99), 2),
+        "end_to_end_p50": round(float(np.median(end_to_end)), 2),
+    }
