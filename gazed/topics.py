@@ -54,7 +54,7 @@ ESTIMATOR_STATE = Topic("estimator/state", EstimatorState, "estimator", ("gazed 
 ESTIMATOR_PREDICTION = Topic("estimator/prediction", Prediction, "estimator", ("gaze",))
 ESTIMATOR_EVENT = Topic("estimator/event", ManeuverEvent, "estimator", ("gazed tail",))
 GAZE_DEMAND = Topic("gaze/demand", GazeDemand, "gaze", ("servo",))
-GAZE_STATE = Topic("gaze/state", GazeState, "gaze", ("gazed run",))
+GAZE_STATE = Topic("gaze/state", GazeState, "gaze", ("vision", "gazed run"))
 SERVO_ODOMETRY = Topic("servo/odometry", Odometry, "servo", ("vision", "estimator", "gaze"))
 SERVO_STATUS = Topic("servo/status", ServoStatus, "servo", ("gazed status",))
 # Each demand as written to the head (limited), its stamps ending ("servo", t) at the moment its

@@ -1,10 +1,12 @@
 """The vision process: frames -> detector -> `vision/detection` and `vision/candidates`.
 
 Inputs:  frames from the rig's `[camera] source` — the simulator's `sim/frame` for 'sim', else
-         OpenCV (device index, file, RTSP/HTTP URL) —, and `servo/odometry`.
+         OpenCV (device index, file, RTSP/HTTP URL) —, `servo/odometry` and `gaze/state`.
 Outputs: `vision/detection` for every frame processed, found or not, with the head pose
          interpolated at capture time and `compensated` telling whether the head's rotation
-         was removed; `vision/candidates` (when `[vision] candidates`).
+         was removed; `vision/candidates` (when `[vision] candidates`, and not while `gaze/state`
+         says the controller pursues, saccades or traces: it has no use for them then, and the
+         whole-frame motion energy is the most expensive part of a frame).
 Settings: [camera] (source, size, intrinsics, reopen_max_s, timeout_ms), [head] kinematics,
          [vision] (detector and its thresholds, odometry interpolation).
 
@@ -27,7 +29,7 @@ from gazed.config import Rig
 from gazed.geometry.camera import CameraModel
 from gazed.geometry.kinematics import HeadKinematics
 from gazed.messages import Candidate, Candidates, Detection, HeadPose
-from gazed.topics import SERVO_ODOMETRY, VISION_CANDIDATES, VISION_DETECTION
+from gazed.topics import GAZE_STATE, SERVO_ODOMETRY, VISION_CANDIDATES, VISION_DETECTION
 from gazed.vision.bus_frames import BusFrameSource
 from gazed.vision.frames import CapturedFrame, FrameError, gray_frame
 from gazed.vision.odometry_history import OdometryHistory
@@ -38,6 +40,7 @@ from services.runtime import HealthReport, Now, main
 
 IDLE_WAIT_S = 1.0  # no frame: sleep until one arrives (sources wake the loop) or this long
 TIMING_WINDOW = 100  # frames over which health reports the stage times
+CANDIDATES_UNUSED = ("pursuit", "saccade", "trace")  # gaze states that ignore candidates
 
 
 def open_source(rig: Rig, bus: Bus) -> FrameSource:
@@ -66,6 +69,8 @@ class VisionService:
             vision.odometry_history_ms * 1e-3, vision.odometry_max_gap_ms * 1e-3
         )
         self.odometry = bus.subscribe(SERVO_ODOMETRY)
+        self.gaze_states = bus.subscribe(GAZE_STATE, capacity=8)
+        self.gaze_state: str | None = None
         self.detections = bus.publisher(VISION_DETECTION)
         self.candidates = bus.publisher(VISION_CANDIDATES) if vision.candidates else None
         self.source = source if source is not None else open_source(rig, bus)
@@ -80,6 +85,8 @@ class VisionService:
     def step(self, now: Now) -> float:
         for odometry in self.odometry.take():
             self.history.add(odometry)
+        for state in self.gaze_states.take():
+            self.gaze_state = state.state
         frame = self.source.read()
         if frame is None:
             return IDLE_WAIT_S
@@ -94,7 +101,8 @@ class VisionService:
             return 0.0
         self._last_t_ns = frame.t_capture_ns
         head = self.history.pose_at(frame.t_capture_ns)
-        result = self.pipeline.process(gray, frame.t_capture_ns, head)
+        wanted = self.gaze_state not in CANDIDATES_UNUSED
+        result = self.pipeline.process(gray, frame.t_capture_ns, head, with_candidates=wanted)
         self._publish(frame, head, result)
         return 0.0
 

@@ -106,8 +106,16 @@ class VisionPipeline:
         if self.candidates is not None:
             self.candidates.reset()
 
-    def process(self, gray: np.ndarray, t_capture_ns: int, head: HeadPose | None) -> VisionResult:
-        """Run the detector (and candidates) on one grey frame captured at `t_capture_ns`."""
+    def process(
+        self,
+        gray: np.ndarray,
+        t_capture_ns: int,
+        head: HeadPose | None,
+        *,
+        with_candidates: bool = True,
+    ) -> VisionResult:
+        """Run the detector (and candidates, unless `with_candidates` is false — the gaze
+        controller needs none while it pursues) on one grey frame captured at `t_capture_ns`."""
         started = time.perf_counter()
         if self.undistortion is not None:
             gray = self.undistortion.frame(gray)
@@ -135,8 +143,11 @@ class VisionPipeline:
             step = self.ego.still_step(dt_s)
         started = time.perf_counter()
         energy = None
-        if self.detector.needs_energy or self.candidates is not None:
+        candidates_wanted = self.candidates is not None and with_candidates
+        if self.detector.needs_energy or candidates_wanted:
             energy = self._energy.update(gray, step.H if compensated else None)
+        else:
+            self._energy.reset()  # skipped frames break the chain of differences
         energy_s = time.perf_counter() - started
         pair = FramePair(gray, t_capture_ns * 1e-9, prev_gray, step, compensated, energy)
         started = time.perf_counter()
@@ -149,7 +160,7 @@ class VisionPipeline:
         output = dataclasses.replace(output, processing_ms=detector_s * 1e3)
         candidates = None
         candidates_s = 0.0
-        if self.candidates is not None:
+        if self.candidates is not None and candidates_wanted:
             started = time.perf_counter()
             candidates = self.candidates.find(pair)
             if self.undistortion is not None:
