@@ -1,0 +1,65 @@
+"""The product, end to end: `gazed run` on the simulated rig acquires the target, holds it in
+the fovea, and on SIGTERM parks the head and leaves no process behind."""
+
+from __future__ import annotations
+
+import math
+import signal
+import time
+from pathlib import Path
+
+from conftest import REPO, RunningSupervisor, pid_alive, poll_until
+
+from gazed.eval.loop import private_rig
+from gazed.eval.loop_metrics import LoopRecord, score
+from gazed.geometry.pose import CameraPose
+from gazed.topics import ESTIMATOR_STATE, GAZE_STATE, SERVO_COMMAND, SIM_TRUTH
+
+RUN_S = 12.0
+
+
+def test_sim_rig_tracks_and_stops_parked(tmp_path: Path) -> None:
+    rig_path = private_rig(REPO / "configs" / "sim.toml", tmp_path, "oval", None, None, 3, None)
+    supervisor = RunningSupervisor(rig_path, tmp_path)
+    rig = supervisor.rig
+    bus = supervisor.bus
+    truth = bus.subscribe(SIM_TRUTH, capacity=100000)
+    states = bus.subscribe(GAZE_STATE, capacity=1000)
+    commands = bus.subscribe(SERVO_COMMAND, capacity=100000)
+    estimates = bus.subscribe(ESTIMATOR_STATE, capacity=100000)
+    record = LoopRecord([], [], [], [])
+    try:
+        supervisor.wait_ready(60.0)
+        pids = supervisor.pids()
+        assert set(pids) == {"sim", "servo", "vision", "estimator", "gaze"}
+        started = time.monotonic()
+        while time.monotonic() - started < RUN_S:  # record what the loop publishes
+            bus.wait(0.5)
+            record.truth.extend(truth.take())
+            record.states.extend(states.take())
+            record.commands.extend(commands.take())
+            record.estimates.extend(estimates.take())
+        result = score(record, CameraPose.from_rig(rig), rig.gaze.fovea_half_angle_deg)
+        print(result)
+        assert result["acquired_after_s"] is not None and result["acquired_after_s"] < 6.0
+        assert result["fovea_fraction"] >= 0.8
+        assert any(s.state == "pursuit" for s in record.states)
+        assert result["ground_rmse_m"] is not None and result["ground_rmse_m"] < 0.5
+        parked_from = len(record.truth)
+        supervisor.process.send_signal(signal.SIGTERM)
+        # the servo parks the head on SIGTERM before the simulator (stopped last) goes away
+        poll_until(
+            lambda: record.truth.extend(truth.take()) or supervisor.process.poll() is not None, 30.0
+        )
+        assert supervisor.process.returncode == 0
+    finally:
+        code = supervisor.stop()
+    assert code == 0
+    last = record.truth[-1].head
+    park_pan, park_tilt = rig.head.park_rad
+    assert len(record.truth) > parked_from
+    assert (
+        math.degrees(abs(last.pan_rad - park_pan)) < 0.5
+        and math.degrees(abs(last.tilt_rad - park_tilt)) < 0.5
+    )
+    assert [name for name, pid in pids.items() if pid_alive(pid)] == []
