@@ -16,6 +16,8 @@
   SIGHUP: re-read the rig; an invalid one is reported and the old one kept; a valid one
   restarts only the processes whose sections changed.
 - Publishes `gazed/<rig>/supervisor/status` once a second and on every change.
+- Shows the loop (`console.LiveStatus`): a live status line in a terminal; under systemd a log
+  line per gaze state change.
 """
 
 from __future__ import annotations
@@ -36,6 +38,7 @@ from pathlib import Path
 
 from gazed.bus import Bus, BusError
 from gazed.config import SERVICE_NAMES, Rig, RigError, ServiceSpec, load_rig, sections_read_by
+from gazed.console import REFRESH_S, LiveStatus
 from gazed.messages import ProcessStatus, SupervisorStatus
 from gazed.sdnotify import Notifier
 from gazed.topics import SUPERVISOR_STATUS
@@ -264,6 +267,13 @@ class Supervisor:
                 child.lost_s = time.monotonic()
             self._changed = True
 
+    def up(self) -> tuple[int, int]:
+        """(processes running, processes enabled and installed)."""
+        expected = [
+            c for c in self.children.values() if c.state not in (State.MISSING, State.DISABLED)
+        ]
+        return sum(1 for c in expected if c.state == State.RUNNING), len(expected)
+
     def _all_up(self) -> bool:
         return all(
             c.state in (State.RUNNING, State.MISSING, State.DISABLED)
@@ -383,7 +393,11 @@ def run_command(args: argparse.Namespace) -> int:
         with Bus(rig, "supervisor", router=rig.bus.router) as bus:
             flags = _install_signals(bus)
             supervisor = Supervisor(args.rig.resolve(), rig, bus, notifier)
-            return _loop(supervisor, bus, notifier, flags)
+            status = LiveStatus(bus)
+            try:
+                return _loop(supervisor, bus, notifier, flags, status)
+            finally:
+                status.close()
     except BusError as exc:
         print(f"gazed run: {exc}", file=sys.stderr)
         return 1
@@ -405,7 +419,9 @@ def _install_signals(bus: Bus) -> set[str]:
     return flags
 
 
-def _loop(supervisor: Supervisor, bus: Bus, notifier: Notifier, flags: set[str]) -> int:
+def _loop(
+    supervisor: Supervisor, bus: Bus, notifier: Notifier, flags: set[str], status: LiveStatus
+) -> int:
     code = 0
     try:
         supervisor.start(time.monotonic())
@@ -413,7 +429,9 @@ def _loop(supervisor: Supervisor, bus: Bus, notifier: Notifier, flags: set[str])
             if "hup" in flags:
                 flags.discard("hup")
                 supervisor.reload(time.monotonic())
-            bus.wait(supervisor.step(time.monotonic()))
+            wait_s = supervisor.step(time.monotonic())
+            status.refresh(time.monotonic(), *supervisor.up())
+            bus.wait(min(wait_s, REFRESH_S))
     except GiveUp as exc:
         log.error("%s", exc)
         notifier.status(f"failed: {exc}")
