@@ -908,6 +908,8 @@ def parse_rig(text: str, path: str | Path = "<rig>") -> Rig:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise RigError([f"{path}: TOML syntax error: {_syntax_message(exc)}"]) from exc
+    except (RecursionError, ValueError) as exc:  # nested too deep, an integer too long for int()
+        raise RigError([f"{path}: not a valid TOML document: {exc}"]) from exc
     try:
         rig = Rig.model_validate(data)
     except ValidationError as exc:
