@@ -187,7 +187,9 @@ class Publisher(Generic[M]):
             topic.key(bus.rig.name),
             encoding=encoding,
             # a late frame is worth nothing, a lost demand or detection is worth a lot
-            congestion_control=zenoh.CongestionControl.DROP if topic.frames else zenoh.CongestionControl.BLOCK,
+            congestion_control=zenoh.CongestionControl.DROP
+            if topic.frames
+            else zenoh.CongestionControl.BLOCK,
             express=True,
         )
 

@@ -39,7 +39,11 @@ class Target:
 def _target(args: argparse.Namespace) -> Target:
     if args.rig is not None:
         rig = load_rig(args.rig)
-        bus = rig.bus if not args.connect else BusSection(listen=[args.connect], connect=[args.connect])
+        bus = (
+            rig.bus
+            if not args.connect
+            else BusSection(listen=[args.connect], connect=[args.connect])
+        )
         return Target(bus, rig.name)
     endpoint = args.connect or DEFAULT_ENDPOINT
     return Target(BusSection(listen=[endpoint], connect=[endpoint]), args.rig_name or "*")
@@ -48,7 +52,9 @@ def _target(args: argparse.Namespace) -> Target:
 def _common_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--rig", type=Path, help="rig file: its [bus] endpoints and its name")
     parser.add_argument("--rig-name", help="listen to this rig only (without --rig: every rig)")
-    parser.add_argument("--connect", help=f"bus endpoint to join (default: the rig's, or {DEFAULT_ENDPOINT})")
+    parser.add_argument(
+        "--connect", help=f"bus endpoint to join (default: the rig's, or {DEFAULT_ENDPOINT})"
+    )
     parser.add_argument("--json", action="store_true", help="machine-readable output")
 
 
@@ -97,7 +103,9 @@ def _seen(sample: zenoh.Sample) -> Seen:
 
 def _listen(target: Target, key_expr: str, on_seen: Callable[[Seen], None]) -> zenoh.Session:
     session = _open(target)
-    session.declare_subscriber(key_expr, zenoh.handlers.Callback(lambda s: on_seen(_seen(s)), indirect=True))
+    session.declare_subscriber(
+        key_expr, zenoh.handlers.Callback(lambda s: on_seen(_seen(s)), indirect=True)
+    )
     return session
 
 
@@ -106,7 +114,9 @@ def _listen(target: Target, key_expr: str, on_seen: Callable[[Seen], None]) -> z
 
 def tail_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
-        "keyexpr", nargs="?", help="key expression; relative ones are below gazed/<rig>/ (default: every key)"
+        "keyexpr",
+        nargs="?",
+        help="key expression; relative ones are below gazed/<rig>/ (default: every key)",
     )
     _common_arguments(parser)
     parser.add_argument("--seconds", type=float, help="stop after this long")
@@ -130,7 +140,9 @@ def tail_command(args: argparse.Namespace) -> int:
     session = _listen(target, key_expr, on_seen)
     try:
         if not done.wait(min(args.seconds or 5.0, 5.0)) and counted[0] == 0:
-            print(f"gazed tail: nothing published on {key_expr} yet; still listening", file=sys.stderr)
+            print(
+                f"gazed tail: nothing published on {key_expr} yet; still listening", file=sys.stderr
+            )
         remaining = None if args.seconds is None else max(0.0, args.seconds - 5.0)
         done.wait(remaining)
     except KeyboardInterrupt:
@@ -165,7 +177,9 @@ def _tail_json(seen: Seen) -> str:
         payload = seen.message.model_dump(mode="json")
     else:
         payload = seen.raw.decode(errors="replace")
-    return json.dumps({"key": seen.key, "schema": seen.schema, "age_ms": seen.age_ms, "payload": payload})
+    return json.dumps(
+        {"key": seen.key, "schema": seen.schema, "age_ms": seen.age_ms, "payload": payload}
+    )
 
 
 def _compact(seen: Seen) -> str:
@@ -221,8 +235,10 @@ def status_command(args: argparse.Namespace) -> int:
     finally:
         session.close()
     if not alive and not counts:
-        print(f"gazed status: nothing answers for rig '{target.rig}' on {', '.join(target.bus.client_endpoints)}",
-              file=sys.stderr)
+        print(
+            f"gazed status: nothing answers for rig '{target.rig}' on {', '.join(target.bus.client_endpoints)}",
+            file=sys.stderr,
+        )
         return 1
     report = _status_report(target.rig, alive, counts, health, supervisor, args.seconds)
     print(json.dumps(report, indent=2) if args.json else _status_text(report))
@@ -257,7 +273,12 @@ def _status_report(
         processes: dict[str, Any] = {}
         if sup is not None:
             for p in sup.processes:
-                processes[p.name] = {"state": p.state, "pid": p.pid, "restarts": p.restarts, "message": p.message}
+                processes[p.name] = {
+                    "state": p.state,
+                    "pid": p.pid,
+                    "restarts": p.restarts,
+                    "message": p.message,
+                }
         for process in alive.get(name, []):
             processes.setdefault(process, {})["alive"] = True
         for entry in processes.values():
@@ -266,11 +287,23 @@ def _status_report(
             if key.startswith(f"{PREFIX}/{name}/"):
                 entry = processes.setdefault(h.process, {"alive": h.process in alive.get(name, [])})
                 entry["counters"] = {
-                    k: v for k, v in h.counters.items() if v and ("drop" in k or "malformed" in k or "error" in k or "clamp" in k or "refused" in k or "replaced" in k)
+                    k: v
+                    for k, v in h.counters.items()
+                    if v
+                    and (
+                        "drop" in k
+                        or "malformed" in k
+                        or "error" in k
+                        or "clamp" in k
+                        or "refused" in k
+                        or "replaced" in k
+                    )
                 }
                 entry["notes"] = h.notes
         rates = {
-            key.split("/", 2)[2]: round(n / seconds, 2) for key, n in sorted(counts.items()) if key.startswith(f"{PREFIX}/{name}/")
+            key.split("/", 2)[2]: round(n / seconds, 2)
+            for key, n in sorted(counts.items())
+            if key.startswith(f"{PREFIX}/{name}/")
         }
         rigs[name] = {
             "supervisor": sup.state if sup is not None else None,
@@ -322,7 +355,10 @@ def latency_command(args: argparse.Namespace) -> int:
     finally:
         session.close()
     if not stamped:
-        print(f"gazed latency: no stamped messages for rig '{target.rig}' in {args.seconds:g} s", file=sys.stderr)
+        print(
+            f"gazed latency: no stamped messages for rig '{target.rig}' in {args.seconds:g} s",
+            file=sys.stderr,
+        )
         return 1
     report = latency_report(stamped)
     print(json.dumps(report, indent=2) if args.json else _latency_text(report))
@@ -362,7 +398,9 @@ def _latency_text(report: dict[str, Any]) -> str:
     lines = [f"{'key / stage':<36} {'p50':>9} {'p95':>9} {'p99':>9}  (ms)"]
     for suffix, entry in report["keys"].items():
         e = entry["end_to_end_ms"]
-        lines.append(f"{suffix + ' (end to end, n=' + str(entry['n']) + ')':<36} {e['p50']:9.2f} {e['p95']:9.2f} {e['p99']:9.2f}")
+        lines.append(
+            f"{suffix + ' (end to end, n=' + str(entry['n']) + ')':<36} {e['p50']:9.2f} {e['p95']:9.2f} {e['p99']:9.2f}"
+        )
         for stage, s in entry["stages_ms"].items():
             lines.append(f"  {stage:<34} {s['p50']:9.2f} {s['p95']:9.2f} {s['p99']:9.2f}")
     return "\n".join(lines)

@@ -522,6 +522,23 @@ class VisionSection(Section):
         64.0, ge=0, description="candidates: smallest region published, in full-resolution pixels."
     )
 
+    edge_step_px: int = Field(
+        12,
+        ge=2,
+        le=200,
+        description="Line tracing: step along the edge to the next gaze point, in pixels.",
+    )
+    edge_canny_low: float = Field(
+        60.0,
+        gt=0,
+        description="Line tracing: Canny's low hysteresis threshold (gradient magnitude).",
+    )
+    edge_canny_high: float = Field(
+        150.0,
+        gt=0,
+        description="Line tracing: Canny's high hysteresis threshold (gradient magnitude).",
+    )
+
     @model_validator(mode="after")
     def _levels(self) -> VisionSection:
         if self.candidates_level >= self.pyramid_levels:
@@ -618,7 +635,10 @@ class EstimatorSection(Section):
         description="Re-initialise the filter after this many consecutive gate failures.",
     )
     pixel_noise_px: float = Field(
-        2.0, gt=0, le=1000, description="Std of a detection's target pixel (the live measurement's noise)."
+        2.0,
+        gt=0,
+        le=1000,
+        description="Std of a detection's target pixel (the live measurement's noise).",
     )
     pixel_rate_noise_px_s: float = Field(
         30.0, gt=0, le=100000, description="Std of a detection's independent image velocity."
@@ -665,23 +685,59 @@ class GazeSection(Section):
         description="No detection for this long in pursuit -> lost (coast on prediction).",
     )
     saccade_tolerance_deg: float = Field(
-        0.5, gt=0, le=20, description="A saccade has arrived when the head is this close to its goal, at rest."
+        0.5,
+        gt=0,
+        le=20,
+        description="A saccade has arrived when the head is this close to its goal, at rest.",
     )
-    saccade_timeout_ms: float = Field(3000.0, gt=0, description="A saccade not settled after this -> search.")
+    saccade_timeout_ms: float = Field(
+        3000.0, gt=0, description="A saccade not settled after this -> search."
+    )
     candidate_min_score: float = Field(
         0.0, description="Motion candidates scoring below this do not draw a saccade."
     )
     residual_gain: float = Field(
-        0.3, ge=0, le=1, description="Pursuit feedback: share of the smoothed prediction residual added to the demand."
+        0.3,
+        ge=0,
+        le=1,
+        description="Pursuit feedback: share of the smoothed prediction residual added to the demand.",
     )
     residual_smoothing: float = Field(
-        0.2, gt=0, le=1, description="Weight of each new residual in its running mean (1: no smoothing)."
+        0.2,
+        gt=0,
+        le=1,
+        description="Weight of each new residual in its running mean (1: no smoothing).",
     )
     lost_search_growth_deg_s: float = Field(
-        2.0, ge=0, le=180, description="Lost: the search region around the prediction grows this fast at least."
+        2.0,
+        ge=0,
+        le=180,
+        description="Lost: the search region around the prediction grows this fast at least.",
     )
-    lost_search_max_deg: float = Field(10.0, ge=0, le=90, description="Lost: largest search radius.")
-    lost_scan_hz: float = Field(1.0, gt=0, le=20, description="Lost: turns per second of the search circle.")
+    lost_search_max_deg: float = Field(
+        10.0, ge=0, le=90, description="Lost: largest search radius."
+    )
+    lost_scan_hz: float = Field(
+        1.0, gt=0, le=20, description="Lost: turns per second of the search circle."
+    )
+    trace_max_turn_deg: float = Field(
+        30.0,
+        gt=0,
+        le=180,
+        description="Line tracing: an edge turning more than this is a corner: the trace ends.",
+    )
+    trace_line_tolerance_deg: float = Field(
+        0.3,
+        gt=0,
+        le=10,
+        description="Line tracing: a sample this far off the line through the earlier ones means the edge turned.",
+    )
+    trace_misses: int = Field(
+        3,
+        ge=1,
+        le=100,
+        description="Line tracing: looks in a row without an edge before the trace ends.",
+    )
     search_after_ms: float = Field(
         3000.0, gt=0, description="Lost for this long -> back to search."
     )
@@ -712,7 +768,10 @@ class SimSection(Section):
         description="True pitch of the head's base: the rest gaze's elevation (< 0 looks down).",
     )
     camera_roll_deg: float = Field(
-        0.0, ge=-45, le=45, description="True roll of the head's base about the rest gaze (> 0: right side down)."
+        0.0,
+        ge=-45,
+        le=45,
+        description="True roll of the head's base about the rest gaze (> 0: right side down).",
     )
     visual_latency_ms: float = Field(
         150.0,
@@ -745,38 +804,64 @@ class SimSection(Section):
         description="Emulated head: play between motor (what the encoder reads) and camera.",
     )
     trajectory_speed_m_s: float = Field(
-        1.0, gt=0, le=50, description="Target speed of rounded-square, stop-and-go, figure-eight, random."
+        1.0,
+        gt=0,
+        le=50,
+        description="Target speed of rounded-square, stop-and-go, figure-eight, random.",
     )
     trajectory_scale: float = Field(
-        1.0, gt=0, le=100, description="Multiplies the oval's and figure eight's lengths (and the oval's speeds)."
+        1.0,
+        gt=0,
+        le=100,
+        description="Multiplies the oval's and figure eight's lengths (and the oval's speeds).",
     )
     area_centre_xy_m: tuple[float, float] = Field(
-        (0.0, 0.0), description="Ground point the trajectory is centred on (recorded tracks are moved there)."
+        (0.0, 0.0),
+        description="Ground point the trajectory is centred on (recorded tracks are moved there).",
     )
     target_height_m: float = Field(1.7, gt=0, le=20, description="Height of the target's body.")
     target_width_m: float = Field(0.5, gt=0, le=20, description="Width of the target's body.")
     distractor: str = Field(
         "", description="Trajectory of a second mover (same forms as trajectory); empty for none."
     )
+    court_m: tuple[float, float, float, float] | None = Field(
+        None,
+        description="A paved rectangle [X0, Y0, X1, Y1] on the ground: its sides are ground lines "
+        "X = X0, X = X1, Y = Y0, Y = Y1 for `gazed calibrate trace`.",
+    )
     noise_std_levels: float = Field(
         2.0, ge=0, le=64, description="Sensor noise: standard deviation in grey levels (0-255)."
     )
     flicker_amplitude: float = Field(
-        0.0, ge=0, lt=1, description="Illumination flicker: relative amplitude of a 2 Hz brightness swing."
+        0.0,
+        ge=0,
+        lt=1,
+        description="Illumination flicker: relative amplitude of a 2 Hz brightness swing.",
     )
     motion_blur_exposure_ms: float = Field(
-        0.0, ge=0, le=1000, description="Exposure over which the head's rotation blurs the frame (0: no blur)."
+        0.0,
+        ge=0,
+        le=1000,
+        description="Exposure over which the head's rotation blurs the frame (0: no blur).",
     )
 
     @model_validator(mode="after")
     def _trajectories(self) -> SimSection:
+        if self.court_m is not None and not (
+            self.court_m[0] < self.court_m[2] and self.court_m[1] < self.court_m[3]
+        ):
+            raise ValueError(
+                "court_m: corners out of order (expected [X0, Y0, X1, Y1] with X0 < X1, Y0 < Y1)"
+            )
         for key in ("trajectory", "distractor"):
             value = getattr(self, key)
             if key == "distractor" and value == "":
                 continue
             if value not in TRAJECTORY_NAMES and not value.startswith("file:"):
                 names = ", ".join(TRAJECTORY_NAMES)
-                raise ValueError(f"{key}: unknown trajectory {value!r} (expected one of {names} or file:PATH[#ped_id])")
+                raise ValueError(
+                    f"{key}: unknown trajectory {value!r} (expected one of {names} or file:PATH[#ped_id])"
+                )
         return self
 
 

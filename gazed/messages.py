@@ -186,6 +186,44 @@ class GazeState(Message):
     reason: str = ""
 
 
+class GazeCommand(Message):
+    """An operator's request to the gaze controller: trace a ground line's image edge from a
+    start gaze (line calibration, seed 000 §3.2.1), or stop tracing."""
+
+    SCHEMA: ClassVar[str] = "gazed.GazeCommand"
+    command: Literal["trace", "stop"]
+    request_id: str = Field(min_length=1, max_length=64)
+    pan_rad: float = 0.0
+    tilt_rad: float = 0.0
+    max_samples: int = Field(20, ge=2, le=1000)
+
+
+class EdgeObservation(Message):
+    """The edge nearest the fovea's centre in one frame (image coordinates): the point on it
+    nearest the centre, and the points a step ahead and behind along its string."""
+
+    SCHEMA: ClassVar[str] = "gazed.EdgeObservation"
+    seq: int = Field(ge=0)
+    found: bool
+    u_px: float = 0.0
+    v_px: float = 0.0
+    ahead_px: tuple[float, float] = (0.0, 0.0)
+    behind_px: tuple[float, float] = (0.0, 0.0)
+    turn_rad: float = Field(0.0, description="Angle between the string's two halves (0: straight).")
+    head: HeadPose | None = None
+
+
+class TraceResult(Message):
+    """The gaze samples collected along one traced edge, and why the trace ended."""
+
+    SCHEMA: ClassVar[str] = "gazed.TraceResult"
+    request_id: str
+    samples_rad: tuple[tuple[float, float], ...] = Field(
+        description="(pan, tilt) of each edge point."
+    )
+    reason: str
+
+
 class EstimatorState(Message):
     SCHEMA: ClassVar[str] = "gazed.EstimatorState"
     filter: str

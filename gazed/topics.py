@@ -11,8 +11,10 @@ from dataclasses import dataclass
 from gazed.messages import (
     Candidates,
     Detection,
+    EdgeObservation,
     EstimatorState,
     FrameHeader,
+    GazeCommand,
     GazeDemand,
     GazeState,
     Health,
@@ -23,6 +25,7 @@ from gazed.messages import (
     ServoStatus,
     SimTruth,
     SupervisorStatus,
+    TraceResult,
 )
 
 PREFIX = "gazed"
@@ -55,6 +58,9 @@ ESTIMATOR_PREDICTION = Topic("estimator/prediction", Prediction, "estimator", ("
 ESTIMATOR_EVENT = Topic("estimator/event", ManeuverEvent, "estimator", ("gazed tail",))
 GAZE_DEMAND = Topic("gaze/demand", GazeDemand, "gaze", ("servo",))
 GAZE_STATE = Topic("gaze/state", GazeState, "gaze", ("vision", "gazed run"))
+GAZE_COMMAND = Topic("gaze/command", GazeCommand, "gazed calibrate trace", ("gaze",))
+GAZE_TRACE = Topic("gaze/trace", TraceResult, "gaze", ("gazed calibrate trace",))
+VISION_EDGE = Topic("vision/edge", EdgeObservation, "vision", ("gaze",))
 SERVO_ODOMETRY = Topic("servo/odometry", Odometry, "servo", ("vision", "estimator", "gaze"))
 SERVO_STATUS = Topic("servo/status", ServoStatus, "servo", ("gazed status",))
 # Each demand as written to the head (limited), its stamps ending ("servo", t) at the moment its
@@ -72,6 +78,9 @@ TOPICS: tuple[Topic, ...] = (
     ESTIMATOR_EVENT,
     GAZE_DEMAND,
     GAZE_STATE,
+    GAZE_COMMAND,
+    GAZE_TRACE,
+    VISION_EDGE,
     SERVO_ODOMETRY,
     SERVO_STATUS,
     SERVO_COMMAND,

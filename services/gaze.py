@@ -1,8 +1,10 @@
 """The `gaze` process: decides where the head looks (DESIGN §7; seed 000 §1-2, §6).
 
-Inputs: `estimator/prediction`, `vision/detection`, `vision/candidates`, `servo/odometry`.
+Inputs: `estimator/prediction`, `vision/detection`, `vision/candidates`, `servo/odometry`,
+`gaze/command` (trace requests from `gazed calibrate trace`), `vision/edge` (while tracing).
 Outputs: `gaze/demand` (joint angles and feed-forward rates, limited) at `[gaze] rate_hz` and at
-once after each new prediction; `gaze/state` on every transition, with its reason.
+once after each new prediction; `gaze/state` on every transition, with its reason;
+`gaze/trace` (the samples of a traced line) when a trace ends.
 Settings: [gaze] (control mode, rates, fovea, settling, lost and search timing, feedback gain),
 [head] (limits, park pose, kinematics), [camera] (pixels to angles), [calibration]
 camera_xyz_m (the lost-search region in angles).
@@ -20,11 +22,14 @@ from gazed.config import Rig
 from gazed.gaze.controller import GazeController
 from gazed.topics import (
     ESTIMATOR_PREDICTION,
+    GAZE_COMMAND,
     GAZE_DEMAND,
     GAZE_STATE,
+    GAZE_TRACE,
     SERVO_ODOMETRY,
     VISION_CANDIDATES,
     VISION_DETECTION,
+    VISION_EDGE,
 )
 from services.runtime import HealthReport, Now, main
 
@@ -39,6 +44,9 @@ class GazeService:
         self.detections = bus.subscribe(VISION_DETECTION, capacity=16)
         self.candidates = bus.subscribe(VISION_CANDIDATES, capacity=4)
         self.odometry = bus.subscribe(SERVO_ODOMETRY, capacity=16)
+        self.commands = bus.subscribe(GAZE_COMMAND, capacity=16)
+        self.edges = bus.subscribe(VISION_EDGE, capacity=4)
+        self.traces = bus.publisher(GAZE_TRACE)
         self.demands = bus.publisher(GAZE_DEMAND)
         self.states = bus.publisher(GAZE_STATE)
         self.next_tick_s = 0.0
@@ -52,6 +60,11 @@ class GazeService:
             c.on_candidates(candidates)
         for detection in self.detections.take():
             c.on_detection(detection)
+        for edge in self.edges.take():
+            c.on_edge(edge)
+        for command in self.commands.take():
+            c.on_command(command, now.wall_ns, now.mono_s)
+            self.next_tick_s = now.mono_s  # act on it now
         fresh = self.predictions.take()
         for prediction in fresh:
             c.on_prediction(prediction)
@@ -65,6 +78,8 @@ class GazeService:
             if decision.demand is not None:
                 self.demands.put(decision.demand)
                 self.demands_sent += 1
+            if decision.trace is not None:
+                self.traces.put(decision.trace)
         return max(0.0, self.next_tick_s - now.mono_s)
 
     def health(self) -> HealthReport:

@@ -7,7 +7,8 @@ but stamped with the true capture time) and `sim/truth` (the target's ground pos
 velocity, its height, the true head pose, at the capture time of every frame, published at once).
 Settings: [camera] size, intrinsics and rate; [head] kinematics and limits (the emulated axes);
 [servo] protocol and port; [sim] seed, trajectory and its speed/scale/centre, target size,
-distractor, the true camera pose, latency, noise, flicker, blur, and the emulated head's keys.
+distractor, the true camera pose, latency, noise, flicker, blur, the court (ground lines to
+trace), and the emulated head's keys.
 
 Frames are rendered at their capture instants on the camera's clock from the head's true pose
 at that instant (`HeadEmulator.pose_at`) and the targets' states; a capture that falls more
@@ -78,6 +79,7 @@ class SimService:
             noise_std=sim.noise_std_levels,
             flicker_amplitude=sim.flicker_amplitude,
             motion_blur_exposure_s=sim.motion_blur_exposure_ms / 1000.0,
+            court_m=sim.court_m,
         )
         self.target, self.distractor = trajectories(rig)
         self.emulator = emulator if emulator is not None else HeadEmulator(rig)

@@ -6,7 +6,8 @@ Outputs: `vision/detection` for every frame processed, found or not, with the he
          interpolated at capture time and `compensated` telling whether the head's rotation
          was removed; `vision/candidates` (when `[vision] candidates`, and not while `gaze/state`
          says the controller pursues, saccades or traces: it has no use for them then, and the
-         whole-frame motion energy is the most expensive part of a frame).
+         whole-frame motion energy is the most expensive part of a frame); while it traces a
+         ground line (`trace`), `vision/edge` instead: the edge under the fovea.
 Settings: [camera] (source, size, intrinsics, reopen_max_s, timeout_ms), [head] kinematics,
          [vision] (detector and its thresholds, odometry interpolation).
 
@@ -28,9 +29,16 @@ from gazed.bus import Bus
 from gazed.config import Rig
 from gazed.geometry.camera import CameraModel
 from gazed.geometry.kinematics import HeadKinematics
-from gazed.messages import Candidate, Candidates, Detection, HeadPose
-from gazed.topics import GAZE_STATE, SERVO_ODOMETRY, VISION_CANDIDATES, VISION_DETECTION
+from gazed.messages import Candidate, Candidates, Detection, EdgeObservation, HeadPose
+from gazed.topics import (
+    GAZE_STATE,
+    SERVO_ODOMETRY,
+    VISION_CANDIDATES,
+    VISION_DETECTION,
+    VISION_EDGE,
+)
 from gazed.vision.bus_frames import BusFrameSource
+from gazed.vision.edge_trace import EdgePoint, EdgeTracer
 from gazed.vision.frames import CapturedFrame, FrameError, gray_frame
 from gazed.vision.odometry_history import OdometryHistory
 from gazed.vision.opencv_camera import OpenCvCamera, capture_target
@@ -71,6 +79,14 @@ class VisionService:
         self.odometry = bus.subscribe(SERVO_ODOMETRY)
         self.gaze_states = bus.subscribe(GAZE_STATE, capacity=8)
         self.gaze_state: str | None = None
+        self.edges = EdgeTracer(
+            self.camera,
+            vision.fovea_rad,
+            step_px=vision.edge_step_px,
+            low_threshold=vision.edge_canny_low,
+            high_threshold=vision.edge_canny_high,
+        )
+        self.edge_publisher = bus.publisher(VISION_EDGE)
         self.detections = bus.publisher(VISION_DETECTION)
         self.candidates = bus.publisher(VISION_CANDIDATES) if vision.candidates else None
         self.source = source if source is not None else open_source(rig, bus)
@@ -101,10 +117,30 @@ class VisionService:
             return 0.0
         self._last_t_ns = frame.t_capture_ns
         head = self.history.pose_at(frame.t_capture_ns)
+        if self.gaze_state == "trace":  # line calibration: the edge under the fovea, nothing else
+            self._publish_edge(frame, head, self.edges.observe(gray))
+            return 0.0
         wanted = self.gaze_state not in CANDIDATES_UNUSED
         result = self.pipeline.process(gray, frame.t_capture_ns, head, with_candidates=wanted)
         self._publish(frame, head, result)
         return 0.0
+
+    def _publish_edge(self, frame: CapturedFrame, head: HeadPose | None, edge: EdgePoint) -> None:
+        self.counters["edges_found"] += int(edge.found)
+        self.edge_publisher.put(
+            EdgeObservation(
+                t_capture_ns=frame.t_capture_ns,
+                stamps=(*frame.stamps, ("vision", time.time_ns())),
+                seq=frame.seq,
+                found=edge.found,
+                u_px=edge.u_px,
+                v_px=edge.v_px,
+                ahead_px=edge.ahead_px,
+                behind_px=edge.behind_px,
+                turn_rad=edge.turn_rad,
+                head=head,
+            )
+        )
 
     def _drop(self, reason: str, message: str) -> None:
         self.counters[f"dropped:{reason}"] += 1

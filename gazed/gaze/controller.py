@@ -11,7 +11,8 @@ States and transitions (each published with its reason):
     pursuit --no detection for lost_after_ms--------------------> lost
     lost    --a detection again----------------------------------> pursuit
             --lost for search_after_ms---------------------------> search
-    trace   (entered and left by `gazed calibrate trace`)
+    any     --a `trace` command (`gazed calibrate trace`)---------> trace
+    trace   --corner, lost edge, enough samples, joint limit, stop--> search
 
 - search holds the head (or scans) and watches the whole-frame motion candidates;
 - saccade is a ballistic move to where the target will be when the move ends; detections are
@@ -22,6 +23,11 @@ States and transitions (each published with its reason):
   estimator has a prediction, the detection itself (its angles and angular rates);
 - lost coasts on the estimator's prediction and searches around it in a region that grows
   with the prediction's covariance (or with time where the prediction carries none);
+- trace follows a ground line's edge for the line calibration (seed 000 §3.2.1): move to the
+  start, settle, take the edge point nearest the fovea's centre from `vision/edge` as a sample
+  (its joint angles), step along the edge to the next point (keeping the same direction), again,
+  until a corner, a lost edge, enough samples or a joint limit; the samples go out on
+  `gaze/trace`;
 - `look-and-move` control (seed 004 §2: a PTZ camera that cannot image while moving) replaces
   continuous pursuit by move, settle, look: it waits for a detection captured after the head
   settled, then moves to where the target will be once the move and the settling are over.
@@ -36,6 +42,8 @@ import math
 from collections import deque
 from dataclasses import dataclass
 
+import numpy as np
+
 from gazed.config import Rig
 from gazed.gaze.aim import angle_between, move_duration_s
 from gazed.geometry.camera import CameraModel
@@ -44,12 +52,15 @@ from gazed.geometry.target_angles import target_angles
 from gazed.messages import (
     Candidates,
     Detection,
+    EdgeObservation,
+    GazeCommand,
     GazeDemand,
     GazeState,
     GazeStateName,
     Odometry,
     Prediction,
     Stamp,
+    TraceResult,
 )
 from gazed.servo.limits import DemandLimiter
 
@@ -77,6 +88,28 @@ class Aim:
 class Decision:
     demand: GazeDemand | None
     transition: GazeState | None
+    trace: TraceResult | None = None
+
+
+@dataclass
+class TraceJob:
+    """One ground line being traced (seed 000 §3.2.1): move, settle, look at the edge, sample
+    the edge point nearest the fovea's centre, step along the edge, again."""
+
+    request_id: str
+    max_samples: int
+    goal: Aim
+    samples: list[tuple[float, float]]
+    moving: bool = True
+    moved_s: float | None = None  # when the current move began (monotonic)
+    look_since_ns: int = 0
+    misses: int = 0
+    corner_looks: int = 0
+    off_line: int = 0  # samples in a row off the line through the earlier ones
+    step: tuple[float, float] | None = None  # the last step's direction in joint angles
+    start: Aim | None = None
+    first_step: tuple[float, float] | None = None
+    first_leg: str | None = None  # why the first leg ended, once it has: then the other way
 
 
 class GazeController:
@@ -110,6 +143,9 @@ class GazeController:
         self.last_rates = (0.0, 0.0)
         self.last_tick_s = mono_s
         self.pending: GazeState | None = None
+        self.trace_job: TraceJob | None = None
+        self.edge: EdgeObservation | None = None
+        self.finished_trace: TraceResult | None = None
         self.counts = {
             "transitions": 0,
             "saccades": 0,
@@ -139,6 +175,25 @@ class GazeController:
     def on_candidates(self, candidates: Candidates) -> None:
         self.candidates = candidates
 
+    def on_edge(self, edge: EdgeObservation) -> None:
+        self.edge = edge
+
+    def on_command(self, command: GazeCommand, wall_ns: int, mono_s: float) -> None:
+        """`trace`: follow a ground line's edge from a start gaze; `stop`: end a trace."""
+        if command.command == "stop":
+            if self.trace_job is not None:
+                self._finish_trace("stopped by request", wall_ns, mono_s)
+            return
+        if self.trace_job is not None:
+            self._finish_trace("replaced by a new request", wall_ns, mono_s)
+        self.trace_job = TraceJob(
+            command.request_id,
+            command.max_samples,
+            Aim(wall_ns, command.pan_rad, command.tilt_rad),
+            [],
+        )
+        self.enter("trace", f"tracing a line ({command.request_id})", wall_ns, mono_s)
+
     # -- the loop body ------------------------------------------------------------------------
 
     def tick(self, wall_ns: int, mono_s: float) -> Decision:
@@ -150,7 +205,7 @@ class GazeController:
             "saccade": self._saccade,
             "pursuit": self._pursuit,
             "lost": self._lost,
-            "trace": self._hold,
+            "trace": self._trace,
         }[self.state]
         demand = handler(wall_ns, mono_s)
         if demand is not None:
@@ -158,7 +213,8 @@ class GazeController:
             if demand is None:  # a non-finite number reached the demand: hold instead
                 demand = self._hold(wall_ns, mono_s)
         transition, self.pending = self.pending, None
-        return Decision(demand, transition)
+        trace, self.finished_trace = self.finished_trace, None
+        return Decision(demand, transition, trace)
 
     def enter(self, state: GazeStateName, reason: str, wall_ns: int, mono_s: float) -> None:
         if state == self.state:
@@ -289,6 +345,111 @@ class GazeController:
                 "tilt_rad": demand.tilt_rad + radius * math.sin(phase),
             }
         )
+
+    def _trace(self, wall_ns: int, mono_s: float) -> GazeDemand | None:
+        job = self.trace_job
+        if job is None:
+            self.enter("search", "no line to trace", wall_ns, mono_s)
+            return self._hold(wall_ns, mono_s)
+        if job.moving:
+            if job.moved_s is None:
+                job.moved_s = mono_s
+            if self._settled_at(job.goal.pan_rad, job.goal.tilt_rad, mono_s):
+                job.moving, job.look_since_ns = False, wall_ns
+            elif mono_s - job.moved_s > self.gaze.saccade_timeout_ms / 1000.0:
+                return self._finish_trace("the head did not settle on the line", wall_ns, mono_s)
+            return self._demand("position", job.goal.pan_rad, job.goal.tilt_rad, wall_ns)
+        edge = self.edge
+        if edge is None or edge.t_capture_ns < job.look_since_ns or edge.head is None:
+            return self._demand("position", job.goal.pan_rad, job.goal.tilt_rad, wall_ns)
+        self.edge = None  # each look is used once
+        job.look_since_ns = wall_ns
+        if not edge.found:
+            job.misses += 1
+            if job.misses >= self.gaze.trace_misses:
+                return self._end_leg("the edge was lost", wall_ns, mono_s)
+            return self._demand("position", job.goal.pan_rad, job.goal.tilt_rad, wall_ns)
+        if edge.turn_rad > math.radians(self.gaze.trace_max_turn_deg):
+            job.corner_looks += 1  # a corner only if a second look agrees (texture can fake one)
+            if job.corner_looks >= 2:
+                return self._end_leg("a corner", wall_ns, mono_s)
+            return self._demand("position", job.goal.pan_rad, job.goal.tilt_rad, wall_ns)
+        job.corner_looks = 0
+        head = edge.head
+        here = target_angles(
+            self.camera, self.kinematics, head.pan_rad, head.tilt_rad, edge.u_px, edge.v_px
+        )
+        job.samples.append((here.pan_rad, here.tilt_rad))
+        if len(job.samples) >= job.max_samples:
+            return self._finish_trace(job.first_leg or "enough samples", wall_ns, mono_s)
+        options = [
+            target_angles(self.camera, self.kinematics, head.pan_rad, head.tilt_rad, *point)
+            for point in (edge.ahead_px, edge.behind_px)
+        ]
+        steps = [(o.pan_rad - here.pan_rad, o.tilt_rad - here.tilt_rad) for o in options]
+        # keep going the same way along the edge (the first step goes "ahead")
+        pick = (
+            0
+            if job.step is None or steps[0][0] * job.step[0] + steps[0][1] * job.step[1] >= 0
+            else 1
+        )
+        if job.start is None:
+            job.start, job.first_step = Aim(wall_ns, here.pan_rad, here.tilt_rad), steps[pick]
+        job.step = steps[pick]
+        goal = options[pick]
+        (pan_lo, pan_hi), (tilt_lo, tilt_hi) = (
+            self.limiter.pan_limits_rad,
+            self.limiter.tilt_limits_rad,
+        )
+        if not (pan_lo <= goal.pan_rad <= pan_hi and tilt_lo <= goal.tilt_rad <= tilt_hi):
+            return self._end_leg("the joint limits", wall_ns, mono_s)
+        return self._move_along(job, Aim(wall_ns, goal.pan_rad, goal.tilt_rad), wall_ns)
+
+    def _off_the_line(self, job: TraceJob, pan_rad: float, tilt_rad: float) -> bool:
+        """A ground line's samples lie on a line in the frontal plane (a homography keeps lines
+        straight): is this one farther than `trace_line_tolerance_deg` from the line through
+        the samples so far?"""
+        if len(job.samples) < 3:
+            return False
+        points = np.array([self.kinematics.frontal_from_angles(p, t) for p, t in job.samples])
+        centre = points.mean(axis=0)
+        _, _, vt = np.linalg.svd(points - centre, full_matrices=False)
+        normal = np.array([-vt[0][1], vt[0][0]])
+        here = np.array(self.kinematics.frontal_from_angles(pan_rad, tilt_rad))
+        return abs(float((here - centre) @ normal)) > math.tan(
+            math.radians(self.gaze.trace_line_tolerance_deg)
+        )
+
+    def _move_along(self, job: TraceJob, goal: Aim, wall_ns: int) -> GazeDemand:
+        job.goal = goal
+        job.moving, job.moved_s, job.misses, job.corner_looks, job.off_line = True, None, 0, 0, 0
+        self.settled_since_s = None
+        return self._demand("position", goal.pan_rad, goal.tilt_rad, wall_ns)
+
+    def _end_leg(self, reason: str, wall_ns: int, mono_s: float) -> GazeDemand | None:
+        """The first leg ends: back to the start, then along the edge the other way."""
+        job = self.trace_job
+        assert job is not None
+        if job.first_leg is not None or job.start is None or job.first_step is None:
+            legs = f"{job.first_leg}; then {reason}" if job.first_leg is not None else reason
+            return self._finish_trace(legs, wall_ns, mono_s)
+        job.first_leg = reason
+        job.step = (-job.first_step[0], -job.first_step[1])
+        return self._move_along(job, job.start, wall_ns)
+
+    def _finish_trace(self, reason: str, wall_ns: int, mono_s: float) -> GazeDemand | None:
+        job = self.trace_job
+        assert job is not None
+        self.finished_trace = TraceResult(
+            t_capture_ns=wall_ns,
+            stamps=((STAGE, wall_ns),),
+            request_id=job.request_id,
+            samples_rad=tuple(job.samples),
+            reason=reason,
+        )
+        self.trace_job = None
+        self.enter("search", f"trace ended: {reason} ({len(job.samples)} samples)", wall_ns, mono_s)
+        return self._hold(wall_ns, mono_s)
 
     def _hold(self, wall_ns: int, mono_s: float) -> GazeDemand | None:
         del mono_s

@@ -2,6 +2,7 @@
 
     gazed calibrate points FILE [--kinematics pan-tilt|tilt-pan] [--rig RIG] [--json] [--write RIG]
     gazed calibrate lines FILE  [--kinematics pan-tilt|tilt-pan] [--rig RIG] [--json] [--write RIG]
+    gazed calibrate trace --rig RIG --lines FILE [--json] [--write RIG]   (gazed/gaze/trace_cli.py)
 
 FILE formats: calibration_file.py. The head's kinematics come from --kinematics, the file's
 `kinematics` key or the rig's [head] (they must agree when several are given); the rig (--rig,
@@ -33,6 +34,7 @@ import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from types import ModuleType
 
 import numpy as np
 import tomlkit
@@ -223,7 +225,19 @@ SUBCOMMANDS: dict[str, Subcommand] = {
         _lines_arguments,
         _solve_lines,
     ),
+    "trace": Subcommand(
+        "trace 4+ ground lines with the running rig, then the line calibration (seed 000 §3.2.1)",
+        lambda parser: _trace().trace_arguments(parser),
+        lambda args, rig: _trace().solve_trace(args, rig),
+    ),
 }
+
+
+def _trace() -> ModuleType:
+    """gazed.gaze.trace_cli, imported only when tracing (it needs the bus)."""
+    from gazed.gaze import trace_cli
+
+    return trace_cli
 
 
 def _json(result: CalibrationResult) -> str:

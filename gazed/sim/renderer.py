@@ -21,6 +21,8 @@ from gazed.geometry.pose import CameraPose
 SKY_BGR = (235, 206, 160)
 SUBPIXEL_BITS = 4  # fillConvexPoly's fixed-point vertices
 SUBPIXEL = 1 << SUBPIXEL_BITS
+COURT_BRIGHTENING = 110  # grey levels added inside the court
+COURT_SMOOTHING_TEXELS = 4.0  # the court's paving is the gravel smoothed this much
 HAZE_START_TEXELS = 1.5  # texels per pixel where the ground starts fading to its mean colour
 HAZE_FULL_TEXELS = 4.0
 NOISE_POOL = 8
@@ -49,7 +51,7 @@ def ground_texture(seed: int, size_px: int = 1536) -> np.ndarray:
         )
         height += weight * big[octave : octave + size_px, octave : octave + size_px]
     height = (height - height.mean()) / (height.std() + 1e-6)
-    return np.clip(110 + 45 * height, 0, 255).astype(np.uint8)
+    return np.clip(100 + 32 * height, 0, 255).astype(np.uint8)
 
 
 def body_texture(seed: int, index: int, size_px: tuple[int, int] = (48, 128)) -> np.ndarray:
@@ -84,6 +86,7 @@ class Renderer:
         flicker_amplitude: float = 0.0,
         flicker_hz: float = 2.0,
         motion_blur_exposure_s: float = 0.0,
+        court_m: tuple[float, float, float, float] | None = None,
     ) -> None:
         self.camera = camera
         self.pose = pose
@@ -96,6 +99,8 @@ class Renderer:
         self._far_ground = float(self.ground.mean())
         self.bodies = [body_texture(seed, i) for i in range(2)]
         size = self.ground.shape[0]
+        if court_m is not None:
+            self._paint_court(court_m, size)
         # texture pixel (tx, ty) -> ground (X, Y): tx right = +X, ty down = -Y, centred on the origin
         self._texture_to_ground = np.array(
             [
@@ -115,6 +120,30 @@ class Renderer:
         self._haze_image = np.full((h, w), round(self._far_ground), np.uint8)
         self._columns = np.arange(w, dtype=np.float32)[None, :]
         self._rows = np.arange(h, dtype=np.float32)[:, None]
+
+    def _paint_court(self, court_m: tuple[float, float, float, float], size: int) -> None:
+        """Pave the ground inside the rectangle X0 <= X <= X1, Y0 <= Y <= Y1 (smoother and
+        brighter than the gravel around it): its four sides are straight ground edges at known places, for the line
+        calibration (seed 000 §3.2: the lawn's edges). Texel (tx, ty) lies at
+        X = texel tx - half, Y = half - texel ty (`_texture_to_ground`); a texel the edge crosses
+        is paved by the share of it inside, so the rendered edge sits on the line to a small
+        fraction of a texel."""
+        x0, y0, x1, y1 = court_m
+        half = self.texel_m * size / 2
+        centres = np.arange(size) * self.texel_m - half
+
+        def covered(low: float, high: float, at: np.ndarray) -> np.ndarray:
+            left = np.clip((at + self.texel_m / 2 - low) / self.texel_m, 0.0, 1.0)
+            right = np.clip((high - (at - self.texel_m / 2)) / self.texel_m, 0.0, 1.0)
+            return np.minimum(left, right)
+
+        share = covered(y0, y1, -centres)[:, None] * covered(x0, x1, centres)[None, :]
+        paving = (
+            cv2.GaussianBlur(self.ground, (0, 0), COURT_SMOOTHING_TEXELS).astype(float)
+            + COURT_BRIGHTENING
+        )
+        court = share * paving + (1.0 - share) * self.ground
+        self.ground = np.clip(np.rint(court), 0, 255).astype(np.uint8)
 
     def _noise_pool(
         self, std: float, shape: tuple[int, int, int]
