@@ -85,6 +85,27 @@ SAMPLES: list[m.Message] = [
         head=HEAD,
     ),
     m.Health(t_capture_ns=12, process="vision", pid=1, uptime_s=3.0, counters={"malformed": 1}),
+    m.GazeCommand(
+        t_capture_ns=14,
+        command="trace",
+        request_id="r1",
+        pan_rad=0.1,
+        tilt_rad=-0.1,
+        max_samples=10,
+    ),
+    m.EdgeObservation(
+        t_capture_ns=15,
+        seq=3,
+        found=True,
+        u_px=1.0,
+        v_px=2.0,
+        ahead_px=(13.0, 2.0),
+        behind_px=(-11.0, 2.0),
+        head=HEAD,
+    ),
+    m.TraceResult(
+        t_capture_ns=16, request_id="r1", samples_rad=((0.1, -0.1), (0.2, -0.1)), reason="a corner"
+    ),
     m.SupervisorStatus(
         t_capture_ns=13,
         state="running",

@@ -379,7 +379,13 @@ class GazeController:
         here = target_angles(
             self.camera, self.kinematics, head.pan_rad, head.tilt_rad, edge.u_px, edge.v_px
         )
-        job.samples.append((here.pan_rad, here.tilt_rad))
+        if self._off_the_line(job, here.pan_rad, here.tilt_rad):
+            job.off_line += 1  # the path bends: a corner passed (or one bad look)
+            if job.off_line >= 2:
+                return self._end_leg("the edge turned", wall_ns, mono_s)
+        else:
+            job.off_line = 0
+            job.samples.append((here.pan_rad, here.tilt_rad))
         if len(job.samples) >= job.max_samples:
             return self._finish_trace(job.first_leg or "enough samples", wall_ns, mono_s)
         options = [
@@ -422,7 +428,7 @@ class GazeController:
 
     def _move_along(self, job: TraceJob, goal: Aim, wall_ns: int) -> GazeDemand:
         job.goal = goal
-        job.moving, job.moved_s, job.misses, job.corner_looks, job.off_line = True, None, 0, 0, 0
+        job.moving, job.moved_s, job.misses, job.corner_looks = True, None, 0, 0
         self.settled_since_s = None
         return self._demand("position", goal.pan_rad, goal.tilt_rad, wall_ns)
 
@@ -434,6 +440,7 @@ class GazeController:
             legs = f"{job.first_leg}; then {reason}" if job.first_leg is not None else reason
             return self._finish_trace(legs, wall_ns, mono_s)
         job.first_leg = reason
+        job.off_line = 0
         job.step = (-job.first_step[0], -job.first_step[1])
         return self._move_along(job, job.start, wall_ns)
 
