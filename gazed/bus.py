@@ -4,6 +4,14 @@ Topology (DESIGN §3): the supervisor opens a router-mode session listening on t
 endpoint; every process and tool connects to it as a client. Multicast and gossip scouting are off
 everywhere, so nothing is announced and nothing listens beyond the configured endpoints.
 
+Identity (DESIGN §3, README "Security and several hosts"): with `[bus] credentials_path` every
+session authenticates with zenoh's user/password scheme as its own identity: each of the rig's
+processes as its name (`supervisor`, `sim`, `servo`, `vision`, `estimator`, `gaze`), everything
+else (`gazed tail`/`status`/`latency`, observers, evaluations) as `tools`; a router hosted by the
+supervisor checks every connection against the same file. Access control (who may publish what)
+is the router's: the rig's zenoh config may carry `access_control` (deploy/zenoh-rig.json5), which
+clients leave to the router.
+
 Subscriptions decode and validate each sample as it arrives (in zenoh's receive thread, so no
 hidden queue builds up behind a slow process) into a bounded deque; frame topics keep only the
 newest frame. A payload that fails validation is dropped and counted, never raised.
@@ -18,13 +26,14 @@ import time
 from collections import Counter, deque
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any, Generic, TypeVar
 
 import numpy as np
 import zenoh
 from pydantic import ValidationError
 
-from gazed.config import BusSection, Rig
+from gazed.config import SERVICE_NAMES, BusSection, Rig
 from gazed.messages import FrameHeader, Message
 from gazed.topics import Topic, alive_key
 
@@ -40,14 +49,45 @@ class BusError(ConnectionError):
     """The bus cannot be reached or a session cannot be opened."""
 
 
-def session_config(bus: BusSection, *, router: bool) -> zenoh.Config:
-    """A zenoh config for this rig: the router listens on `bus.listen`; clients connect to
-    `bus.client_endpoints`. Scouting is off; `bus.zenoh_config_path` (auth, TLS, ACL) is the base."""
-    config = (
-        zenoh.Config.from_file(str(bus.zenoh_config_path))
-        if bus.zenoh_config_path
-        else zenoh.Config()
+TOOLS_IDENTITY = "tools"
+PROCESS_IDENTITIES = ("supervisor", *SERVICE_NAMES)
+
+
+def identity_of(process: str) -> str:
+    """The identity a session authenticates as: a rig process's own name, else `tools`."""
+    return process if process in PROCESS_IDENTITIES else TOOLS_IDENTITY
+
+
+def read_credentials(path: Path, identity: str) -> str:
+    """`identity`'s password from a file of `NAME:PASSWORD` lines (zenoh's usrpwd dictionary
+    format); raises `BusError` if the file is unreadable, readable by everyone, or lacks it."""
+    try:
+        mode = path.stat().st_mode
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise BusError(f"{path}: cannot read the bus credentials: {exc}") from exc
+    if mode & 0o007:
+        raise BusError(
+            f"{path}: the bus credentials are open to every user (mode {mode & 0o777:o}); "
+            "chmod o-rwx it"
+        )
+    for line in text.splitlines():
+        name, sep, password = line.partition(":")
+        if sep and name == identity and password:
+            return password
+    raise BusError(
+        f"{path}: no credentials for '{identity}' (expected a line '{identity}:PASSWORD')"
     )
+
+
+def session_config(
+    bus: BusSection, *, router: bool, identity: str = TOOLS_IDENTITY
+) -> zenoh.Config:
+    """A zenoh config for this rig: the router listens on `bus.listen`; clients connect to
+    `bus.client_endpoints`. Scouting is off. `bus.zenoh_config_path` (TLS, access control) is the
+    base; `bus.credentials_path` gives the session its user/password as `identity`, and a router
+    its dictionary of every identity. Access control is enforced by the router alone."""
+    config = _base_config(bus.zenoh_config_path)
     config.insert_json5("mode", json.dumps("router" if router else "client"))
     config.insert_json5("scouting/multicast/enabled", "false")
     config.insert_json5("scouting/gossip/enabled", "false")
@@ -55,21 +95,43 @@ def session_config(bus: BusSection, *, router: bool) -> zenoh.Config:
     config.insert_json5("connect/endpoints", json.dumps([] if router else bus.client_endpoints))
     config.insert_json5("transport/link/tx/lease", str(bus.lease_ms))
     config.insert_json5("adminspace/enabled", "false")
+    if bus.credentials_path is not None:
+        password = read_credentials(bus.credentials_path, identity)
+        config.insert_json5("transport/auth/usrpwd/user", json.dumps(identity))
+        config.insert_json5("transport/auth/usrpwd/password", json.dumps(password))
+        if router:
+            dictionary = json.dumps(str(bus.credentials_path))
+            config.insert_json5("transport/auth/usrpwd/dictionary_file", dictionary)
+    if not router:
+        config.insert_json5("access_control/enabled", "false")
     return config
 
 
-def open_session(bus: BusSection, *, router: bool = False) -> zenoh.Session:
+def _base_config(path: Path | None) -> zenoh.Config:
+    if path is None:
+        return zenoh.Config()
+    try:
+        return zenoh.Config.from_file(str(path))
+    except (zenoh.ZError, OSError) as exc:
+        raise BusError(f"{path}: not a usable zenoh config: {exc}") from exc
+
+
+def open_session(
+    bus: BusSection, *, router: bool = False, identity: str = TOOLS_IDENTITY
+) -> zenoh.Session:
     """Open a session or raise `BusError` saying which endpoints did not answer."""
     global _log_initialised
     if not _log_initialised:
         zenoh.init_log_from_env_or("error")
         _log_initialised = True
+    config = session_config(bus, router=router, identity=identity)
     try:
-        return zenoh.open(session_config(bus, router=router))
+        return zenoh.open(config)
     except zenoh.ZError as exc:
         where = ", ".join(bus.listen if router else bus.client_endpoints)
         verb = "listen on" if router else "reach the rig's bus at"
-        raise BusError(f"cannot {verb} {where}: {exc}") from exc
+        who = f" as '{identity}'" if bus.credentials_path is not None else ""
+        raise BusError(f"cannot {verb} {where}{who}: {exc}") from exc
 
 
 @dataclass(frozen=True)
@@ -245,7 +307,9 @@ class Bus:
 
     def open(self) -> None:
         if self._session is None:
-            self._session = open_session(self.rig.bus, router=self.router)
+            self._session = open_session(
+                self.rig.bus, router=self.router, identity=identity_of(self.process)
+            )
 
     def close(self) -> None:
         for item in reversed(self._closables):

@@ -73,6 +73,13 @@ class BusSection(Section):
         description="JSON5 zenoh config merged under gazed's settings (user/password, TLS, access "
         "control) for rigs that span hosts. Relative paths are from the rig file.",
     )
+    credentials_path: Path | None = Field(
+        None,
+        description="File of NAME:PASSWORD lines (zenoh's user/password dictionary, not readable by "
+        "other users): every process authenticates as its own name (supervisor, sim, servo, "
+        "vision, estimator, gaze; bus tools as 'tools') and the supervisor's router checks each "
+        "against it. Relative paths are from the rig file.",
+    )
 
     @model_validator(mode="after")
     def _connectable(self) -> BusSection:
@@ -999,10 +1006,13 @@ def parse_rig(text: str, path: str | Path = "<rig>") -> Rig:
         rig = Rig.model_validate(data)
     except ValidationError as exc:
         raise RigError([f"{path}: {line}" for line in _describe_errors(exc, data)]) from exc
-    zenoh_config = rig.bus.zenoh_config_path
-    if zenoh_config is not None and not zenoh_config.is_absolute():
-        bus = rig.bus.model_copy(update={"zenoh_config_path": path.parent / zenoh_config})
-        rig = rig.model_copy(update={"bus": bus})
+    relative = {
+        key: path.parent / value
+        for key in ("zenoh_config_path", "credentials_path")
+        if (value := getattr(rig.bus, key)) is not None and not value.is_absolute()
+    }
+    if relative:
+        rig = rig.model_copy(update={"bus": rig.bus.model_copy(update=relative)})
     rig._source_path = path
     return rig
 
