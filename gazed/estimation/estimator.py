@@ -17,7 +17,7 @@ the ground plane (metres) or, for `image-cv`, in gaze angles (radians) — and d
 - maneuver events when the most likely model changes (see `events`).
 
 Subclasses implement the filter: `_initialise`, `_predict`, `_innovate`, `_correct`,
-`_forecast`, `_probabilities` and, with more than one model, `_rates`.
+`_forecast`, `_probabilities` and, with more than one model, `_signature`.
 The single-track calls (`update`, `coast`, `predict`, ...) act on track 0; the batch calls
 (`step`, `forecast`) take one row per track.
 """
@@ -31,13 +31,19 @@ from enum import IntEnum
 from typing import Any, ClassVar, Literal
 
 import numpy as np
-from scipy.stats import chi2
 
+from gazed.estimation.chi_square import chi2_quantile
 from gazed.estimation.events import ManeuverEvent, ManeuverTracker
+from gazed.estimation.small_matrices import positive_definite
 
 Space = Literal["ground", "gaze"]
 
 EMPTY, PENDING, TRACKING = 0, 1, 2
+
+# A batch step runs over blocks of this many tracks, so that a block's (tracks, models, 6, 6)
+# arrays stay in the cache between the operations of one step (identical results: the tracks
+# are independent); see tests/bench/estimator_speed.py.
+BLOCK_TRACKS = 256
 
 
 class Outcome(IntEnum):
@@ -133,6 +139,29 @@ class Measurement:
         R[2:, 2:] = self.velocity_cov
         return R
 
+    @property
+    def usable(self) -> bool:
+        """Finite, with covariances symmetric (to 1e-9 relative) and positive definite: what
+        `small_matrices.positive_definite` and the finiteness checks of `TrackEstimator.step`
+        accept, evaluated on the 2x2 blocks in plain Python (R is block diagonal)."""
+        values = [self.t_s, *self.position.tolist()]
+        blocks = [self.position_cov.tolist()]
+        if self.velocity is not None and self.velocity_cov is not None:
+            values += self.velocity.tolist()
+            blocks.append(self.velocity_cov.tolist())
+        return all(map(math.isfinite, values)) and all(map(_usable_covariance, blocks))
+
+
+def _usable_covariance(C: list[list[float]]) -> bool:
+    """A 2x2 covariance (nested lists) is finite, symmetric and positive definite."""
+    (a, b), (c, d) = C
+    return (
+        all(map(math.isfinite, (a, b, c, d)))
+        and abs(b - c) <= 1e-9 * (1.0 + min(abs(b), abs(c)))
+        and a > 0.0
+        and a * d - b * c > 0.0
+    )
+
 
 def _array(value: Any, shape: tuple[int, ...], what: str) -> np.ndarray:
     a = np.asarray(value, dtype=float)
@@ -167,6 +196,11 @@ def _select(mask: np.ndarray) -> slice | np.ndarray:
     return slice(None) if mask.all() else np.flatnonzero(mask)
 
 
+def _rows(idx: slice | np.ndarray, n: int) -> np.ndarray:
+    """The track numbers of an index (a slice or an index array) into n tracks."""
+    return np.arange(n)[idx] if isinstance(idx, slice) else idx
+
+
 class TrackEstimator(ABC):
     """N tracks of one filter mode; see the module docstring for what every mode does."""
 
@@ -190,7 +224,7 @@ class TrackEstimator(ABC):
         self.reinit_after_misses = reinit_after_misses
         self.coast_max_s = coast_max_s
         self.initial_speed_std = initial_speed_std
-        self._gate = {m: float(chi2.ppf(gate_probability, m)) for m in (2, 4)}
+        self._gate = {m: chi2_quantile(gate_probability, m) for m in (2, 4)}
         self.status = np.zeros(n_tracks, dtype=np.int8)
         self.t_s = np.full(n_tracks, math.nan)  # time of the filter state
         self.t_measured_s = np.full(n_tracks, math.nan)  # last accepted measurement
@@ -199,18 +233,23 @@ class TrackEstimator(ABC):
         self._pending_R = np.zeros((n_tracks, 2, 2))
         self.counts = np.zeros((n_tracks, len(Outcome)), dtype=np.int64)
         self._maneuvers = ManeuverTracker(n_tracks, model_names)
+        self._track_numbers = np.arange(n_tracks)
+        self._all_accepted = np.full(n_tracks, Outcome.ACCEPTED, dtype=np.int64)
+        self._blocks = [
+            slice(lo, min(lo + BLOCK_TRACKS, n_tracks)) for lo in range(0, n_tracks, BLOCK_TRACKS)
+        ]
 
     # ----------------------------------------------------------------- single track (track 0)
 
     def update(self, measurement: Measurement) -> Outcome:
         """Filter one measurement of track 0."""
         m = measurement
-        return Outcome(self.step(np.array([m.t_s]), m.z[None], m.R[None])[0])
+        good = np.array([m.usable])  # the checks of `step`, on the 2x2 blocks
+        return Outcome(self._step(np.array([m.t_s]), m.z[None], m.R[None], None, good)[0])
 
     def coast(self, t_s: float) -> Outcome:
         """Predict-only step of track 0 to t_s (a frame without a detection)."""
-        z = np.zeros((1, 2))
-        return Outcome(self.step(np.array([t_s]), z, np.eye(2)[None], np.zeros(1, bool))[0])
+        return Outcome(self.step(np.array([t_s]), _NO_Z, _NO_R, _ABSENT)[0])
 
     def predict(self, t_s: float) -> PredictedState | None:
         """Track 0 predicted to t_s (>= its state time), or None if there is no track."""
@@ -253,7 +292,7 @@ class TrackEstimator(ABC):
 
     @property
     def most_likely_index(self) -> np.ndarray:
-        return np.argmax(self.probabilities, axis=-1)
+        return self.probabilities.argmax(axis=-1)
 
     def step(
         self,
@@ -268,7 +307,7 @@ class TrackEstimator(ABC):
         Returns the `Outcome` of each track (N,) int.
         """
         n = self.n_tracks
-        t = np.broadcast_to(np.asarray(t_s, dtype=float), (n,))
+        t = _times(t_s, n)
         z = np.asarray(z, dtype=float)
         R = np.asarray(R, dtype=float)
         m = z.shape[-1]
@@ -276,15 +315,33 @@ class TrackEstimator(ABC):
             raise ValueError(
                 f"expected z (N, 2|4) and R (N, m, m) for N = {n}, got {z.shape}, {R.shape}"
             )
-        present = np.ones(n, bool) if present is None else np.asarray(present, bool)
-        outcome = np.full(n, Outcome.IDLE, dtype=np.int64)
+        good = np.isfinite(t) & np.isfinite(z).all(axis=-1) & positive_definite(R)
+        if present is not None:
+            present = np.asarray(present, bool)
+            good &= present
+        return self._step(t, z, R, present, good)
 
-        finite_t = np.isfinite(t)
-        good = present & finite_t & np.isfinite(z).all(axis=-1) & _positive_definite(R)
-        if good.all() and (self.status == TRACKING).all():
-            dt = t - self.t_s
-            if (dt > 0).all() and (t - self.t_measured_s <= self.coast_max_s).all():
-                return self._step_all(t, z, R, dt)  # the common case: every track updates
+    def _step(
+        self,
+        t: np.ndarray,
+        z: np.ndarray,
+        R: np.ndarray,
+        present: np.ndarray | None,
+        good: np.ndarray,
+    ) -> np.ndarray:
+        """`step` after validation: good (N,) marks the present, usable measurements."""
+        n = self.n_tracks
+        dt = t - self.t_s  # NaN for tracks without a state: every comparison below is False
+        if (
+            good
+            & (self.status == TRACKING)
+            & (dt > 0)
+            & (t - self.t_measured_s <= self.coast_max_s)
+        ).all():
+            return self._step_all(t, z, R, dt)  # the common case: every track updates
+        if present is None:
+            present = np.ones(n, bool)
+        outcome = np.full(n, Outcome.IDLE, dtype=np.int64)
         outcome[present & ~good] = Outcome.NONFINITE
         running = self.status != EMPTY
         reference_s = np.where(self.status == TRACKING, self.t_s, self.t_measured_s)
@@ -294,6 +351,7 @@ class TrackEstimator(ABC):
         outcome[good & late] = Outcome.OUT_OF_ORDER
         good &= ~late
 
+        finite_t = np.isfinite(t)
         dropped = stale & ~good & finite_t
         if dropped.any():
             outcome[dropped] = Outcome.DROPPED
@@ -311,36 +369,36 @@ class TrackEstimator(ABC):
             self.t_s[idx] = t[idx]
             outcome[coasting & ~present] = Outcome.COASTED
         if tracked.any():
-            self._filter(np.flatnonzero(tracked), t, z, R, outcome)
+            self._filter(_select(tracked), t, z, R, outcome)
         starting = good & (self.status != TRACKING) & ~tracked
         if starting.any():
             self._start(np.flatnonzero(starting), t, z, R, outcome)
 
-        np.add.at(self.counts, (np.arange(n), outcome), 1)
+        self.counts[self._track_numbers, outcome] += 1
         rejected = present & ~good & ~late & (outcome != Outcome.NONFINITE)
         self.counts[rejected, Outcome.NONFINITE] += 1  # rejected, then dropped by the coast
-        self._observe_maneuvers((self.status == TRACKING) & (outcome != Outcome.IDLE), t)
+        stepped = (self.status == TRACKING) & (outcome != Outcome.IDLE)
+        if stepped.any():
+            self._observe_maneuvers(_select(stepped), t)
         return outcome
 
     def _step_all(self, t: np.ndarray, z: np.ndarray, R: np.ndarray, dt: np.ndarray) -> np.ndarray:
-        """`step` when every track is running and has a usable, later measurement."""
-        every = slice(None)
-        self._predict(every, dt)
+        """`step` when every track is running and has a usable, later measurement: block by
+        block (see BLOCK_TRACKS), each predicted and filtered while its arrays are in cache."""
+        outcome = self._all_accepted.copy()
+        for block in self._blocks:
+            self._predict(block, dt[block])
+            self._filter(block, t, z, R, outcome)
         self.t_s[:] = t
-        outcome = np.full(self.n_tracks, Outcome.ACCEPTED, dtype=np.int64)
-        self._filter(np.arange(self.n_tracks), t, z, R, outcome)
-        np.add.at(self.counts, (np.arange(self.n_tracks), outcome), 1)
-        self._observe_maneuvers(self.status == TRACKING, t)
+        self.counts[self._track_numbers, outcome] += 1
+        tracking = self.status == TRACKING  # a track restarted from one position is pending
+        self._observe_maneuvers(slice(None) if tracking.all() else np.flatnonzero(tracking), t)
         return outcome
 
-    def _observe_maneuvers(self, stepped: np.ndarray, t: np.ndarray) -> None:
-        if len(self.model_names) > 1 and stepped.any():
-            idx = np.flatnonzero(stepped)
-            sel = _select(stepped)
-            s_dot, theta_dot = self._rates(sel)
-            self._maneuvers.observe(
-                idx, t[idx], np.argmax(self._probabilities(sel), axis=-1), s_dot, theta_dot
-            )
+    def _observe_maneuvers(self, idx: slice | np.ndarray, t: np.ndarray) -> None:
+        """The most likely model and its rates of the tracks idx, which just stepped to t."""
+        if len(self.model_names) > 1:
+            self._maneuvers.observe(idx, t[idx], *self._signature(idx))
 
     def forecast(self, t_s: np.ndarray) -> Forecast:
         """Every track predicted to t_s (N,) without changing it: [p, v] and its covariance.
@@ -349,7 +407,7 @@ class TrackEstimator(ABC):
         uncertainty. Raises ValueError for a time before a track's state.
         """
         n = self.n_tracks
-        t = np.broadcast_to(np.asarray(t_s, dtype=float), (n,))
+        t = _times(t_s, n)
         position = np.full((n, 2), math.nan)
         velocity = np.full((n, 2), math.nan)
         covariance = np.full((n, 4, 4), math.nan)
@@ -378,28 +436,38 @@ class TrackEstimator(ABC):
         self._maneuvers.reset(idx)
 
     def _filter(
-        self, idx: np.ndarray, t: np.ndarray, z: np.ndarray, R: np.ndarray, outcome: np.ndarray
+        self,
+        idx: slice | np.ndarray,
+        t: np.ndarray,
+        z: np.ndarray,
+        R: np.ndarray,
+        outcome: np.ndarray,
     ) -> None:
-        """Gate and update the tracks idx, already predicted to t."""
-        sel = slice(None) if len(idx) == self.n_tracks else idx
-        statistic, handle = self._innovate(sel, z[idx], R[idx])
+        """Gate and update the tracks idx (a slice or an index array), already predicted to t."""
+        statistic, handle = self._innovate(idx, z[idx], R[idx])
         inside = statistic <= self._gate[z.shape[-1]]
+        if inside.all():  # the common case, on views when idx is a slice
+            self._correct(idx, handle, inside)
+            outcome[idx] = Outcome.ACCEPTED
+            self.misses[idx] = 0
+            self.t_measured_s[idx] = t[idx]
+            return
+        rows = _rows(idx, self.n_tracks)
         if inside.any():
-            self._correct(sel, handle, inside)
-            ok = idx[inside]
+            self._correct(idx, handle, inside)
+            ok = rows[inside]
             outcome[ok] = Outcome.ACCEPTED
             self.misses[ok] = 0
             self.t_measured_s[ok] = t[ok]
-        outside = idx[~inside]
-        if len(outside):
-            outcome[outside] = Outcome.GATED
-            self.misses[outside] += 1
-            restart = outside[self.misses[outside] >= self.reinit_after_misses]
-            if len(restart):
-                self.counts[restart, Outcome.GATED] += 1
-                self._forget(restart)
-                self._start(restart, t, z, R, outcome)
-                outcome[restart] = Outcome.REINITIALISED
+        outside = rows[~inside]
+        outcome[outside] = Outcome.GATED
+        self.misses[outside] += 1
+        restart = outside[self.misses[outside] >= self.reinit_after_misses]
+        if len(restart):
+            self.counts[restart, Outcome.GATED] += 1
+            self._forget(restart)
+            self._start(restart, t, z, R, outcome)
+            outcome[restart] = Outcome.REINITIALISED
 
     def _start(
         self, idx: np.ndarray, t: np.ndarray, z: np.ndarray, R: np.ndarray, outcome: np.ndarray
@@ -470,20 +538,17 @@ class TrackEstimator(ABC):
     def _probabilities(self, idx: slice | np.ndarray) -> np.ndarray:
         """(K, M) model probabilities of running tracks."""
 
-    def _rates(self, idx: slice | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """ṡ (m/s²) and θ̇ (rad/s) of the tracks idx, for the maneuver events."""
+    def _signature(self, idx: slice | np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The most likely model (K,) of the tracks idx and its ṡ (m/s²) and θ̇ (rad/s), for
+        the maneuver events."""
         raise NotImplementedError(f"{type(self).__name__} has one model and no maneuver events")
 
 
-def _positive_definite(R: np.ndarray) -> np.ndarray:
-    """(N,) True where R is finite, symmetric and positive definite (one Cholesky for the
-    batch; eigenvalues only when some matrix fails it)."""
-    finite = np.isfinite(R).all(axis=(-1, -2))
-    Rf = R if finite.all() else np.where(finite[:, None, None], R, np.eye(R.shape[-1]))
-    symmetric = (np.abs(Rf - Rf.mT) <= 1e-9 * (1.0 + np.abs(Rf))).all(axis=(-1, -2))
-    try:
-        np.linalg.cholesky(Rf)
-        definite = True
-    except np.linalg.LinAlgError:
-        definite = np.linalg.eigvalsh(0.5 * (Rf + Rf.mT))[:, 0] > 0
-    return finite & symmetric & definite
+def _times(t_s: np.ndarray | float, n: int) -> np.ndarray:
+    """t_s as (n,) float seconds (a scalar is every track's time)."""
+    t = np.asarray(t_s, dtype=float)
+    return t if t.shape == (n,) else np.broadcast_to(t, (n,))
+
+
+# a coast of one track: no measurement
+_NO_Z, _NO_R, _ABSENT = np.zeros((1, 2)), np.eye(2)[None], np.zeros(1, bool)

@@ -49,16 +49,19 @@ class ManeuverTracker:
 
     def observe(
         self,
-        idx: np.ndarray,
+        idx: slice | np.ndarray,
         t_s: np.ndarray,
         model: np.ndarray,
         s_dot_m_s2: np.ndarray,
         theta_dot_rad_s: np.ndarray,
     ) -> None:
-        """One step of the tracks idx (index array) at t_s with their most likely model."""
+        """One step of the tracks idx (a slice or an index array) at t_s with their most
+        likely model."""
         previous = self.model[idx]
         new = model != previous
         if new.any():
+            if isinstance(idx, slice):
+                idx = np.arange(len(self.model))[idx]
             ended = new & (previous >= 0)
             if ended.any():
                 tracks = idx[ended]

@@ -66,7 +66,12 @@ class ImmEstimator(TrackEstimator):
         x[:, ITH] = np.arctan2(vy, vx)
         P = np.zeros((len(idx), STATE_DIM, STATE_DIM))
         P[:, :4, :4] = T @ Rv @ T.mT
-        P[:, ITH, ITH] = np.minimum(P[:, ITH, ITH], math.pi**2)  # direction unknown when still
+        # direction unknown when still: the heading's std is capped at π, its row and column
+        # scaled together (D P D keeps P positive semi-definite, clipping the variance alone
+        # does not)
+        scale = np.sqrt(np.minimum(1.0, math.pi**2 / np.maximum(P[:, ITH, ITH], 1e-300)))
+        P[:, ITH, :] *= scale[:, None]
+        P[:, :, ITH] *= scale[:, None]
         P[:, ISD, ISD], P[:, ITD, ITD] = self.initial_rate_var
         M = len(self.model_names)
         self.imm.x[idx] = x[:, None, :]
@@ -85,11 +90,11 @@ class ImmEstimator(TrackEstimator):
     def _correct(self, idx: slice | np.ndarray, handle: Innovation, inside: np.ndarray) -> None:
         if not inside.all():
             idx = np.arange(self.n_tracks)[idx][inside]
-            handle = Innovation(*(a[inside] for a in vars(handle).values()))
+            handle = handle.rows(inside)
         self.imm.correct(idx, handle)
-        x, P = self.imm.x[idx], self.imm.P[idx]
-        canonicalise(x, P)
-        self.imm.x[idx], self.imm.P[idx] = x, P
+        x, P = self.imm.x[idx], self.imm.P[idx]  # views when idx is a slice
+        if canonicalise(x, P) and not isinstance(idx, slice):
+            self.imm.x[idx], self.imm.P[idx] = x, P
 
     def _forecast(self, idx: slice | np.ndarray, dt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Each model predicted dt ahead without mixing, mapped to [X, Y, s cos θ, s sin θ]
@@ -102,18 +107,17 @@ class ImmEstimator(TrackEstimator):
     def _probabilities(self, idx: slice | np.ndarray) -> np.ndarray:
         return self.imm.mu[idx]
 
-    def _rates(self, idx: slice | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """ṡ and θ̇ of the most likely model's own estimate: the motion signature of a segment
-        is the rates of the model that explains it (the combined state, §5 step 4, dilutes a
-        turn rate by the probability of the models that hold θ̇ at 0)."""
-        return self.model_rates(idx)
+    def _signature(self, idx: slice | np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The most likely model and the ṡ and θ̇ of its own estimate: the motion signature of
+        a segment is the rates of the model that explains it (the combined state, §5 step 4,
+        dilutes a turn rate by the probability of the models that hold θ̇ at 0)."""
+        best = self.imm.mu[idx].argmax(axis=-1)
+        own = self.imm.x[idx][self._track_numbers[: len(best)], best]
+        return best, own[:, ISD], own[:, ITD]
 
     def model_rates(self, idx: slice | np.ndarray = slice(None)) -> tuple[np.ndarray, np.ndarray]:
         """(ṡ, θ̇) of each track's most likely model, 2 x (K,)."""
-        mu, x = self.imm.mu[idx], self.imm.x[idx]
-        best = np.argmax(mu, axis=-1)
-        own = x[np.arange(len(best)), best]
-        return own[:, ISD], own[:, ITD]
+        return self._signature(idx)[1:]
 
     def combined_state(self) -> tuple[np.ndarray, np.ndarray]:
         """The IMM output x (N, 6), P (N, 6, 6) (§5 step 4, heading averaged as an angle)."""

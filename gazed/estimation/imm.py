@@ -68,49 +68,47 @@ def check_switching_matrix(J: np.ndarray) -> np.ndarray:
 
 @dataclass
 class Innovation:
-    """Per track and model: ν (..., M, m), H, R, S, S⁻¹, NIS and log-likelihood (..., M)."""
+    """Per track and model: ν (..., M, m), H, R (..., 1, m, m), H P, S⁻¹, and NIS and
+    log-likelihood (..., M)."""
 
     y: np.ndarray
     H: np.ndarray
     R: np.ndarray
-    S: np.ndarray
+    HP: np.ndarray
     S_inv: np.ndarray
     nis: np.ndarray
     log_likelihood: np.ndarray
 
-
-def _difference(a: np.ndarray, b: np.ndarray, angle_index: int | None) -> np.ndarray:
-    d = a - b
-    if angle_index is not None:
-        d[..., angle_index] = wrap_angle(d[..., angle_index])
-    return d
+    def rows(self, keep: np.ndarray) -> Innovation:
+        """The tracks where `keep` (K,) is True."""
+        return Innovation(*(a[keep] for a in vars(self).values()))
 
 
-def weighted_mean(
-    w: np.ndarray, x: np.ndarray, reference: np.ndarray, angle_index: int | None
-) -> np.ndarray:
-    """Σ_i w_i x_i over axis -2 of x (..., I, n) with weights w (..., I); an angle component is
-    averaged as reference + Σ_i w_i wrap(x_i - reference) so that π-ε and -π+ε mix to π."""
-    mean = (w[..., None, :] @ x)[..., 0, :]
-    if angle_index is not None:
-        ref = reference[..., angle_index]
-        d = wrap_angle(x[..., angle_index] - ref[..., None])
-        mean[..., angle_index] = wrap_angle(ref + (w * d).sum(axis=-1))
-    return mean
+def _angle_spread(
+    w: np.ndarray, angle: np.ndarray, reference: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """d = wrap(angle - reference) (..., I) and the weighted mean Σ_i w_i d_i (...)."""
+    d = wrap_angle(angle - reference)
+    return d, (w[..., None, :] @ d[..., :, None])[..., 0, 0]
 
 
 def mix(
     mu: np.ndarray, J: np.ndarray, x: np.ndarray, P: np.ndarray, angle_index: int | None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """§5 step 1: returns c̄ (N, M), x0 (N, M, n), P0 (N, M, n, n)."""
+    """§5 step 1: returns c̄ (N, M), x0 (N, M, n), P0 (N, M, n, n).
+
+    The angle of model j is mixed about its own, x0_j = θ_j + Σ_i ω_ij wrap(θ_i - θ_j), and
+    left unwrapped (the motion model that follows wraps it).
+    """
     cbar = mu @ J  # c̄_j = Σ_i μ_i J_ij
-    omega_t = (J.T * mu[..., None, :]) / cbar[..., :, None]  # ω_ij stored as [j, i]
+    omega_t = J.T * (mu[..., None, :] / cbar[..., :, None])  # ω_ij stored as [j, i]
     x0 = omega_t @ x  # x0_j = Σ_i ω_ij x_i
-    if angle_index is not None:  # ... with the heading wrapped about model j's own
+    D = x[..., None, :, :] - x0[..., :, None, :]  # [j, i] = x_i - x0_j
+    if angle_index is not None:
         th = x[..., angle_index]
-        d = wrap_angle(th[..., None, :] - th[..., :, None])  # [j, i] = θ_i - θ_j
-        x0[..., angle_index] = wrap_angle(th + (omega_t * d).sum(axis=-1))
-    D = _difference(x[..., None, :, :], x0[..., :, None, :], angle_index)  # [j, i] = x_i - x0_j
+        d, spread = _angle_spread(omega_t, th[..., None, :], th[..., :, None])  # [j, i]
+        x0[..., angle_index] = th + spread
+        D[..., angle_index] = wrap_angle(d - spread[..., None])
     n = x.shape[-1]
     P0 = (omega_t @ P.reshape(*P.shape[:-2], n * n)).reshape(P.shape)
     P0 += (D.mT * omega_t[..., None, :]) @ D  # Σ_i ω_ij D_ij D_ijᵀ
@@ -120,22 +118,37 @@ def mix(
 def combine(
     mu: np.ndarray, x: np.ndarray, P: np.ndarray, angle_index: int | None
 ) -> tuple[np.ndarray, np.ndarray]:
-    """§5 step 4: the moment-matched output (x (N, n), P (N, n, n)); the angle is averaged about
-    the most likely model's."""
-    best = np.argmax(mu, axis=-1)
-    reference = np.take_along_axis(x, best[..., None, None], axis=-2)[..., 0, :]
-    xc = weighted_mean(mu, x, reference, angle_index)
-    D = _difference(x, xc[..., None, :], angle_index)  # (N, M, n)
+    """§5 step 4: the moment-matched output (x (N, n), P (N, n, n)); the angle is averaged
+    about the most likely model's, so that π-ε and -π+ε combine to π."""
+    xc = (mu[..., None, :] @ x)[..., 0, :]
+    D = x - xc[..., None, :]  # (N, M, n)
+    if angle_index is not None:
+        th = x[..., angle_index]
+        reference = np.take_along_axis(th, np.argmax(mu, axis=-1)[..., None], axis=-1)
+        d, spread = _angle_spread(mu, th, reference)
+        xc[..., angle_index] = wrap_angle(reference[..., 0] + spread)
+        D[..., angle_index] = wrap_angle(d - spread[..., None])
     n = x.shape[-1]
-    Pc = (mu[..., None, :] @ P.reshape(*P.shape[:-2], n * n))[..., 0, :].reshape((*xc.shape, n))
-    return xc, Pc + (D.mT * mu[..., None, :]) @ D
+    Pc = (mu[..., None, :] @ P.reshape(*P.shape[:-2], n * n)).reshape((*xc.shape, n))
+    Pc += (D.mT * mu[..., None, :]) @ D
+    return xc, Pc
 
 
-def normalise_log(log_w: np.ndarray) -> np.ndarray:
-    """exp(log_w) / Σ exp(log_w) over the last axis, without underflow."""
-    top = np.max(log_w, axis=-1, keepdims=True)
-    w = np.exp(log_w - top)
-    return w / w.sum(axis=-1, keepdims=True)
+def posterior(prior: np.ndarray, log_likelihood: np.ndarray) -> np.ndarray:
+    """prior · exp(log_likelihood), normalised over the last axis (§5 step 3).
+
+    The likelihoods are scaled by their largest, which cannot underflow unless the most likely
+    model has prior 0 (a switching matrix with zeros); then the sum is taken in logarithms.
+    """
+    w = prior * np.exp(log_likelihood - log_likelihood.max(axis=-1, keepdims=True))
+    total = w.sum(axis=-1, keepdims=True)
+    if not total.all():
+        with np.errstate(divide="ignore"):
+            log_w = np.log(prior) + log_likelihood
+        w = np.exp(log_w - log_w.max(axis=-1, keepdims=True))
+        total = w.sum(axis=-1, keepdims=True)
+    w /= total
+    return w
 
 
 @dataclass
@@ -144,6 +157,7 @@ class ImmFilter:
 
     `predict` (mix + model-conditioned predict, μ <- c̄), then `innovate`, then `correct` for the
     tracks that pass the gate. Arrays are public: x (N, M, n), P (N, M, n, n), mu (N, M).
+    `idx` selects tracks: a slice (the fast case: views, written in place) or an index array.
     """
 
     models: MotionModels
@@ -190,21 +204,20 @@ class ImmFilter:
         """ν = z - h(x(k+1|k)), S, NIS and log N(ν; 0, S) per model; z (K, m), R (K, m, m)."""
         h, H = self.measure(self.x[idx], z.shape[-1])
         y = z[:, None, :] - h
-        Rm = np.broadcast_to(R[:, None], H.shape[:-2] + R.shape[-2:])
-        S = innovation_covariance(self.P[idx], H, Rm)
-        S_inv, nis, log_lik = gaussian_terms(y, S)
-        return Innovation(y, H, Rm, S, S_inv, nis, log_lik)
+        R = R[:, None]  # the same R for every model
+        HP, S = innovation_covariance(self.P[idx], H, R)
+        S_inv, nis, log_likelihood = gaussian_terms(y, S)
+        return Innovation(y, H, R, HP, S_inv, nis, log_likelihood)
 
     def correct(self, idx: slice | np.ndarray, innovation: Innovation) -> None:
         """Step 2's update and step 3 for the tracks idx (the rows of `innovation`)."""
         i = innovation
-        x, P = joseph_update(self.x[idx], self.P[idx], i.y, i.H, i.R, i.S_inv)
+        x, P = joseph_update(self.x[idx], self.P[idx], i.y, i.H, i.R, i.HP, i.S_inv)
         if self.angle_index is not None:
             x[..., self.angle_index] = wrap_angle(x[..., self.angle_index])
         self.x[idx] = x
         self.P[idx] = P
-        with np.errstate(divide="ignore"):
-            self.mu[idx] = normalise_log(np.log(self.mu[idx]) + i.log_likelihood)
+        self.mu[idx] = posterior(self.mu[idx], i.log_likelihood)
 
     def combined(self, idx: slice | np.ndarray = slice(None)) -> tuple[np.ndarray, np.ndarray]:
         """Step 4 for the tracks idx."""

@@ -33,11 +33,15 @@ OUTPUT_INDEX = POSITION_INDEX + VELOCITY_INDEX  # [x, y, ẋ, ẏ]
 @dataclass
 class _Innovations:
     y: np.ndarray  # (K, M, m)
-    H: np.ndarray  # (m, 6)
     R: np.ndarray  # (K, 1, m, m)
+    HP: np.ndarray  # (K, M, m, 6)
     S: np.ndarray  # (K, M, m, m)
     S_inv: np.ndarray
     nis: np.ndarray  # (K, M)
+
+    def rows(self, keep: np.ndarray) -> _Innovations:
+        """The tracks where `keep` (K,) is True."""
+        return _Innovations(*(a[keep] for a in vars(self).values()))
 
 
 class KinematicEstimator(TrackEstimator):
@@ -100,20 +104,21 @@ class KinematicEstimator(TrackEstimator):
         H = self._H[z.shape[-1]]
         y = z[:, None, :] - self.x[idx] @ H.T
         Rm = R[:, None]
-        S = innovation_covariance(self.P[idx], H, Rm)
+        HP, S = innovation_covariance(self.P[idx], H, Rm)
         S_inv, nis, _ = gaussian_terms(y, S)
-        return nis.min(axis=-1), _Innovations(y, H, Rm, S, S_inv, nis)
+        return nis.min(axis=-1), _Innovations(y, Rm, HP, S, S_inv, nis)
 
     def _correct(self, idx: slice | np.ndarray, handle: _Innovations, inside: np.ndarray) -> None:
         i = handle
         rows = np.arange(self.n_tracks)[idx]
         if not inside.all():
             rows = rows[inside]
-            i = _Innovations(
-                i.y[inside], i.H, i.R[inside], i.S[inside], i.S_inv[inside], i.nis[inside]
-            )
+            i = i.rows(inside)
             idx = rows
-        self.x[idx], self.P[idx] = joseph_update(self.x[idx], self.P[idx], i.y, i.H, i.R, i.S_inv)
+        H = self._H[i.y.shape[-1]]
+        self.x[idx], self.P[idx] = joseph_update(
+            self.x[idx], self.P[idx], i.y, H, i.R, i.HP, i.S_inv
+        )
         if self.selector is not None:
             self.selector.record(rows, i.y, i.S, i.nis)
 
@@ -145,8 +150,8 @@ class KinematicEstimator(TrackEstimator):
         p[np.arange(len(chosen)), chosen] = 1.0
         return p
 
-    def _rates(self, idx: slice | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """ṡ = v·a/|v| and θ̇ = (v × a)/|v|² of the selected model's state."""
+    def _signature(self, idx: slice | np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The selected model, and ṡ = v·a/|v| and θ̇ = (v × a)/|v|² of its state."""
         chosen = self._chosen(idx)
         x = self.x[idx][np.arange(len(chosen)), chosen]
         v = x[:, VELOCITY_INDEX]
@@ -154,4 +159,4 @@ class KinematicEstimator(TrackEstimator):
         speed2 = np.maximum((v * v).sum(axis=-1), 1e-12)
         s_dot = (v * a).sum(axis=-1) / np.sqrt(speed2)
         theta_dot = (v[:, 0] * a[:, 1] - v[:, 1] * a[:, 0]) / speed2
-        return s_dot, theta_dot
+        return chosen, s_dot, theta_dot

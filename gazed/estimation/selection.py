@@ -19,7 +19,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.stats import chi2
+
+from gazed.estimation.chi_square import chi2_quantile
 
 
 @dataclass(frozen=True)
@@ -54,8 +55,9 @@ class InnovationSelector:
         self.dof = np.zeros((n_tracks, window))
         self.count = np.zeros(n_tracks, dtype=np.int64)
         self.selected = np.zeros(n_tracks, dtype=np.int64)
-        self._bias_threshold = float(chi2.ppf(probability, 2))
-        self._nis_threshold = {d: float(chi2.ppf(probability, d)) for d in range(1, 4 * window + 1)}
+        self._bias_threshold = chi2_quantile(probability, 2)
+        # NIS thresholds by degrees of freedom (2 or 4 per innovation), computed when first met
+        self._nis_threshold = np.full(4 * window + 1, np.nan)
 
     def reset(self, idx: slice | np.ndarray) -> None:
         self.count[idx] = 0
@@ -87,7 +89,11 @@ class InnovationSelector:
         bias = (wsum**2).sum(axis=-1) / n[:, None]
         nis_sum = (self.nis[idx] * mask).sum(axis=-1)
         dof = (self.dof[idx] * filled).sum(axis=-1).astype(int)
-        nis_limit = np.array([self._nis_threshold[d] for d in dof])
+        nis_limit = self._nis_threshold[dof]
+        if np.isnan(nis_limit).any():
+            for d in np.unique(dof[np.isnan(nis_limit)]):
+                self._nis_threshold[d] = chi2_quantile(self.probability, int(d))
+            nis_limit = self._nis_threshold[dof]
         consistent = (bias <= self._bias_threshold) & (nis_sum <= nis_limit[:, None])
         return mean, bias, nis_sum / dof[:, None], nis_limit / dof, consistent
 
