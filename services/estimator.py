@@ -11,7 +11,9 @@ Settings: [estimator] filter and its noises, gate, coasting; [camera], [head] an
 [calibration] (homography, height correction) for the geometry.
 
 A frame without a detection (or without a head pose, or with a ray above the horizon) is a
-predict-only step: the track coasts. Both latencies are measured live from stamps: visual as
+predict-only step: the track coasts. With no detection at all for two frame periods (vision
+restarting, frames lost) the track is still predicted at the camera's rate, marked coasting,
+for up to `coast_max_ms`, so the gaze keeps following where the target should be. Both latencies are measured live from stamps: visual as
 the time from capture to the detection's arrival here, actuation as the median time from this
 process's stamp to the servo's write stamp on `servo/command`.
 """
@@ -79,20 +81,48 @@ class EstimatorService:
             "coasted": 0,
             "no_head_pose": 0,
             "above_horizon": 0,
+            "silent_predictions": 0,
         }
         self.stage_ms = 0.0
+        self.frame_period_s = rig.camera.frame_period_s
+        self.silence_s = 2.0 * self.frame_period_s  # no detection for this long: predict anyway
+        self.coast_max_s = section.coast_max_ms / 1000.0
+        self.last_detection_s: float | None = None
 
     def step(self, now: Now) -> float:
         for command in self.commands.take():
             gap = stage_gap_s(command, STAGE, "servo")
             if gap is not None:
                 self.actuation.add(gap)
-        for detection in self.detections.take():
+        detections = self.detections.take()
+        for detection in detections:
             started = time.perf_counter()
             self._observe(detection, now)
             self._publish(detection, time.time_ns())
             self.stage_ms = (time.perf_counter() - started) * 1e3
-        return IDLE_S
+        if detections:
+            self.last_detection_s = now.mono_s
+            return self.silence_s
+        return self._silent(now)
+
+    def _silent(self, now: Now) -> float:
+        """No detection for a while (vision restarting, frames lost): keep predicting from the
+        track, marked coasting, at the camera's rate, for up to coast_max_ms."""
+        if self.last_detection_s is None:
+            return IDLE_S
+        silent_s = now.mono_s - self.last_detection_s
+        if silent_s > self.coast_max_s:
+            return IDLE_S
+        if silent_s >= self.silence_s:
+            t_effect_ns = now.wall_ns + round(self.actuation.median_s * 1e9)
+            predicted = self.estimator.predict(t_effect_ns / 1e9)
+            if predicted is not None:
+                stamps = ((STAGE, now.wall_ns),)
+                self.predictions.put(
+                    self._prediction(predicted, now.wall_ns, stamps, t_effect_ns, now.wall_ns, True)
+                )
+                self.counts["silent_predictions"] += 1
+        return self.frame_period_s
 
     def _observe(self, detection: Detection, now: Now) -> None:
         self.counts["detections"] += 1
@@ -127,12 +157,11 @@ class EstimatorService:
 
     def _publish(self, detection: Detection, t_ns: int) -> None:
         stamps = (*detection.stamps, (STAGE, t_ns))
-        t_effect_ns = (
-            t_ns + round(self.actuation.median_s * 1e9)
-            if self.predict_over_latency
-            else detection.t_capture_ns
-        )
-        predicted = self.estimator.predict(t_effect_ns / 1e9)
+        t_effect_ns = t_ns + round(self.actuation.median_s * 1e9)
+        # without prediction over the latency (the baseline), the estimate at the capture is
+        # offered as if it held when the demand acts
+        t_predicted_s = (t_effect_ns if self.predict_over_latency else detection.t_capture_ns) / 1e9
+        predicted = self.estimator.predict(t_predicted_s)
         if predicted is None:
             return
         now_state = self.estimator.predict(detection.t_capture_ns / 1e9)
@@ -158,7 +187,7 @@ class EstimatorService:
                 )
             )
         self.predictions.put(
-            self._prediction(detection, predicted, stamps, t_effect_ns, t_ns, coasting)
+            self._prediction(predicted, detection.t_capture_ns, stamps, t_effect_ns, t_ns, coasting)
         )
         for event in self.estimator.drain_events():
             self.events.put(
@@ -176,8 +205,8 @@ class EstimatorService:
 
     def _prediction(
         self,
-        detection: Detection,
         predicted: PredictedState,
+        t_capture_ns: int,
         stamps: tuple[tuple[str, int], ...],
         t_effect_ns: int,
         t_ns: int,
@@ -196,11 +225,11 @@ class EstimatorService:
             c = predicted.covariance
             cov = ((float(c[0, 0]), float(c[0, 1])), (float(c[1, 0]), float(c[1, 1])))
         return Prediction(
-            t_capture_ns=detection.t_capture_ns,
+            t_capture_ns=t_capture_ns,
             stamps=stamps,
             filter=self.filter,
             t_effect_ns=t_effect_ns,
-            horizon_s=(t_effect_ns - detection.t_capture_ns) / 1e9,
+            horizon_s=(t_effect_ns - t_capture_ns) / 1e9,
             pan_rad=pan,
             tilt_rad=tilt,
             pan_rate_rad_s=pan_rate,
@@ -208,7 +237,7 @@ class EstimatorService:
             ground_xy_m=ground,
             ground_velocity_m_s=velocity,
             position_cov_m2=cov,
-            visual_latency_s=(t_ns - detection.t_capture_ns) / 1e9,
+            visual_latency_s=(t_ns - t_capture_ns) / 1e9,
             actuation_latency_s=self.actuation.median_s,
             coasting=coasting,
         )

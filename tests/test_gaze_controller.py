@@ -272,3 +272,16 @@ def test_look_and_move_moves_only_after_a_fresh_look() -> None:
     c.on_prediction(prediction(clock, goal, 0.0))
     assert c.tick(clock.wall_ns, clock.mono_s).demand.kind == "position"
     assert not c.looking
+
+
+def test_a_restarted_controller_takes_up_a_target_in_view_instead_of_parking() -> None:
+    clock = Clock()
+    c = GazeController(RIG, clock.mono_s)
+    c.on_odometry(odometry(clock, 20.0, -5.0))  # the head held where the last controller left it
+    c.on_detection(detection(clock, 325.0, 242.0, head_deg=(20.0, -5.0)))
+    decision = c.tick(clock.wall_ns, clock.mono_s)
+    assert decision.transition.state == "pursuit" and decision.transition.previous == "park"
+    assert decision.demand.kind == "pursuit"
+    assert math.degrees(decision.demand.pan_rad) == pytest.approx(
+        20.0 + math.degrees(math.atan(5.5 / F)), abs=0.05
+    )

