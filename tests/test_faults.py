@@ -8,6 +8,7 @@ import math
 import os
 import signal
 import time
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -40,6 +41,14 @@ class Watch:
         self.truth.extend(self._truth.take())
         self.holding_since.extend(s.t_capture_ns for s in self._status.take() if s.holding)
 
+    def recovered(self, name: str, killed_s: float, killed_ns: int) -> int | None:
+        """Once `name` is alive again: when tracking resumed after the kill (None: not yet)."""
+        self.pump()
+        events = self.supervisor.alive_events
+        if not any(n == name and up and t > killed_s for t, n, up in events):
+            return None
+        return self.tracking_since_ns(killed_ns)
+
     def tracking_since_ns(self, after_ns: int) -> int | None:
         """Capture time of the first frame after `after_ns` that starts IN_FOVEA_FRAMES in a row."""
         frames = [t for t in self.truth if t.t_capture_ns > after_ns]
@@ -68,14 +77,9 @@ def test_tracking_survives_each_process_being_killed(tmp_path: Path) -> None:
             killed_s = time.monotonic()
             os.kill(old_pid, signal.SIGKILL)
 
-            def recovered() -> int | None:
-                watch.pump()
-                alive = [
-                    t for t, n, up in supervisor.alive_events if n == name and up and t > killed_s
-                ]
-                return watch.tracking_since_ns(killed_ns) if alive else None
-
-            back = poll_until(recovered, 20.0, interval_s=0.0)
+            back = poll_until(
+                partial(watch.recovered, name, killed_s, killed_ns), 20.0, interval_s=0.0
+            )
             alive_again_s = next(
                 t for t, n, up in supervisor.alive_events if n == name and up and t > killed_s
             )
