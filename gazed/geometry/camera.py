@@ -8,15 +8,24 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from types import ModuleType
 
-import cv2
 import numpy as np
 
 from gazed.config import CameraSection
 
 # Iterate the undistortion to round-off (OpenCV's default 5 iterations leave ~0.02 px at the
 # corners of a k1 = -0.25 lens).
-UNDISTORT_CRITERIA = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 100, 1e-12)
+UNDISTORT_ITERATIONS = 100  # cv2.undistortPointsIter: stop after this many, or at this change
+UNDISTORT_EPSILON = 1e-12
+
+
+def _cv2() -> ModuleType:
+    """OpenCV, imported on first use: only a lens with distortion needs it, and the processes
+    that never meet one start faster without it."""
+    import cv2
+
+    return cv2
 
 
 @dataclass(frozen=True)
@@ -87,13 +96,19 @@ class CameraModel:
         if not self.has_distortion:
             return u, v
         points = np.stack([u.ravel(), v.ravel()], axis=-1).reshape(-1, 1, 2)
+        cv2 = _cv2()
+        criteria = (
+            cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS,
+            UNDISTORT_ITERATIONS,
+            UNDISTORT_EPSILON,
+        )
         if hasattr(cv2, "undistortPointsIter"):  # OpenCV 4.x
             ideal = cv2.undistortPointsIter(
-                points, self.K, self.distortion, np.eye(3), self.K, UNDISTORT_CRITERIA
+                points, self.K, self.distortion, np.eye(3), self.K, criteria
             )
         else:  # OpenCV 5 takes the criteria in undistortPoints
             ideal = cv2.undistortPoints(
-                points, self.K, self.distortion, R=np.eye(3), P=self.K, criteria=UNDISTORT_CRITERIA
+                points, self.K, self.distortion, R=np.eye(3), P=self.K, criteria=criteria
             )
         ideal = ideal.reshape(-1, 2)
         return ideal[:, 0].reshape(u.shape), ideal[:, 1].reshape(v.shape)
@@ -117,7 +132,7 @@ class CameraModel:
         else:
             x, y, _ = self.ray(u_px, v_px)
             point = np.array([[x, y, 1.0]])
-            _, jacobian = cv2.projectPoints(
+            _, jacobian = _cv2().projectPoints(
                 point, np.zeros(3), np.zeros(3), self.K, self.distortion
             )
             derivative = np.linalg.inv(jacobian[:, 3:5])
@@ -134,7 +149,7 @@ class CameraModel:
         xy = ray_camera[..., :2] / z[..., None]
         if self.has_distortion:
             points = np.concatenate([xy.reshape(-1, 2), np.ones((xy.size // 2, 1))], axis=1)
-            uv, _ = cv2.projectPoints(points, np.zeros(3), np.zeros(3), self.K, self.distortion)
+            uv, _ = _cv2().projectPoints(points, np.zeros(3), np.zeros(3), self.K, self.distortion)
             return uv.reshape(xy.shape)
         K = self.K
         return np.stack([K[0, 0] * xy[..., 0] + K[0, 2], K[1, 1] * xy[..., 1] + K[1, 2]], axis=-1)
