@@ -34,8 +34,9 @@ class LiveStatus:
         self.stream = stream
         self.live = interactive(stream) if live is None else live
         self._states = bus.subscribe(GAZE_STATE, capacity=64)
-        self._estimates = bus.subscribe(ESTIMATOR_STATE, capacity=64)
-        self._commands = bus.subscribe(SERVO_COMMAND, capacity=256)
+        # the live line's other figures: followed only when a person watches
+        self._estimates = bus.subscribe(ESTIMATOR_STATE, capacity=64) if self.live else None
+        self._commands = bus.subscribe(SERVO_COMMAND, capacity=256) if self.live else None
         self.gaze = "-"
         self.target: tuple[float, float] | None = None
         self.model = "-"
@@ -49,6 +50,8 @@ class LiveStatus:
             if self.live:
                 self._clear()
             log.info("gaze %s -> %s: %s", state.previous, state.state, state.reason)
+        if self._estimates is None or self._commands is None:
+            return
         for estimate in self._estimates.take():
             self.target = estimate.ground_xy_m
             self.model = estimate.most_likely or "-"
@@ -57,7 +60,7 @@ class LiveStatus:
             if gap is not None and command.t_capture_ns not in self._seen_captures:
                 self._seen_captures.append(command.t_capture_ns)  # the first write of a capture
                 self._processing_ms.append(gap * 1e3)
-        if self.live and now_s >= self._next_s:
+        if now_s >= self._next_s:
             self._next_s = now_s + REFRESH_S
             self.stream.write("\r" + self.line(up, total) + "\x1b[K")
             self.stream.flush()
