@@ -30,6 +30,9 @@ class FakeBus:
 
 
 def feed(bus: FakeBus) -> None:
+    """A state change, an estimate, three writes (to the inboxes that exist)."""
+    bus.inboxes.setdefault(ESTIMATOR_STATE.suffix, Inbox())
+    bus.inboxes.setdefault(SERVO_COMMAND.suffix, Inbox())
     bus.inboxes[GAZE_STATE.suffix].items.append(
         GazeState(
             t_capture_ns=1, state="pursuit", previous="saccade", reason="settled on the target"
@@ -78,4 +81,5 @@ def test_state_changes_are_logged_without_a_terminal(caplog: pytest.LogCaptureFi
     with caplog.at_level(logging.INFO, logger="gazed.run"):
         status.refresh(0.0, 5, 5)
     assert stream.getvalue() == ""  # no status line in a journal
+    assert status._estimates is None and status._commands is None  # nor the decoding it needs
     assert caplog.messages == ["gaze saccade -> pursuit: settled on the target"]
