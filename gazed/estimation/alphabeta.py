@@ -158,14 +158,18 @@ class AlphaBetaEstimator(TrackEstimator):
         return nis, (z[:, :2], np.diagonal(R[:, :2, :2], axis1=1, axis2=2))
 
     def _correct(
-        self, idx: slice | np.ndarray, handle: tuple[np.ndarray, np.ndarray], inside: np.ndarray
+        self,
+        idx: slice | np.ndarray,
+        handle: tuple[np.ndarray, np.ndarray],
+        inside: np.ndarray | None,
     ) -> None:
-        """Eqs. 2, 5, 10 (and the variances of eq. 6, see above) for the tracks idx[inside];
-        the others keep the prediction as their estimate."""
+        """Eqs. 2, 5, 10 (and the variances of eq. 6, see above) for the tracks idx[inside]
+        (all of idx: None); the others keep the prediction as their estimate."""
         assert self._predicted is not None
-        predicted, line, quad = (a[inside] for a in self._predicted)
-        measured, var_m = (a[inside] for a in handle)
-        rows = np.arange(self.n_tracks)[idx][inside]
+        keep = slice(None) if inside is None else inside
+        predicted, line, quad = (a[keep] for a in self._predicted)
+        measured, var_m = (a[keep] for a in handle)
+        rows = np.arange(self.n_tracks)[idx][keep]
         var_p = np.maximum(self.spread[rows] - var_m, 0.0)  # σ_p², σ_m² from before step k
         alpha1 = weight(var_m, var_p)  # eq. 5
         estimate = alpha1 * predicted + (1.0 - alpha1) * measured  # eq. 2

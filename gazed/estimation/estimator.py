@@ -447,7 +447,7 @@ class TrackEstimator(ABC):
         statistic, handle = self._innovate(idx, z[idx], R[idx])
         inside = statistic <= self._gate[z.shape[-1]]
         if inside.all():  # the common case, on views when idx is a slice
-            self._correct(idx, handle, inside)
+            self._correct(idx, handle, None)
             outcome[idx] = Outcome.ACCEPTED
             self.misses[idx] = 0
             self.t_measured_s[idx] = t[idx]
@@ -527,8 +527,9 @@ class TrackEstimator(ABC):
         """Gate statistic (K,) (the smallest NIS over models) and what `_correct` needs."""
 
     @abstractmethod
-    def _correct(self, idx: slice | np.ndarray, handle: Any, inside: np.ndarray) -> None:
-        """Update the tracks idx[inside] with the innovations computed by `_innovate`."""
+    def _correct(self, idx: slice | np.ndarray, handle: Any, inside: np.ndarray | None) -> None:
+        """Update the tracks idx[inside] (all of idx: None) with the innovations computed by
+        `_innovate`."""
 
     @abstractmethod
     def _forecast(self, idx: slice | np.ndarray, dt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -87,8 +87,10 @@ class ImmEstimator(TrackEstimator):
         innovation = self.imm.innovate(idx, z, R)
         return innovation.nis.min(axis=-1), innovation
 
-    def _correct(self, idx: slice | np.ndarray, handle: Innovation, inside: np.ndarray) -> None:
-        if not inside.all():
+    def _correct(
+        self, idx: slice | np.ndarray, handle: Innovation, inside: np.ndarray | None
+    ) -> None:
+        if inside is not None:
             idx = np.arange(self.n_tracks)[idx][inside]
             handle = handle.rows(inside)
         self.imm.correct(idx, handle)

@@ -82,7 +82,8 @@ def joseph_update(
     """
     Kt = S_inv @ HP
     x_new = x + (y[..., None, :] @ Kt)[..., 0, :]
-    I_KH_t = identity(P.shape[-1]) - H.mT @ Kt
+    I_KH_t = H.mT @ Kt
+    np.subtract(identity(P.shape[-1]), I_KH_t, out=I_KH_t)
     P_new = I_KH_t.mT @ P @ I_KH_t
     P_new += Kt.mT @ R @ Kt
     return x_new, symmetrize(P_new)

@@ -108,10 +108,12 @@ class KinematicEstimator(TrackEstimator):
         S_inv, nis, _ = gaussian_terms(y, S)
         return nis.min(axis=-1), _Innovations(y, Rm, HP, S, S_inv, nis)
 
-    def _correct(self, idx: slice | np.ndarray, handle: _Innovations, inside: np.ndarray) -> None:
+    def _correct(
+        self, idx: slice | np.ndarray, handle: _Innovations, inside: np.ndarray | None
+    ) -> None:
         i = handle
         rows = np.arange(self.n_tracks)[idx]
-        if not inside.all():
+        if inside is not None:
             rows = rows[inside]
             i = i.rows(inside)
             idx = rows
