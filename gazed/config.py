@@ -836,6 +836,11 @@ class SimSection(Section):
         description="A paved rectangle [X0, Y0, X1, Y1] on the ground: its sides are ground lines "
         "X = X0, X = X1, Y = Y0, Y = Y1 for `gazed calibrate trace`.",
     )
+    frame_encoding: Literal["bgr8", "gray8"] = Field(
+        "bgr8",
+        description="Pixels of the published frames: colour, or grey (a third of the bytes on the bus; "
+        "the detectors work on grey anyway).",
+    )
     noise_std_levels: float = Field(
         2.0, ge=0, le=64, description="Sensor noise: standard deviation in grey levels (0-255)."
     )

@@ -164,9 +164,12 @@ class EstimatorService:
         predicted = self.estimator.predict(t_predicted_s)
         if predicted is None:
             return
-        now_state = self.estimator.predict(detection.t_capture_ns / 1e9)
-        probabilities = self.estimator.model_probabilities()
         coasting = not detection.found
+        # the prediction first: the gaze controller waits for it, nobody waits for the state
+        self.predictions.put(
+            self._prediction(predicted, detection.t_capture_ns, stamps, t_effect_ns, t_ns, coasting)
+        )
+        now_state = self.estimator.predict(detection.t_capture_ns / 1e9)
         if now_state is not None:
             self.states.put(
                 EstimatorState(
@@ -177,7 +180,7 @@ class EstimatorService:
                         float(v) for v in np.concatenate([now_state.position, now_state.velocity])
                     ),
                     P=tuple(tuple(float(v) for v in row) for row in now_state.covariance),
-                    model_probabilities=probabilities,
+                    model_probabilities=self.estimator.model_probabilities(),
                     most_likely=self.estimator.most_likely(),
                     ground_xy_m=_pair(now_state.position) if self.geometry is not None else None,
                     ground_velocity_m_s=_pair(now_state.velocity)
@@ -186,9 +189,6 @@ class EstimatorService:
                     coasting=coasting,
                 )
             )
-        self.predictions.put(
-            self._prediction(predicted, detection.t_capture_ns, stamps, t_effect_ns, t_ns, coasting)
-        )
         for event in self.estimator.drain_events():
             self.events.put(
                 ManeuverEvent(

@@ -7,6 +7,7 @@ but stamped with the true capture time) and `sim/truth` (the target's ground pos
 velocity, its height, the true head pose, at the capture time of every frame, published at once).
 Settings: [camera] size, intrinsics and rate; [head] kinematics and limits (the emulated axes);
 [servo] protocol and port; [sim] seed, trajectory and its speed/scale/centre, target size,
+frame encoding,
 distractor, the true camera pose, latency, noise, flicker, blur, the court (ground lines to
 trace), and the emulated head's keys.
 
@@ -21,6 +22,7 @@ import time
 from collections import deque
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 
 from gazed.bus import Bus
@@ -138,13 +140,16 @@ class SimService:
             pan_rate_rad_s=head.pan_rate_rad_s,
             tilt_rate_rad_s=head.tilt_rate_rad_s,
         )
+        encoding = self.rig.sim.frame_encoding
+        if encoding == "gray8":
+            pixels = cv2.cvtColor(pixels, cv2.COLOR_BGR2GRAY)
         self.render_ms = (time.perf_counter() - started) * 1e3
         header = FrameHeader(
             t_capture_ns=t_capture_ns,
             seq=self.seq,
             width=self.camera.width_px,
             height=self.camera.height_px,
-            encoding="bgr8",
+            encoding=encoding,
         )
         self.pending.append(Pending(t_s + self.latency_s, header, pixels))
         self.truth.put(
