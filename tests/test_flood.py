@@ -25,6 +25,7 @@ import json
 import math
 import random
 import time
+import types
 import typing
 from pathlib import Path
 from typing import Any
@@ -75,7 +76,7 @@ def example_value(annotation: Any) -> Any:
         return example_value(args[0])
     if origin is typing.Literal:
         return args[0]
-    if origin is typing.Union or str(origin) == "<class 'types.UnionType'>":
+    if origin in (typing.Union, types.UnionType):
         return example_value(next(a for a in args if a is not type(None)))
     if origin is tuple:
         return [example_value(a) for a in args if a is not Ellipsis] if Ellipsis not in args else []
