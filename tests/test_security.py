@@ -29,7 +29,15 @@ import tomlkit
 import zenoh
 from conftest import REPO, RunningSupervisor, poll_until, write_rig
 
-from gazed.bus import TOOLS_IDENTITY, Bus, BusError, identity_of, open_session, session_config
+from gazed.bus import (
+    TOOLS_IDENTITY,
+    Bus,
+    BusError,
+    Subscription,
+    identity_of,
+    open_session,
+    session_config,
+)
 from gazed.config import SERVICE_NAMES, BusSection, load_rig
 from gazed.eval.loop import private_rig
 from gazed.messages import Detection, GazeDemand, Health, Odometry
@@ -197,7 +205,9 @@ def secured_rig(directory: Path, services: tuple[str, ...]) -> tuple[Path, dict[
     return rig_path, passwords
 
 
-def stranger_bus(rig_path: Path, directory: Path, name: str, lines: str, ca: bool = True):
+def stranger_bus(
+    rig_path: Path, directory: Path, name: str, lines: str, ca: bool = True
+) -> BusSection:
     """The rig's [bus] with other credentials (none if `lines` is empty), or without the CA."""
     document = tomlkit.parse(rig_path.read_text())
     bus = document["bus"]
@@ -293,7 +303,7 @@ def demand(pan_rad: float) -> GazeDemand:
     return GazeDemand(t_capture_ns=time.time_ns(), kind="position", pan_rad=pan_rad, tilt_rad=0.0)
 
 
-def newer_health(subscription, t_ns: int) -> Health | None:
+def newer_health(subscription: Subscription[Health], t_ns: int) -> Health | None:
     for report in subscription.take():
         if report.t_capture_ns > t_ns:
             return report
