@@ -26,6 +26,18 @@ from gazed.messages import FrameHeader, Health, Message, SupervisorStatus
 from gazed.topics import PREFIX, alive_key, split_key, topic_for
 
 DEFAULT_ENDPOINT = "tcp/127.0.0.1:7447"
+# health counters `gazed status` shows: the ones that say something went wrong
+TROUBLE_COUNTERS = (
+    "drop",
+    "malformed",
+    "error",
+    "clamp",
+    "refused",
+    "replaced",
+    "rejected",
+    "future",
+    "off_the",
+)
 
 
 @dataclass(frozen=True)
@@ -226,7 +238,7 @@ def status_command(args: argparse.Namespace) -> int:
             if isinstance(seen.message, Health):
                 health[seen.key] = seen.message
             elif isinstance(seen.message, SupervisorStatus):
-                supervisor[seen.key] = seen.message
+                supervisor[f"{seen.key}#{seen.message.host}"] = seen.message  # one per host
 
     session = _listen(target, f"{PREFIX}/{target.rig}/**", on_seen)
     try:
@@ -269,15 +281,19 @@ def _status_report(
     rigs: dict[str, Any] = {}
     names = set(alive) | {p[0] for p in map(split_key, counts) if p}
     for name in sorted(names):
-        sup = supervisor.get(f"{PREFIX}/{name}/supervisor/status")
+        key = f"{PREFIX}/{name}/supervisor/status#"
+        sups = [status for k, status in sorted(supervisor.items()) if k.startswith(key)]
         processes: dict[str, Any] = {}
-        if sup is not None:
+        for sup in sups:  # a rig over several hosts: each process from the host that runs it
             for p in sup.processes:
+                if p.state in ("disabled", "missing") and p.name in processes:
+                    continue
                 processes[p.name] = {
                     "state": p.state,
                     "pid": p.pid,
                     "restarts": p.restarts,
                     "message": p.message,
+                    "host": sup.host,
                 }
         for process in alive.get(name, []):
             processes.setdefault(process, {})["alive"] = True
@@ -289,15 +305,7 @@ def _status_report(
                 entry["counters"] = {
                     k: v
                     for k, v in h.counters.items()
-                    if v
-                    and (
-                        "drop" in k
-                        or "malformed" in k
-                        or "error" in k
-                        or "clamp" in k
-                        or "refused" in k
-                        or "replaced" in k
-                    )
+                    if v and any(word in k for word in TROUBLE_COUNTERS)
                 }
                 entry["notes"] = h.notes
         rates = {
@@ -306,7 +314,9 @@ def _status_report(
             if key.startswith(f"{PREFIX}/{name}/")
         }
         rigs[name] = {
-            "supervisor": sup.state if sup is not None else None,
+            "supervisor": "; ".join(f"{s.host}: {s.state}" for s in sups)
+            if len(sups) > 1
+            else (sups[0].state if sups else None),
             "processes": processes,
             "rates_hz": rates,
         }

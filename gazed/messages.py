@@ -244,7 +244,7 @@ class Prediction(Message):
     SCHEMA: ClassVar[str] = "gazed.Prediction"
     filter: str
     t_effect_ns: int = Field(ge=0, description="The instant the prediction is for.")
-    horizon_s: float
+    horizon_s: float = Field(ge=-60, le=60)
     pan_rad: float
     tilt_rad: float
     pan_rate_rad_s: float
@@ -252,8 +252,8 @@ class Prediction(Message):
     ground_xy_m: tuple[float, float] | None = None
     ground_velocity_m_s: tuple[float, float] | None = None
     position_cov_m2: tuple[tuple[float, float], tuple[float, float]] | None = None
-    visual_latency_s: float = Field(ge=0)
-    actuation_latency_s: float = Field(ge=0)
+    visual_latency_s: float = Field(ge=0, le=60)
+    actuation_latency_s: float = Field(ge=0, le=60)
     coasting: bool = False
 
 
@@ -311,6 +311,7 @@ class ProcessStatus(BaseModel):
 class SupervisorStatus(Message):
     SCHEMA: ClassVar[str] = "gazed.SupervisorStatus"
     state: Literal["starting", "running", "reloading", "stopping", "failed"]
+    host: str = Field("", description="Host of this supervisor (a rig may span several).")
     rig_path: str
     processes: tuple[ProcessStatus, ...] = ()
     message: str = ""

@@ -29,6 +29,7 @@ import importlib.util
 import logging
 import os
 import signal
+import socket
 import subprocess
 import sys
 import time
@@ -220,6 +221,7 @@ class Supervisor:
                 child.state == State.RUNNING
                 and not child.alive
                 and now_s - child.lost_s > EXIT_GRACE_S
+                and self._router_reachable()
             ):
                 _signal(child, signal.SIGKILL)  # frozen: its lease expired
                 child.popen.wait()
@@ -266,6 +268,11 @@ class Supervisor:
             if not alive:
                 child.lost_s = time.monotonic()
             self._changed = True
+
+    def _router_reachable(self) -> bool:
+        """Hosting the router, or connected to one: only then does a vanished token mean a
+        frozen process (with the router gone, every token vanishes and nothing is frozen)."""
+        return self.rig.bus.router or bool(self.bus.session.info.routers_zid())
 
     def up(self) -> tuple[int, int]:
         """(processes running, processes enabled and installed)."""
@@ -335,6 +342,7 @@ class Supervisor:
         status = SupervisorStatus(
             t_capture_ns=time.time_ns(),
             state=state,
+            host=socket.gethostname(),
             rig_path=str(self.rig_path),
             processes=tuple(c.status() for c in self.children.values()),
             message=message,

@@ -61,7 +61,7 @@ GAZE_STATE = Topic("gaze/state", GazeState, "gaze", ("vision", "gazed run"))
 GAZE_COMMAND = Topic("gaze/command", GazeCommand, "gazed calibrate trace", ("gaze",))
 GAZE_TRACE = Topic("gaze/trace", TraceResult, "gaze", ("gazed calibrate trace",))
 VISION_EDGE = Topic("vision/edge", EdgeObservation, "vision", ("gaze",))
-SERVO_ODOMETRY = Topic("servo/odometry", Odometry, "servo", ("vision", "estimator", "gaze"))
+SERVO_ODOMETRY = Topic("servo/odometry", Odometry, "servo", ("vision", "gaze"))
 SERVO_STATUS = Topic("servo/status", ServoStatus, "servo", ("gazed status",))
 # Each demand as written to the head (limited), its stamps ending ("servo", t) at the moment its
 # bytes were written: the end of the loop for `gazed latency` and `gazed eval loop`.

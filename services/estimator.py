@@ -47,6 +47,7 @@ from services.runtime import HealthReport, Now, main
 
 STAGE = "estimator"
 IDLE_S = 1.0
+FUTURE_TOLERANCE_NS = 1_000_000_000  # a detection captured further ahead of our clock is bogus
 
 log = logging.getLogger("gazed.estimator")
 
@@ -82,6 +83,9 @@ class EstimatorService:
             "no_head_pose": 0,
             "above_horizon": 0,
             "silent_predictions": 0,
+            "rejected": 0,
+            "from_the_future": 0,
+            "off_the_image": 0,
         }
         self.stage_ms = 0.0
         self.frame_period_s = rig.camera.frame_period_s
@@ -97,8 +101,14 @@ class EstimatorService:
         detections = self.detections.take()
         for detection in detections:
             started = time.perf_counter()
-            self._observe(detection, now)
-            self._publish(detection, time.time_ns())
+            if not self._plausible(detection, now):
+                continue
+            try:
+                self._observe(detection, now)
+                self._publish(detection, time.time_ns())
+            except ValueError as exc:  # the filter refused it (e.g. not newer than the track)
+                self.counts["rejected"] += 1
+                log.debug("detection %d rejected: %s", detection.seq, exc)
             self.stage_ms = (time.perf_counter() - started) * 1e3
         if detections:
             self.last_detection_s = now.mono_s
@@ -123,6 +133,20 @@ class EstimatorService:
                 )
                 self.counts["silent_predictions"] += 1
         return self.frame_period_s
+
+    def _plausible(self, detection: Detection, now: Now) -> bool:
+        """Well-formed is not enough: a capture from the future, or a pixel far off the image,
+        is dropped and counted (it would poison the track)."""
+        if detection.t_capture_ns - now.wall_ns > FUTURE_TOLERANCE_NS:
+            self.counts["from_the_future"] += 1
+            return False
+        w, h = detection.width_px, detection.height_px
+        if detection.found and not (
+            -w <= detection.u_px <= 2 * w and -h <= detection.v_px <= 2 * h
+        ):
+            self.counts["off_the_image"] += 1
+            return False
+        return True
 
     def _observe(self, detection: Detection, now: Now) -> None:
         self.counts["detections"] += 1

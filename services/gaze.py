@@ -55,7 +55,7 @@ class GazeService:
     def step(self, now: Now) -> float:
         c = self.controller
         for odometry in self.odometry.take():
-            c.on_odometry(odometry)
+            c.on_odometry(odometry, now.wall_ns)
         for candidates in self.candidates.take():
             c.on_candidates(candidates)
         for detection in self.detections.take():

@@ -100,7 +100,11 @@ class VisionService:
 
     def step(self, now: Now) -> float:
         for odometry in self.odometry.take():
-            self.history.add(odometry)
+            if not self.history.add(odometry, now.wall_ns):
+                self._drop(
+                    "odometry_from_the_future",
+                    f"odometry stamped {odometry.t_capture_ns} is ahead of now",
+                )
         for state in self.gaze_states.take():
             self.gaze_state = state.state
         frame = self.source.read()

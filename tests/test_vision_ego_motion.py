@@ -155,3 +155,12 @@ def test_position_history_slope_transport_and_gate() -> None:
     assert len(history) == 4
     history.add(0.28, 300.0, 44.0, gate_px=5.0)  # something else
     assert len(history) == 1 and history.velocity() is None
+
+
+def test_odometry_from_the_future_is_refused() -> None:
+    history = OdometryHistory(span_s=2.0, max_gap_s=0.1)
+    now_ns = 10_000_000_000
+    assert history.add(odometry(10.0, 0.2, 0.1, 1.0, 0.0), now_ns)
+    bogus = odometry(10.0 + 11 * 86400.0, 5.0, 5.0)  # eleven days ahead
+    assert not history.add(bogus, now_ns)
+    assert len(history) == 1 and history.pose_at(now_ns) is not None

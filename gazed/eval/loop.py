@@ -147,8 +147,9 @@ def private_rig(
     bus["listen"] = [f"tcp/127.0.0.1:{_free_port()}"]
     bus.pop("connect", None)
     bus["router"] = True
-    if "zenoh_config_path" in bus:
-        bus["zenoh_config_path"] = str(base / str(bus["zenoh_config_path"]))
+    for key in ("zenoh_config_path", "credentials_path"):  # relative to the original rig file
+        if key in bus:
+            bus[key] = str(base / str(bus[key]))
     document.setdefault("servo", tomlkit.table())["port"] = str(directory / "head")
     sim = document.setdefault("sim", tomlkit.table())
     if scenario.startswith("file:"):

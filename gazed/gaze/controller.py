@@ -68,6 +68,7 @@ from gazed.servo.limits import DemandLimiter
 STAGE = "gaze"
 STILL_RATE_RAD_S = math.radians(2.0)  # below this the head counts as at rest
 PREDICTION_FRESH_S = 0.5  # an older prediction is not used for pursuit
+FUTURE_TOLERANCE_NS = 500_000_000  # a message stamped further ahead of our clock is bogus
 
 
 @dataclass(frozen=True)
@@ -152,11 +153,20 @@ class GazeController:
             "saccades": 0,
             "ignored_while_moving": 0,
             "stale_predictions": 0,
+            "refused_odometry": 0,
         }
 
     # -- inputs ----------------------------------------------------------------------------
 
-    def on_odometry(self, odometry: Odometry) -> None:
+    def on_odometry(self, odometry: Odometry, wall_ns: int | None = None) -> None:
+        """The head's newest pose; live (with our clock), one stamped in the future or older
+        than the one held is refused and counted."""
+        if wall_ns is not None and (
+            odometry.t_capture_ns - wall_ns > FUTURE_TOLERANCE_NS
+            or (self.odometry is not None and odometry.t_capture_ns < self.odometry.t_capture_ns)
+        ):
+            self.counts["refused_odometry"] += 1
+            return
         self.odometry = odometry
 
     def on_prediction(self, prediction: Prediction) -> None:
@@ -483,7 +493,9 @@ class GazeController:
         p = self.prediction
         if p is None:
             return None
-        if (wall_ns - p.t_effect_ns) / 1e9 > PREDICTION_FRESH_S:
+        if (
+            abs(wall_ns - p.t_effect_ns) / 1e9 > PREDICTION_FRESH_S
+        ):  # stale, or bogus from the future
             self.counts["stale_predictions"] += 1
             return None
         return Aim(p.t_effect_ns, p.pan_rad, p.tilt_rad, p.pan_rate_rad_s, p.tilt_rate_rad_s)
@@ -571,7 +583,7 @@ class GazeController:
 
     def _recent_found(self, wall_ns: int, since_ns: int) -> Detection | None:
         d = self.found
-        if d is None or d.t_capture_ns < since_ns:
+        if d is None or d.t_capture_ns < since_ns or d.t_capture_ns - wall_ns > FUTURE_TOLERANCE_NS:
             return None
         if (wall_ns - d.t_capture_ns) / 1e6 > self.gaze.lost_after_ms:
             return None

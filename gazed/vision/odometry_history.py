@@ -24,9 +24,15 @@ class OdometryHistory:
     def __len__(self) -> int:
         return len(self._samples)
 
-    def add(self, odometry: Odometry) -> None:
-        """Insert in time order (a repeated time replaces); forget what is older than the span."""
+    def add(self, odometry: Odometry, now_ns: int | None = None) -> bool:
+        """Insert in time order (a repeated time replaces); forget what is older than the span.
+
+        Live, with `now_ns` (the local wall clock): a sample stamped more than `max_gap_s` after
+        it is refused (False), since one bogus future stamp would otherwise push every real
+        sample out of the span."""
         t = odometry.t_capture_ns
+        if now_ns is not None and t - now_ns > self.max_gap_ns:
+            return False
         i = bisect.bisect_left(self._times, t)
         if i < len(self._times) and self._times[i] == t:
             self._samples[i] = odometry
@@ -35,6 +41,7 @@ class OdometryHistory:
             self._samples.insert(i, odometry)
         cut = bisect.bisect_left(self._times, self._times[-1] - self.span_ns)
         del self._times[:cut], self._samples[:cut]
+        return True
 
     def newest_ns(self) -> int | None:
         return self._times[-1] if self._times else None
