@@ -114,7 +114,9 @@ def test_missing_process_is_reported_and_the_rest_runs(tmp_path: Path) -> None:
     supervisor = RunningSupervisor(write_rig(tmp_path, body), tmp_path)
     try:
         supervisor.wait_ready()
-        status = poll_until(supervisor.status, 5.0)
+        status = poll_until(
+            lambda: (s := supervisor.status()) is not None and s.state == "running" and s, 10.0
+        )
         states = {p.name: p.state for p in status.processes}
         assert states["sim"] == "missing"
         assert all(states[n] == "running" for n in SERVICE_NAMES if n != "sim")
@@ -127,7 +129,7 @@ def test_children_die_with_a_killed_supervisor(running: RunningSupervisor) -> No
     pids = running.pids()
     running.process.kill()
     running.process.wait(10)
-    poll_until(lambda: not any(pid_alive(pid) for pid in pids.values()), 10.0)
+    poll_until(lambda: not any(pid_alive(pid) for pid in pids.values()), 30.0)
 
 
 def test_bad_rig_exits_2(tmp_path: Path) -> None:
