@@ -281,7 +281,8 @@ def test_a_stranger_cannot_steer_the_head(tmp_path: Path) -> None:
         assert all(o.pan_rad != 1.234 for o in odometry.take())
         assert ("gaze", True) not in alive
         held = truth.take()
-        assert len(held) > 10
+        # frames keep coming while we look (a loaded machine renders them slower)
+        poll_until(lambda: held.extend(truth.take()) or len(held) > 10, 20.0)
         assert max(abs(t.head.pan_rad - first.head.pan_rad) for t in held) < 1e-3
 
         # the same demand from the gaze identity moves the head (the test can fail)
