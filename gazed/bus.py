@@ -21,6 +21,8 @@ from __future__ import annotations
 
 import contextlib
 import json
+import os
+import select
 import threading
 import time
 from collections import Counter, deque
@@ -294,7 +296,10 @@ class Bus:
         self.router = router
         self.stats = Stats()
         self._session: zenoh.Session | None = None
-        self._arrived = threading.Event()
+        # wake-ups through a pipe, not a threading.Event: `notify()` is then safe from zenoh's
+        # threads and from signal handlers alike (an Event's lock taken in a handler can
+        # deadlock the very thread that waits on it)
+        self._wake_read, self._wake_write = -1, -1
         self._closables: list[Any] = []
         self.started_monotonic_s = time.monotonic()
 
@@ -310,6 +315,10 @@ class Bus:
             self._session = open_session(
                 self.rig.bus, router=self.router, identity=identity_of(self.process)
             )
+        if self._wake_read < 0:
+            self._wake_read, self._wake_write = os.pipe()
+            os.set_blocking(self._wake_read, False)
+            os.set_blocking(self._wake_write, False)
 
     def close(self) -> None:
         for item in reversed(self._closables):
@@ -319,6 +328,10 @@ class Bus:
         if self._session is not None:
             self._session.close()
             self._session = None
+        for fd in (self._wake_read, self._wake_write):
+            if fd >= 0:
+                os.close(fd)
+        self._wake_read, self._wake_write = -1, -1
 
     @property
     def session(self) -> zenoh.Session:
@@ -378,10 +391,20 @@ class Bus:
         )
 
     def notify(self) -> None:
-        self._arrived.set()
+        """Wake `wait()`; safe from any thread and from a signal handler."""
+        with contextlib.suppress(
+            OSError
+        ):  # full: a wake-up is pending anyway; closed: no one waits
+            os.write(self._wake_write, b"\0")
 
     def wait(self, timeout_s: float) -> bool:
         """Block until something arrives on any subscription (or `notify()`), at most `timeout_s`."""
-        arrived = self._arrived.wait(max(0.0, timeout_s))
-        self._arrived.clear()
-        return arrived
+        if self._wake_read < 0:
+            raise BusError("the bus session is not open (use `with Bus(...)`)")
+        ready, _, _ = select.select([self._wake_read], [], [], max(0.0, timeout_s))
+        if not ready:
+            return False
+        with contextlib.suppress(BlockingIOError):
+            while os.read(self._wake_read, 4096):
+                pass
+        return True

@@ -23,7 +23,6 @@ import logging
 import os
 import signal
 import sys
-import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -88,7 +87,7 @@ def main(name: str, build: Callable[[Rig, Bus], Service], argv: list[str] | None
     except RigError as exc:
         print(exc, file=sys.stderr)
         return 2
-    stop = threading.Event()
+    stop = StopFlag()
     try:
         with Bus(rig, name) as bus:
             _install_signals(stop, bus)
@@ -113,7 +112,21 @@ def die_with_supervisor() -> None:
         raise SystemExit("the supervisor is gone")
 
 
-def _install_signals(stop: threading.Event, bus: Bus) -> None:
+class StopFlag:
+    """Set by a signal handler, read by the loop: a plain attribute, no lock (a lock taken in a
+    handler can deadlock the thread it interrupted)."""
+
+    def __init__(self) -> None:
+        self.raised = False
+
+    def set(self) -> None:
+        self.raised = True
+
+    def is_set(self) -> bool:
+        return self.raised
+
+
+def _install_signals(stop: StopFlag, bus: Bus) -> None:
     def on_signal(_signum: int, _frame: object) -> None:
         stop.set()
         bus.notify()
@@ -123,7 +136,7 @@ def _install_signals(stop: threading.Event, bus: Bus) -> None:
     signal.signal(signal.SIGHUP, signal.SIG_IGN)  # the supervisor reloads, not its children
 
 
-def run(name: str, rig: Rig, bus: Bus, service: Service, stop: threading.Event) -> int:
+def run(name: str, rig: Rig, bus: Bus, service: Service, stop: StopFlag) -> int:
     """The process loop: step on arrivals and when asked, health once a second, orderly close."""
     reporter = HealthReporter(name, bus)
     bus.declare_alive()

@@ -30,8 +30,9 @@ def test_ready_watchdog_status_and_orderly_stop(running: RunningSupervisor) -> N
     assert set(pids) == set(SERVICE_NAMES)
     poll_until(lambda: running.notify.count("WATCHDOG=1") >= 3, 5.0)
     assert any(m.startswith("STATUS=rig ") for m in running.notify.messages)
-    status = running.status()
-    assert status is not None and status.state == "running"
+    status = poll_until(
+        lambda: (s := running.status()) is not None and s.state == "running" and s, 10.0
+    )
     assert {p.name: p.state for p in status.processes} == dict.fromkeys(SERVICE_NAMES, "running")
     assert running.stop() == 0
     assert "STOPPING=1" in running.notify.messages

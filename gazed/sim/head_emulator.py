@@ -207,9 +207,9 @@ def main(argv: list[str] | None = None) -> int:
     except (RigError, EmulatorError) as exc:
         print(exc, file=sys.stderr)
         return 2
-    stop = threading.Event()
+    stopping = [False]  # set by the handler: no lock (one taken in a handler can deadlock)
     for signum in (signal.SIGTERM, signal.SIGINT):
-        signal.signal(signum, lambda *_: stop.set())
+        signal.signal(signum, lambda *_: stopping.__setitem__(0, True))
     try:
         with emulator:
             print(
@@ -217,8 +217,8 @@ def main(argv: list[str] | None = None) -> int:
                 f"at {rig.servo.baud} baud",
                 flush=True,
             )
-            while not stop.wait(0.5):
-                pass
+            while not stopping[0]:
+                time.sleep(0.1)
     except (OSError, EmulatorError) as exc:
         print(f"head emulator: {exc}", file=sys.stderr)
         return 1
