@@ -31,6 +31,7 @@ TROUBLE_COUNTERS = (
     "drop",
     "malformed",
     "error",
+    "timeout",
     "clamp",
     "refused",
     "replaced",
