@@ -25,6 +25,11 @@ LAPACK_MAX_MATRICES = 16
 _COFACTOR_SIGN = np.array([[1.0, -1.0], [-1.0, 1.0]])[:, :, None]
 
 
+# flat indices of the entries above the diagonal and of their mirror images, per size
+_UPPER = {m: np.array([i * m + j for i in range(m) for j in range(i + 1, m)]) for m in (2, 4)}
+_LOWER = {m: np.array([j * m + i for i in range(m) for j in range(i + 1, m)]) for m in (2, 4)}
+
+
 def _t(A: np.ndarray) -> np.ndarray:
     """Transpose of (2, 2, L) matrices."""
     return A.transpose(1, 0, 2)
@@ -96,10 +101,15 @@ def positive_definite(S: np.ndarray) -> np.ndarray:
     Sylvester's criterion on the blocks without a division: A ≻ 0 (a₀₀ > 0, det A > 0) and
     det A · C = det A · D - Bᵀ adj(A) B ≻ 0.
     """
+    m = S.shape[-1]
     finite = np.isfinite(S).all(axis=(-1, -2))
     if not finite.all():
-        S = np.where(finite[..., None, None], S, np.eye(S.shape[-1]))
-    symmetric = (np.abs(S - S.mT) <= 1e-9 * (1.0 + np.abs(S))).all(axis=(-1, -2))
+        S = np.where(finite[..., None, None], S, np.eye(m))
+    # |S_ij - S_ji| <= 1e-9 (1 + |S_ij|) both ways, on the pairs above and below the diagonal
+    flat = S.reshape(*S.shape[:-2], m * m)
+    upper, lower = flat[..., _UPPER[m]], flat[..., _LOWER[m]]
+    tolerance = 1e-9 * (1.0 + np.minimum(np.abs(upper), np.abs(lower)))
+    symmetric = (np.abs(upper - lower) <= tolerance).all(axis=-1)
     St = _entries_first(S)
     A = St[:2, :2]
     det_A = _det_2x2(A)
