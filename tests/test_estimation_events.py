@@ -53,3 +53,13 @@ def test_imm_on_the_rounded_square_reports_turns() -> None:
         assert abs(e.mean_s_dot_m_s2) < 0.1
     straights = [e for e in events if e.previous_model == "CSD" and e.previous_steps > 20]
     assert straights and all(abs(e.mean_theta_dot_rad_s) < 0.1 for e in straights)
+
+
+def test_tracker_takes_a_slice_of_tracks() -> None:
+    """The batch step passes a slice when every track stepped: same segments as indices."""
+    by_slice, by_index = ManeuverTracker(3, ("A", "B")), ManeuverTracker(3, ("A", "B"))
+    for k, models in enumerate([(0, 1, 0), (0, 1, 1), (1, 1, 1)]):
+        m = np.array(models)
+        by_slice.observe(slice(None), np.full(3, float(k)), m, np.zeros(3), np.full(3, 0.5))
+        by_index.observe(np.arange(3), np.full(3, float(k)), m, np.zeros(3), np.full(3, 0.5))
+    assert by_slice.drain() == by_index.drain() != []

@@ -152,3 +152,38 @@ def test_negative_speed_becomes_positive_with_heading_turned() -> None:
     assert x[0, 3] == pytest.approx(0.5 - math.pi)
     np.testing.assert_allclose(measure(x[0], True)[0], h_before, atol=1e-12)
     assert P[0, 2, 4] == 0.5 and P[0, 2, 3] == -0.25
+
+
+def test_wrap_angle_keeps_the_half_open_interval() -> None:
+    a = np.array([-math.pi, math.pi, 3 * math.pi, -3 * math.pi, math.pi + 1e-12, 7.0, -7.0])
+    w = wrap_angle(a)
+    np.testing.assert_allclose(
+        w,
+        [
+            math.pi,
+            math.pi,
+            math.pi,
+            math.pi,
+            -math.pi + 1e-12,
+            7.0 - 2 * math.pi,
+            2 * math.pi - 7.0,
+        ],
+    )
+    assert w.min() > -math.pi and w.max() <= math.pi
+    out = np.empty(7)
+    assert wrap_angle(a, out=out) is out
+
+
+def test_batch_propagation_equals_one_state_at_a_time() -> None:
+    """The bank on (K, M, 6) states with K different intervals gives each state's own result
+    (constants tiled per K, the turning rows' series and closed forms mixed in one call)."""
+    rng = np.random.default_rng(3)
+    x = rng.normal(size=(5, 3, 6))
+    x[:2, :, 5] = [[1e-5], [0.0]]  # ω -> 0 rows next to turning ones
+    dt = rng.uniform(0.01, 1.0, 5)
+    xn, F, Q = BANK.propagate(x, dt)
+    for k in range(5):
+        xk, Fk, Qk = BANK.propagate(x[k : k + 1], dt[k : k + 1])
+        np.testing.assert_allclose(xn[k], xk[0], rtol=1e-14, atol=1e-15)
+        np.testing.assert_allclose(F[k], Fk[0], rtol=1e-14, atol=1e-15)
+        np.testing.assert_allclose(Q[k], Qk[0], rtol=1e-14, atol=1e-15)

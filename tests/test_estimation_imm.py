@@ -192,3 +192,18 @@ def test_imm_picks_constant_direction_while_accelerating() -> None:
     leader = np.array(leader)
     assert np.mean(leader[65:100] == "CD") > 0.7
     assert np.mean(leader[165:200] == "CD") < 0.3
+
+
+def test_posterior_with_an_unreachable_model() -> None:
+    """A switching matrix with zeros can leave the most likely model with prior 0; the
+    probabilities stay finite (computed in logarithms then) and that model keeps 0."""
+    from gazed.estimation.imm import posterior
+
+    prior = np.array([[0.0, 0.5, 0.5], [0.2, 0.3, 0.5]])
+    log_likelihood = np.array([[0.0, -900.0, -901.0], [-1.0, -2.0, -3.0]])
+    mu = posterior(prior, log_likelihood)
+    assert np.isfinite(mu).all()
+    np.testing.assert_allclose(mu.sum(axis=-1), 1.0)
+    assert mu[0, 0] == 0.0 and mu[0, 1] == pytest.approx(1 / (1 + math.exp(-1)))
+    expected = prior[1] * np.exp(log_likelihood[1])
+    np.testing.assert_allclose(mu[1], expected / expected.sum())

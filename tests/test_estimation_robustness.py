@@ -166,3 +166,92 @@ def test_batch_step_equals_independent_tracks() -> None:
         np.testing.assert_allclose(f.position[i], p.position, atol=1e-12)
         np.testing.assert_allclose(f.covariance[i], p.covariance, atol=1e-12)
         np.testing.assert_allclose(batch.probabilities[i], single.probabilities[0], atol=1e-12)
+
+
+def test_a_still_target_starts_with_a_positive_semidefinite_covariance() -> None:
+    """Two nearly coincident positions give a speed of ~0 and no direction: the heading's
+    variance is capped at π² with its row and column scaled together (capping the variance
+    alone made P indefinite and, on slow pedestrians, S singular a few steps later)."""
+    estimator = build_estimator(EstimatorSection(), mode="imm")
+    estimator.update(Measurement.ground(0.0, [1.0, 2.0], R))
+    estimator.update(Measurement.ground(0.4, [1.01, 2.0], R))
+    P = estimator.imm.P[0, 0]
+    assert P[3, 3] == pytest.approx(math.pi**2)
+    eigenvalues = np.linalg.eigvalsh(P)
+    assert eigenvalues.min() >= -1e-12 * eigenvalues.max()
+    assert P[1, 3] > 0.1  # the heading's correlation with the position is kept, scaled
+
+
+def test_a_slow_wandering_target_keeps_the_filter_finite() -> None:
+    """Position-only, 0.4 s steps, a walker creeping at a few cm/s (the case of the hotel
+    file that produced NaN): covariances stay positive semi-definite and every state finite,
+    in a single track and in a batch whose inverses take the closed forms."""
+    rng = np.random.default_rng(8)
+    n = 8  # 24 innovation covariances: above LAPACK_MAX_MATRICES, the batch uses closed forms
+    single = build_estimator(EstimatorSection(), mode="imm")
+    batch = build_estimator(EstimatorSection(), n_tracks=n, mode="imm")
+    position = np.zeros((n, 2))
+    for k in range(120):
+        position += rng.normal(0, 0.02, (n, 2))
+        z = position + rng.normal(0, 0.05, (n, 2))
+        single.update(Measurement.ground(0.4 * k, z[0], R))
+        batch.step(np.full(n, 0.4 * k), z, np.broadcast_to(R, (n, 2, 2)))
+    for estimator in (single, batch):
+        assert np.isfinite(estimator.imm.x).all() and np.isfinite(estimator.imm.mu).all()
+        eigenvalues = np.linalg.eigvalsh(estimator.imm.P)
+        assert (eigenvalues.min(axis=-1) >= -1e-9 * eigenvalues.max(axis=-1)).all()
+    assert single.health()["accepted"] >= 110
+
+
+def test_blocks_and_closed_forms_give_the_single_track_results(monkeypatch) -> None:
+    """A batch larger than one block (and so large that its 2x2/4x4 inverses take the closed
+    forms) steps every track as a single-track estimator (LAPACK) does."""
+    import gazed.estimation.estimator as estimator_module
+
+    monkeypatch.setattr(estimator_module, "BLOCK_TRACKS", 4)
+    rng = np.random.default_rng(9)
+    n, steps = 10, 30
+    section = EstimatorSection()
+    batch = build_estimator(section, n_tracks=n, mode="imm")
+    assert len(batch._blocks) == 3
+    singles = [build_estimator(section, mode="imm") for _ in range(n)]
+    heading = rng.uniform(-math.pi, math.pi, n)
+    for k in range(steps):
+        t = k * 0.04
+        direction = np.stack([np.cos(heading + 0.3 * t), np.sin(heading + 0.3 * t)], axis=-1)
+        p = direction * t + rng.normal(0, 0.02, (n, 2))
+        v = direction + rng.normal(0, 0.1, (n, 2))
+        Rv = np.diag([0.02**2, 0.02**2, 0.1**2, 0.1**2])
+        batch.step(np.full(n, t), np.concatenate([p, v], axis=-1), np.broadcast_to(Rv, (n, 4, 4)))
+        for i, single in enumerate(singles):
+            single.update(Measurement.ground(t, p[i], Rv[:2, :2], v[i], Rv[2:, 2:]))
+    f = batch.forecast(np.full(n, steps * 0.04))
+    for i, single in enumerate(singles):
+        p = single.predict(steps * 0.04)
+        np.testing.assert_allclose(f.position[i], p.position, rtol=1e-8, atol=1e-10)
+        np.testing.assert_allclose(f.covariance[i], p.covariance, rtol=1e-6, atol=1e-12)
+        np.testing.assert_allclose(batch.probabilities[i], single.probabilities[0], atol=1e-8)
+
+
+@pytest.mark.parametrize(
+    "bad",
+    [
+        Measurement.ground(1.0, [math.nan, 0.0], R),
+        Measurement.ground(math.inf, [0.0, 0.0], R),
+        Measurement.ground(1.0, [0.0, 0.0], [[1.0, 2.0], [0.0, 1.0]]),
+        Measurement.ground(1.0, [0.0, 0.0], [[1.0, 0.0], [0.0, -1.0]]),
+        Measurement.ground(1.0, [0.0, 0.0], R, [0.0, 0.0], [[1.0, 1.0], [1.0, 1.0]]),
+        Measurement.ground(1.0, [0.0, 0.0], R, [0.0, math.inf], R),
+        Measurement.ground(1.0, [0.0, 0.0], R, [0.0, 0.0], [[1.0, 1e-12], [0.0, 1.0]]),
+        Measurement.ground(1.0, [0.0, 0.0], R, [0.3, 0.0], R),
+    ],
+)
+def test_single_track_validation_agrees_with_the_batch_one(bad: Measurement) -> None:
+    """`update` checks a measurement on its 2x2 blocks in plain Python; `step` checks the
+    stacked arrays: both accept and reject the same measurements."""
+    single = build_estimator(EstimatorSection(), mode="cv")
+    batch = build_estimator(EstimatorSection(), mode="cv")
+    outcome = single.update(bad)
+    batch_outcome = batch.step(np.array([bad.t_s]), bad.z[None], bad.R[None])[0]
+    assert outcome == batch_outcome
+    assert (outcome == Outcome.NONFINITE) == (not bad.usable)

@@ -64,8 +64,9 @@ def inverse_and_log_det(S: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     if S.size <= LAPACK_MAX_MATRICES * S.shape[-1] ** 2:
         try:
             return np.linalg.inv(S), np.linalg.slogdet(S)[1]
-        except np.linalg.LinAlgError:
-            pass  # singular: the closed forms give inf / NaN, which no gate accepts
+        except np.linalg.LinAlgError:  # singular: inf / NaN from the closed forms, which no
+            with np.errstate(all="ignore"):  # gate accepts
+                return closed_form_inverse_and_log_det(S)
     return closed_form_inverse_and_log_det(S)
 
 
