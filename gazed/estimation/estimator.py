@@ -43,7 +43,7 @@ EMPTY, PENDING, TRACKING = 0, 1, 2
 # A batch step runs over blocks of this many tracks, so that a block's (tracks, models, 6, 6)
 # arrays stay in the cache between the operations of one step (identical results: the tracks
 # are independent); see tests/bench/estimator_speed.py.
-BLOCK_TRACKS = 256
+BLOCK_TRACKS = 512
 
 
 class Outcome(IntEnum):

@@ -3,12 +3,15 @@ same three 6-state linear models as our IMM core), and track-steps per second in
 
     python tests/bench/estimator_speed.py [--repeats 7]
 
-Prints medians over repeats (other work on the machine makes single runs noisy).
+Prints the median (and the best) of the wall time over repeats, and the load average before
+and after: other work on the machine makes single runs noisy, and a loaded 2-core machine
+runs the same code two to three times slower than an idle one.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import statistics
 import time
 from collections.abc import Callable
@@ -24,14 +27,18 @@ from gazed.estimation.kinematic_models import KinematicModelBank, kinematic_mode
 J = np.array([[0.96, 0.02, 0.02], [0.02, 0.96, 0.02], [0.02, 0.02, 0.96]])
 
 
-def median_us(run: Callable[[int], None], steps: int, repeats: int) -> float:
-    """Median over repeats of the time per step (µs) of run(steps)."""
+def step_us(run: Callable[[int], None], steps: int, repeats: int) -> list[float]:
+    """The time per step (µs) of run(steps), once per repeat."""
     times = []
     for _ in range(repeats):
         start = time.perf_counter()
         run(steps)
         times.append((time.perf_counter() - start) / steps * 1e6)
-    return statistics.median(times)
+    return times
+
+
+def load() -> str:
+    return "load average " + " ".join(f"{a:.2f}" for a in os.getloadavg())
 
 
 def measurements(n: int, with_velocity: bool, seed: int = 0) -> list[Measurement]:
@@ -48,17 +55,19 @@ def measurements(n: int, with_velocity: bool, seed: int = 0) -> list[Measurement
     return out
 
 
-def mode_step_us(mode: str, with_velocity: bool, steps: int, repeats: int) -> float:
+def mode_step_us(mode: str, with_velocity: bool, steps: int, repeats: int) -> list[float]:
+    """µs per `update` of one track (10 untimed warm-up updates per repeat)."""
     data = measurements(steps + 10, with_velocity)
-
-    def run(n: int) -> None:
+    times = []
+    for _ in range(repeats):
         estimator = build_estimator(EstimatorSection(), mode=mode)
         for m in data[:10]:
             estimator.update(m)
-        for m in data[10 : 10 + n]:
+        start = time.perf_counter()
+        for m in data[10 : 10 + steps]:
             estimator.update(m)
-
-    return median_us(run, steps, repeats)
+        times.append((time.perf_counter() - start) / steps * 1e6)
+    return times
 
 
 def linear_imm_pair() -> tuple[IMMEstimator, ImmFilter, np.ndarray]:
@@ -97,7 +106,8 @@ def main() -> None:
     args = parser.parse_args()
     steps, repeats = args.steps, args.repeats
 
-    print(f"one track, µs per step (median of {repeats} runs of {steps} steps)")
+    print(load())
+    print(f"one track, µs per update: median (best) of {repeats} runs of {steps} updates")
     for mode, with_velocity in [
         ("imm", True),
         ("imm", False),
@@ -108,7 +118,8 @@ def main() -> None:
         ("ca", False),
     ]:
         label = f"{mode} ({'position+velocity' if with_velocity else 'position'})"
-        print(f"  {label:<32} {mode_step_us(mode, with_velocity, steps, repeats):8.1f}")
+        times = mode_step_us(mode, with_velocity, steps, repeats)
+        print(f"  {label:<32} {statistics.median(times):8.1f} ({min(times):.1f})")
 
     reference, ours, R = linear_imm_pair()
     rng = np.random.default_rng(1)
@@ -125,22 +136,31 @@ def main() -> None:
             ours.predict(slice(None), dt)
             ours.correct(slice(None), ours.innovate(slice(None), z[None], R[None]))
 
-    ref_us = median_us(run_reference, steps, repeats)
-    our_us = median_us(run_ours, steps, repeats)
+    ref_us, our_us = [], []
+    for _ in range(repeats):  # interleaved, so that both see the same load
+        ref_us += step_us(run_reference, steps, 1)
+        our_us += step_us(run_ours, steps, 1)
+    ref, ours_median = statistics.median(ref_us), statistics.median(our_us)
     print("IMM core, three 6-state linear models, one track, µs per predict+update")
-    print(f"  filterpy IMMEstimator            {ref_us:8.1f}")
-    print(f"  gazed ImmFilter                  {our_us:8.1f}   ({ref_us / our_us:.1f}x faster)")
+    print(f"  filterpy IMMEstimator            {ref:8.1f} ({min(ref_us):.1f})")
+    print(
+        f"  gazed ImmFilter                  {ours_median:8.1f} ({min(our_us):.1f})"
+        f"   {ref / ours_median:.1f}x faster"
+    )
 
-    print("batch: imm estimator step (position+velocity), track-steps per second")
+    print("batch: imm estimator step (position+velocity), track-steps per second: median (best)")
     for n in (1, 100, 10_000):
-        per_step = batch_step_s(n, 50 if n < 10_000 else 10, 3 if n == 10_000 else repeats)
+        times = batch_step_s(n, 50 if n < 10_000 else 10, 3 if n == 10_000 else repeats)
+        per_step = statistics.median(times)
         print(
-            f"  N = {n:>6}: {n / per_step:12.0f} track-steps/s  ({per_step * 1e3:.2f} ms per step)"
+            f"  N = {n:>6}: {n / per_step:12.0f} ({n / min(times):.0f}) track-steps/s"
+            f"  ({per_step * 1e3:.2f} ms per step)"
         )
+    print(load())
 
 
-def batch_step_s(n: int, steps: int, repeats: int) -> float:
-    """Median seconds per `step` of n IMM tracks (10 warm-up steps not timed)."""
+def batch_step_s(n: int, steps: int, repeats: int) -> list[float]:
+    """Seconds per `step` of n IMM tracks, once per repeat (10 warm-up steps not timed)."""
     data = measurements(10 + steps, True)
     z = np.stack([m.z for m in data])
     R = np.broadcast_to(data[0].R, (n, 4, 4))
@@ -153,7 +173,7 @@ def batch_step_s(n: int, steps: int, repeats: int) -> float:
                 start = time.perf_counter()
             estimator.step(np.full(n, data[k].t_s), z[k] + offsets, R)
         times.append((time.perf_counter() - start) / steps)
-    return statistics.median(times)
+    return times
 
 
 if __name__ == "__main__":
