@@ -6,7 +6,8 @@ corrective saccades).
   point), from `sim/truth`;
 - acquisition: the first frame from which the target stays within the fovea for
   `ACQUIRED_FRAMES` frames in a row; fovea fraction, error RMS / p95 and saccades count from there;
-- ground RMSE: the estimator's ground position at a capture time against the truth then;
+- ground RMSE: the estimator's ground position at a capture time against the truth then, from
+  acquisition on (before it, the estimator may still hold a track of something else);
 - latency: processing from the frame's publication by `sim` (its arrival at `vision`) to the
   command bytes written, and end to end from capture; the first write of each capture counts.
 """
@@ -66,6 +67,7 @@ def score(record: LoopRecord, pose: CameraPose, fovea_half_angle_deg: float) -> 
     fovea = math.radians(fovea_half_angle_deg)
     start = acquisition_index(errors, fovea)
     result: dict[str, object] = {"frames": len(truth)}
+    scored_from_ns = truth[start].t_capture_ns if start is not None else truth[0].t_capture_ns
     if start is None:
         result.update(
             acquired_after_s=None,
@@ -88,7 +90,9 @@ def score(record: LoopRecord, pose: CameraPose, fovea_half_angle_deg: float) -> 
             fovea_fraction=round(float(np.mean(after <= fovea_half_angle_deg)), 4),
             saccades_after_acquisition=saccades,
         )
-    result["ground_rmse_m"] = ground_rmse_m(truth, record.estimates)
+    result["ground_rmse_m"] = ground_rmse_m(
+        truth, [e for e in record.estimates if e.t_capture_ns >= scored_from_ns]
+    )
     result["latency_ms"] = latencies_ms(record.commands)
     return result
 
