@@ -1,0 +1,103 @@
+"""Scores of a closed-loop run from recorded messages (gazed eval loop)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from gazed.eval.loop_metrics import (
+    ACQUIRED_FRAMES,
+    LoopRecord,
+    acquisition_index,
+    gaze_errors_rad,
+    latencies_ms,
+    score,
+)
+from gazed.geometry.kinematics import HeadKinematics
+from gazed.geometry.pose import CameraPose
+from gazed.messages import EstimatorState, GazeDemand, GazeState, HeadPose, SimTruth
+
+POSE = CameraPose(
+    np.array([0.0, -5.0, 3.0]), math.radians(90), math.radians(-25), head=HeadKinematics("pan-tilt")
+)
+
+
+def truth(k: int, off_deg: float) -> SimTruth:
+    """A target at (0, 1) m, 0.4 m tall, and the head `off_deg` to the right of its middle."""
+    pan, tilt = (float(a) for a in POSE.gaze_angles(np.array([0.0, 1.0, 0.2])))
+    return SimTruth(
+        t_capture_ns=k * 40_000_000,
+        seq=k,
+        target_xy_m=(0.0, 1.0),
+        target_velocity_m_s=(0.0, 0.0),
+        target_height_m=0.4,
+        head=HeadPose(pan_rad=pan + math.radians(off_deg), tilt_rad=tilt),
+    )
+
+
+def test_gaze_error_is_the_angle_to_the_targets_middle() -> None:
+    errors = np.degrees(gaze_errors_rad([truth(0, 0.0), truth(1, 2.0)], POSE))
+    assert errors[0] == pytest.approx(0.0, abs=1e-9)
+    assert errors[1] == pytest.approx(2.0 * math.cos(math.radians(15)), rel=0.1)  # pan at a tilt
+
+
+def test_acquisition_needs_a_run_in_the_fovea() -> None:
+    fovea = math.radians(3.0)
+    errors = np.radians([5.0, 1.0, 5.0] + [1.0] * ACQUIRED_FRAMES + [4.0])
+    assert acquisition_index(errors, fovea) == 3
+    assert acquisition_index(np.radians([1.0] * (ACQUIRED_FRAMES - 1)), fovea) is None
+
+
+def test_score_counts_from_acquisition() -> None:
+    frames = [truth(k, 10.0) for k in range(5)] + [
+        truth(k, 0.5 if k % 2 else 1.5) for k in range(5, 40)
+    ]
+    states = [
+        GazeState(
+            t_capture_ns=0, state="saccade", reason="candidate"
+        ),  # before acquisition: not counted
+        GazeState(t_capture_ns=30 * 40_000_000, state="saccade", reason="candidate"),
+    ]
+    estimates = [
+        EstimatorState(
+            t_capture_ns=k * 40_000_000,
+            filter="imm",
+            x=(0.0,),
+            P=((1.0,),),
+            ground_xy_m=(0.0, 1.0 + d),
+        )
+        for k, d in ((2, 5.0), (10, 0.3), (20, 0.4))
+    ]
+    result = score(LoopRecord(frames, states, [], estimates), POSE, 3.0)
+    assert result["acquired_after_s"] == pytest.approx(5 * 0.04)
+    assert result["fovea_fraction"] == 1.0
+    assert result["saccades_after_acquisition"] == 1
+    assert result["ground_rmse_m"] == pytest.approx(math.sqrt((0.3**2 + 0.4**2) / 2), abs=1e-4)  # rounded
+    assert result["gaze_error_deg"]["rms"] == pytest.approx(
+        math.sqrt((0.5**2 + 1.5**2) / 2), rel=0.1
+    )
+
+
+def test_latency_counts_the_first_write_of_each_capture() -> None:
+    def written(capture: int, processing_ms: float) -> GazeDemand:
+        t_sim = capture + 150_000_000
+        stamps = (
+            ("sim", t_sim),
+            ("vision", t_sim + 1),
+            ("servo", t_sim + round(processing_ms * 1e6)),
+        )
+        return GazeDemand(
+            t_capture_ns=capture, stamps=stamps, kind="pursuit", pan_rad=0.0, tilt_rad=0.0
+        )
+
+    commands = [
+        written(0, 10.0),
+        written(0, 30.0),
+        written(40_000_000, 12.0),
+        written(80_000_000, 14.0),
+    ]
+    latency = latencies_ms(commands)
+    assert latency["processing_p50"] == 12.0
+    assert latency["end_to_end_p50"] == 162.0
