@@ -144,6 +144,9 @@ class Supervisor:
 
     def _spawn(self, child: Child, now_s: float) -> None:
         env = dict(os.environ, **{ENV_SUPERVISOR_PID: str(os.getpid()), ENV_PROCESS: child.name})
+        # pydantic looks for plugins through every installed package's metadata at import:
+        # none are used, and skipping the search takes ~0.1 s off every (re)start
+        env.setdefault("PYDANTIC_DISABLE_PLUGINS", "__all__")
         command = [sys.executable, "-m", child.module, "--rig", str(self.rig_path)]
         child.popen = subprocess.Popen(command, env=env, start_new_session=True)
         child.state = State.STARTING
