@@ -11,6 +11,7 @@ latency) on the same seed, one after the other.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import signal
 import subprocess
@@ -18,6 +19,7 @@ import sys
 import tempfile
 import time
 import uuid
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -25,7 +27,7 @@ import psutil
 import tomlkit
 
 from gazed.bus import Bus, BusError
-from gazed.config import RigError, load_rig
+from gazed.config import Rig, RigError, load_rig
 from gazed.eval.loop_metrics import LoopRecord, score
 from gazed.geometry.pose import CameraPose
 from gazed.topics import ESTIMATOR_STATE, GAZE_STATE, SERVO_COMMAND, SIM_TRUTH, SUPERVISOR_STATUS
@@ -102,23 +104,8 @@ def run_loop(
         private = private_rig(
             rig_path, Path(directory), scenario, filter_mode, latency_ms, seed, control
         )
-        rig = load_rig(private)
-        log_path = Path(directory) / "run.log"
-        with log_path.open("w") as log:
-            supervisor = subprocess.Popen(
-                [sys.executable, "-m", "gazed.cli", "run", str(private)],
-                stdout=log,
-                stderr=subprocess.STDOUT,
-            )
-        try:
+        with running(private) as (rig, supervisor, log_path):
             record, cpu = _record(rig, supervisor, seconds, log_path)
-        finally:
-            supervisor.send_signal(signal.SIGTERM)
-            try:
-                supervisor.wait(timeout=30)
-            except subprocess.TimeoutExpired:
-                supervisor.kill()
-                supervisor.wait()
         result: dict[str, Any] = {
             "scenario": scenario,
             "filter": filter_mode or rig.estimator.filter,
@@ -128,6 +115,29 @@ def run_loop(
         del result["frames"]
         result["cpu_percent"] = cpu
         return result
+
+
+@contextlib.contextmanager
+def running(rig_path: Path) -> Iterator[tuple[Rig, subprocess.Popen[bytes], Path]]:
+    """`gazed run RIG` in the background, its output in run.log beside the rig; stopped (SIGTERM,
+    then SIGKILL after 30 s) on the way out."""
+    rig = load_rig(rig_path)
+    log_path = rig_path.parent / "run.log"
+    with log_path.open("w") as log:
+        supervisor = subprocess.Popen(
+            [sys.executable, "-m", "gazed.cli", "run", str(rig_path)],
+            stdout=log,
+            stderr=subprocess.STDOUT,
+        )
+    try:
+        yield rig, supervisor, log_path
+    finally:
+        supervisor.send_signal(signal.SIGTERM)
+        try:
+            supervisor.wait(timeout=30)
+        except subprocess.TimeoutExpired:
+            supervisor.kill()
+            supervisor.wait()
 
 
 def private_rig(
@@ -207,7 +217,7 @@ def _record(
         for subscription in (truth, states, commands, estimates):
             subscription.take()
         processes = {name: psutil.Process(pid) for name, pid in pids.items()}
-        cpu_start = {name: _cpu_s(p) for name, p in processes.items()}
+        cpu_start = {name: cpu_seconds(p) for name, p in processes.items()}
         started = time.monotonic()
         record = LoopRecord([], [], [], [])
         while time.monotonic() - started < seconds:
@@ -222,7 +232,7 @@ def _record(
                 )
         elapsed = time.monotonic() - started
         cpu = {
-            name: round(100.0 * (_cpu_s(p) - cpu_start[name]) / elapsed, 1)
+            name: round(100.0 * (cpu_seconds(p) - cpu_start[name]) / elapsed, 1)
             for name, p in processes.items()
         }
         return record, cpu
@@ -246,8 +256,12 @@ def _wait_running(
     raise RuntimeError(f"the rig's processes did not all come up:\n{log_path.read_text()[-2000:]}")
 
 
-def _cpu_s(process: psutil.Process) -> float:
-    times = process.cpu_times()
+def cpu_seconds(process: psutil.Process) -> float:
+    """User plus system CPU time of a process so far (0 once it is gone)."""
+    try:
+        times = process.cpu_times()
+    except psutil.NoSuchProcess:
+        return 0.0
     return times.user + times.system
 
 

@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import signal
 import subprocess
 import sys
 import tempfile
@@ -34,8 +33,8 @@ REPO = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(REPO))
 
 from gazed.bus import Bus, BusError  # noqa: E402
-from gazed.config import SERVICE_NAMES, Rig, load_rig  # noqa: E402
-from gazed.eval.loop import private_rig  # noqa: E402
+from gazed.config import SERVICE_NAMES, Rig  # noqa: E402
+from gazed.eval.loop import cpu_seconds, private_rig, running  # noqa: E402
 from gazed.eval.loop_metrics import LoopRecord, score  # noqa: E402
 from gazed.geometry.pose import CameraPose  # noqa: E402
 from gazed.messages import Health, SupervisorStatus  # noqa: E402
@@ -97,7 +96,7 @@ class Soak:
         self.handles["supervisor"] = psutil.Process(self.supervisor.pid)
         for name, pid in self.pids.items():
             self.handles[name] = psutil.Process(pid)
-        self.cpu_start_s = {name: _cpu_s(p) for name, p in self.handles.items()}
+        self.cpu_start_s = {name: cpu_seconds(p) for name, p in self.handles.items()}
         started = time.monotonic()
         self._sample_rss(0.0)
         next_sample_s = started + SAMPLE_PERIOD_S
@@ -127,7 +126,7 @@ class Soak:
         if record.truth:
             self._score_window(record, window_start - started)
         cpu = {
-            name: round(100.0 * (_cpu_s(p) - self.cpu_start_s[name]) / elapsed_s, 1)
+            name: round(100.0 * (cpu_seconds(p) - self.cpu_start_s[name]) / elapsed_s, 1)
             for name, p in self.handles.items()
             if p.is_running()
         }
@@ -240,37 +239,16 @@ class Soak:
         }
 
 
-def _cpu_s(process: psutil.Process) -> float:
-    try:
-        times = process.cpu_times()
-    except psutil.NoSuchProcess:
-        return 0.0
-    return times.user + times.system
-
-
 def soak(rig_path: Path, scenario: str, minutes: float, seed: int | None) -> dict[str, Any]:
     with tempfile.TemporaryDirectory(prefix="gazed-soak-") as directory:
         private = private_rig(rig_path, Path(directory), scenario, None, None, seed, None)
-        rig = load_rig(private)
-        log_path = Path(directory) / "run.log"
-        with log_path.open("w") as log:
-            supervisor = subprocess.Popen(
-                [sys.executable, "-m", "gazed.cli", "run", str(private)],
-                stdout=log,
-                stderr=subprocess.STDOUT,
-            )
-        run = Soak(rig, supervisor, log_path)
-        try:
-            run.open()
-            return run.run(minutes)
-        finally:
-            run.close()
-            supervisor.send_signal(signal.SIGTERM)
+        with running(private) as (rig, supervisor, log_path):
+            run = Soak(rig, supervisor, log_path)
             try:
-                supervisor.wait(timeout=30)
-            except subprocess.TimeoutExpired:
-                supervisor.kill()
-                supervisor.wait()
+                run.open()
+                return run.run(minutes)
+            finally:
+                run.close()
 
 
 def table(report: dict[str, Any]) -> str:
