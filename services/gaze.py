@@ -73,7 +73,7 @@ class GazeService:
             decision = c.tick(now.wall_ns, now.mono_s)
             if decision.transition is not None:
                 t = decision.transition
-                log.info("%s -> %s: %s", t.previous, t.state, t.reason)
+                log.debug("%s -> %s: %s", t.previous, t.state, t.reason)  # gazed run logs them
                 self.states.put(t)
             if decision.demand is not None:
                 self.demands.put(decision.demand)
