@@ -74,7 +74,9 @@ def test_score_counts_from_acquisition() -> None:
     assert result["acquired_after_s"] == pytest.approx(5 * 0.04)
     assert result["fovea_fraction"] == 1.0
     assert result["saccades_after_acquisition"] == 1
-    assert result["ground_rmse_m"] == pytest.approx(math.sqrt((0.3**2 + 0.4**2) / 2), abs=1e-4)  # rounded
+    assert result["ground_rmse_m"] == pytest.approx(
+        math.sqrt((0.3**2 + 0.4**2) / 2), abs=1e-4
+    )  # rounded
     assert result["gaze_error_deg"]["rms"] == pytest.approx(
         math.sqrt((0.5**2 + 1.5**2) / 2), rel=0.1
     )
