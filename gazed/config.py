@@ -923,7 +923,7 @@ class ServicesSection(Section):
     )
     restart_window_s: float = Field(60.0, gt=0, description="Window of the restart intensity.")
     backoff_initial_s: float = Field(
-        0.5, ge=0, le=60, description="First restart delay; doubles on each restart."
+        0.1, ge=0, le=60, description="First restart delay; doubles on each restart."
     )
     backoff_max_s: float = Field(10.0, gt=0, le=600, description="Longest restart delay.")
     stop_grace_s: float = Field(
