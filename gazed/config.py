@@ -748,6 +748,15 @@ class GazeSection(Section):
     search_after_ms: float = Field(
         3000.0, gt=0, description="Lost for this long -> back to search."
     )
+    reacquire_detections: int = Field(
+        3,
+        ge=1,
+        le=25,
+        description=(
+            "Park, search and lost take a detection up only after this many in a row (one per"
+            " frame): a lone false detection while the head scans is not the target."
+        ),
+    )
 
 
 TRAJECTORY_NAMES = ("rounded-square", "oval", "stop-and-go", "figure-eight", "random")

@@ -82,6 +82,13 @@ def prediction(
     )
 
 
+def run_up(c: GazeController, clock: Clock, u: float, v: float, **kwargs) -> None:
+    """The detections of the frames before this one that, with this frame's, make the
+    `reacquire_detections` in a row a detection is taken up after."""
+    for k in range(RIG.gaze.reacquire_detections - 1, 0, -1):
+        c.on_detection(detection(clock, u, v, age_s=0.04 * k, **kwargs))
+
+
 def in_search(clock: Clock) -> GazeController:
     c = GazeController(RIG, clock.mono_s)
     c.on_odometry(odometry(clock, 0.0, 0.0))
@@ -95,6 +102,7 @@ def in_search(clock: Clock) -> GazeController:
 
 def in_pursuit(clock: Clock) -> GazeController:
     c = in_search(clock)
+    run_up(c, clock, 330.0, 245.0)
     c.on_detection(detection(clock, 330.0, 245.0))
     decision = c.tick(clock.wall_ns, clock.mono_s)
     assert (
@@ -121,6 +129,7 @@ def test_detection_outside_the_fovea_draws_a_saccade_to_where_the_target_will_be
     clock = Clock()
     c = in_search(clock)
     # 200 px right of centre, moving right at 100 px/s: the saccade leads it by the move time
+    run_up(c, clock, 519.5, 239.5, du=100.0)
     c.on_detection(detection(clock, 519.5, 239.5, du=100.0))
     decision = c.tick(clock.wall_ns, clock.mono_s)
     assert (
@@ -228,8 +237,11 @@ def test_lost_coasts_searches_a_growing_region_then_gives_up() -> None:
         radii.append(math.hypot(math.degrees(d.pan_rad) - 5.0, math.degrees(d.tilt_rad) + 2.0))
     assert radii[-1] > radii[0] > 0  # the region grows (2°/s by default)
     assert radii[-1] == pytest.approx(2.0 * 0.5, abs=0.05)
-    c.on_detection(detection(clock, 330.0, 240.0))
-    back = c.tick(clock.wall_ns, clock.mono_s)
+    for k in range(RIG.gaze.reacquire_detections):  # one per frame, in a row
+        clock.advance(0.04)
+        c.on_detection(detection(clock, 330.0, 240.0))
+        back = c.tick(clock.wall_ns, clock.mono_s)
+        assert (back.transition is None) == (k < RIG.gaze.reacquire_detections - 1)
     assert back.transition.state == "pursuit" and back.transition.reason == "target seen again"
     # lost again, and for longer than search_after_ms this time
     for _ in range(40):
@@ -241,6 +253,24 @@ def test_lost_coasts_searches_a_growing_region_then_gives_up() -> None:
     assert c.state == "search" and decision.transition.reason.startswith("lost for 1.")
 
 
+def test_lone_detections_while_lost_do_not_resume_pursuit() -> None:
+    """False detections while the head scans (one every 0.3 s) never make `reacquire_detections`
+    in a row: the controller stays lost and goes back to search, where the whole frame is looked
+    at, instead of pursuing a phantom."""
+    clock = Clock()
+    c = in_pursuit(clock)
+    states = []
+    for k in range(60):  # 2.4 s at 25 Hz, predictions coasting
+        clock.advance(0.04)
+        c.on_prediction(prediction(clock, 5.0, -2.0))
+        if k > 10 and k % 8 == 0:
+            c.on_detection(detection(clock, 330.0, 240.0))
+        decision = c.tick(clock.wall_ns, clock.mono_s)
+        if decision.transition is not None:
+            states.append(decision.transition.state)
+    assert states == ["lost", "search"]
+
+
 def test_look_and_move_moves_only_after_a_fresh_look() -> None:
     rig = RIG.model_copy(update={"gaze": RIG.gaze.model_copy(update={"control": "look-and-move"})})
     clock = Clock()
@@ -248,6 +278,7 @@ def test_look_and_move_moves_only_after_a_fresh_look() -> None:
     c.on_odometry(odometry(clock, 0.0, 0.0))
     c.tick(clock.wall_ns, clock.mono_s)
     clock.advance(0.02)
+    run_up(c, clock, 330.0, 240.0, du=50.0)
     c.on_detection(detection(clock, 330.0, 240.0, du=50.0))
     c.on_prediction(prediction(clock, 1.0, 0.0, pan_rate_deg_s=5.0))
     first = c.tick(clock.wall_ns, clock.mono_s)
@@ -278,6 +309,7 @@ def test_a_restarted_controller_takes_up_a_target_in_view_instead_of_parking() -
     clock = Clock()
     c = GazeController(RIG, clock.mono_s)
     c.on_odometry(odometry(clock, 20.0, -5.0))  # the head held where the last controller left it
+    run_up(c, clock, 325.0, 242.0, head_deg=(20.0, -5.0))
     c.on_detection(detection(clock, 325.0, 242.0, head_deg=(20.0, -5.0)))
     decision = c.tick(clock.wall_ns, clock.mono_s)
     assert decision.transition.state == "pursuit" and decision.transition.previous == "park"

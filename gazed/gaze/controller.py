@@ -5,12 +5,12 @@ States and transitions (each published with its reason):
 
     park    --head at the park pose-----------------------------> search
             --a target already in view (as from search)
-    search  --target in the fovea-------------------------------> pursuit
+    search  --target in the fovea (reacquire_detections in a row)--> pursuit
             --a detection or a motion candidate elsewhere-------> saccade
     saccade --head settled on the target (settle_ms)------------> pursuit
             --the move takes too long---------------------------> search
     pursuit --no detection for lost_after_ms--------------------> lost
-    lost    --a detection again----------------------------------> pursuit
+    lost    --reacquire_detections in a row (one per frame)-------> pursuit
             --lost for search_after_ms---------------------------> search
     any     --a `trace` command (`gazed calibrate trace`)---------> trace
     trace   --corner, lost edge, enough samples, joint limit, stop--> search
@@ -69,6 +69,7 @@ STAGE = "gaze"
 STILL_RATE_RAD_S = math.radians(2.0)  # below this the head counts as at rest
 PREDICTION_FRESH_S = 0.5  # an older prediction is not used for pursuit
 FUTURE_TOLERANCE_NS = 500_000_000  # a message stamped further ahead of our clock is bogus
+TAKING_UP = ("park", "search", "lost")  # the states that take a detection up (in a row)
 
 
 @dataclass(frozen=True)
@@ -135,6 +136,8 @@ class GazeController:
         self.odometry: Odometry | None = None
         self.prediction: Prediction | None = None
         self.found: Detection | None = None  # latest detection with the target, taken into account
+        self.in_a_row = 0  # park, search, lost: detections in consecutive frames since entering it
+        self.frame_period_s = rig.camera.frame_period_s
         self.candidates: Candidates | None = None
         self.goal: Aim | None = None  # saccade or look-and-move target
         self.settled_since_s: float | None = None
@@ -181,6 +184,8 @@ class GazeController:
             return
         if self.state == "pursuit":
             self._update_correction(detection)
+        if self.state in TAKING_UP:
+            self._count_in_a_row(detection)
         self.found = detection
 
     def on_candidates(self, candidates: Candidates) -> None:
@@ -241,6 +246,7 @@ class GazeController:
         self.entered_s = mono_s
         self.entered_ns = wall_ns
         self.settled_since_s = None
+        self.in_a_row = 0
         self.counts["transitions"] += 1
 
     # -- states ------------------------------------------------------------------------------
@@ -265,9 +271,10 @@ class GazeController:
         return self._hold(wall_ns, mono_s)
 
     def _take_up_detection(self, wall_ns: int, mono_s: float) -> GazeDemand | None:
-        """A detection since this state began: pursue it if it is in the fovea, else saccade."""
+        """A detection since this state began, the last of `reacquire_detections` in a row:
+        pursue it if it is in the fovea, else saccade."""
         detection = self._recent_found(wall_ns, since_ns=self.entered_ns)
-        if detection is None:
+        if detection is None or self.in_a_row < self.gaze.reacquire_detections:
             return None
         target = self._detection_aim(detection)
         if self._offset_from_axis(target, detection) <= self.fovea_rad:
@@ -348,7 +355,7 @@ class GazeController:
 
     def _lost(self, wall_ns: int, mono_s: float) -> GazeDemand | None:
         detection = self._recent_found(wall_ns, since_ns=self.entered_ns)
-        if detection is not None:
+        if detection is not None and self.in_a_row >= self.gaze.reacquire_detections:
             self.enter("pursuit", "target seen again", wall_ns, mono_s)
             return self._pursuit(wall_ns, mono_s)
         lost_s = mono_s - self.entered_s
@@ -580,6 +587,17 @@ class GazeController:
         return min(grow, math.radians(self.gaze.lost_search_max_deg))
 
     # -- helpers ---------------------------------------------------------------------------------
+
+    def _count_in_a_row(self, detection: Detection) -> None:
+        """Park, search, lost: one more detection in a row if it comes a frame or two after the previous one;
+        the first of a new run otherwise (a repeat of the same frame counts nothing)."""
+        if self.found is None:
+            self.in_a_row = 1
+            return
+        gap_s = (detection.t_capture_ns - self.found.t_capture_ns) / 1e9
+        if gap_s <= 0.0:
+            return
+        self.in_a_row = self.in_a_row + 1 if gap_s <= 2.5 * self.frame_period_s else 1
 
     def _recent_found(self, wall_ns: int, since_ns: int) -> Detection | None:
         d = self.found
