@@ -27,6 +27,12 @@ starting from three hypotheses (still in the world, still in the image — the h
 none explains 30% of the region, the same fits on images smoothed more (σ = 4 px, a linear range
 of about 5 px) give a fourth start. A fit explaining less than 20% is not reported.
 
+The ego-rotation is only as good as the head pose at capture (a Dynamixel's encoder step is
+0.088°, a quarter of a pixel here): on strong edges the residual then exceeds the noise, and a
+fit can win that keeps its place in the world (|d| within the noise plus `EGO_ERROR` of the
+head's displacement). That is background: its pixels are dropped and the rest fitted again; a
+region with nothing else is not a target (a lone residual would otherwise be pursued as one).
+
 The window follows the target: it is centred on the predicted position while the target is
 found, and returns to the principal point when it is lost.
 """
@@ -52,6 +58,7 @@ REFINE_ITERATIONS = 6  # further fits of the chosen hypothesis
 CONVERGED_PX = 0.02  # stop refining when d changes by less than this (px per frame)
 LINEAR_RANGE_PX = 2.0  # constraints this far from a hypothesis still pull it (px per frame)
 REFINE_RANGE_PX = 1.0  # ... and once it is chosen
+EGO_ERROR = 0.05  # the head's rotation between frames is known to about 5 % (odometry timing)
 
 
 @dataclass(frozen=True)
@@ -130,10 +137,18 @@ class NormalFlowDetector:
             self.reset()
             return DetectorOutput.nothing(fovea.rect)
         fit = self._fit_velocity(pair, measurement, region, track)
+        still_px = self._still_px(pair.step, fovea)
+        if math.hypot(*fit.d) <= still_px:
+            # most of it keeps its place in the world: background the compensation missed
+            # (odometry error); whatever moves is in the rest, if anything
+            region = self._regions(region & ~self._explained(region, measurement, fit))
+            if region is not None:
+                fit = self._fit_velocity(pair, measurement, region, track)
+            if region is None or math.hypot(*fit.d) <= still_px:
+                self.reset()
+                return DetectorOutput.nothing(fovea.rect)
         # the target: moving against the background, and explained by the fitted velocity
-        explained = np.zeros_like(moving)
-        explained[region & measurement.valid] = fit.inliers
-        target = self._regions(moving & explained)
+        target = self._regions(moving & self._explained(region, measurement, fit))
         if target is None:
             self.reset()
             return DetectorOutput.nothing(fovea.rect)
@@ -156,6 +171,21 @@ class NormalFlowDetector:
             confidence=fit.score,
             window=fovea.rect,
         )
+
+    @staticmethod
+    def _explained(region: np.ndarray, measurement: _Measurement, fit: _Fit) -> np.ndarray:
+        """The pixels of the region whose constraints the fit explains."""
+        explained = np.zeros_like(region)
+        explained[region & measurement.valid] = fit.inliers
+        return explained
+
+    def _still_px(self, step: HeadStep, fovea: Fovea) -> float:
+        """The largest displacement (px per frame) of a region that still counts as keeping its
+        place in the world: the noise, plus the error of the ego-rotation displacement it was
+        compensated by, a fraction EGO_ERROR of that displacement (head pose at capture)."""
+        cu, cv = fovea.centre
+        moved_px = math.hypot(*np.subtract(step.transport(cu, cv), (cu, cv)))
+        return self.noise_px + EGO_ERROR * moved_px
 
     def _place(self, step: HeadStep, shape: tuple[int, ...]) -> Fovea:
         """Centre the fovea on the predicted target, or on the principal point."""
