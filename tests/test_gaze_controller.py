@@ -188,6 +188,31 @@ def test_motion_candidate_draws_a_saccade_and_weak_ones_do_not() -> None:
     )
 
 
+def test_candidates_seen_while_the_head_turns_are_not_searched() -> None:
+    """A frame captured while the head still turned (say, braking after a lost scan) shows
+    whatever the ego-rotation compensation missed as motion: no saccade to it."""
+    clock = Clock()
+    c = in_search(clock)
+    candidate = Candidate(u_px=100.0, v_px=239.5, area_px=400.0, energy=9.0, score=3.0)
+    turning = Candidates(
+        t_capture_ns=clock.wall_ns,
+        seq=2,
+        width_px=640,
+        height_px=480,
+        head=HeadPose(pan_rad=0.0, tilt_rad=0.0, tilt_rate_rad_s=math.radians(20.0)),
+        candidates=(candidate,),
+    )
+    c.on_candidates(turning)
+    assert c.tick(clock.wall_ns, clock.mono_s).transition is None
+    assert c.counts["ignored_while_moving"] == 1
+    clock.advance(0.04)
+    at_rest = turning.model_copy(
+        update={"t_capture_ns": clock.wall_ns, "head": HeadPose(pan_rad=0.0, tilt_rad=0.0)}
+    )
+    c.on_candidates(at_rest)
+    assert c.tick(clock.wall_ns, clock.mono_s).transition.state == "saccade"
+
+
 def test_pursuit_demands_the_prediction_at_the_instant_it_acts() -> None:
     clock = Clock()
     c = in_pursuit(clock)

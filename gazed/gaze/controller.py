@@ -15,7 +15,8 @@ States and transitions (each published with its reason):
     any     --a `trace` command (`gazed calibrate trace`)---------> trace
     trace   --corner, lost edge, enough samples, joint limit, stop--> search
 
-- search holds the head (or scans) and watches the whole-frame motion candidates;
+- search holds the head and watches the whole-frame motion candidates of frames taken
+  at rest (a turning head's compensation residue looks like motion);
 - saccade is a ballistic move to where the target will be when the move ends; detections are
   ignored until the head has settled;
 - pursuit demands the predicted position and rates for the instant the demand acts (the
@@ -613,10 +614,15 @@ class GazeController:
             return None
         if (wall_ns - c.t_capture_ns) / 1e6 > self.gaze.lost_after_ms:
             return None
+        head = c.head
+        if max(abs(head.pan_rate_rad_s), abs(head.tilt_rate_rad_s)) >= STILL_RATE_RAD_S:
+            # seen while the head still turned: whatever its compensation missed looks like
+            # motion too, so only frames from a head at rest are searched
+            self.counts["ignored_while_moving"] += 1
+            return None
         best = max(c.candidates, key=lambda k: k.score)
         if best.score < self.gaze.candidate_min_score:
             return None
-        head = c.head
         target = target_angles(
             self.camera, self.kinematics, head.pan_rad, head.tilt_rad, best.u_px, best.v_px
         )
