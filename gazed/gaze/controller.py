@@ -590,8 +590,8 @@ class GazeController:
     # -- helpers ---------------------------------------------------------------------------------
 
     def _count_in_a_row(self, detection: Detection) -> None:
-        """Park, search, lost: one more detection in a row if it comes a frame or two after the previous one;
-        the first of a new run otherwise (a repeat of the same frame counts nothing)."""
+        """Park, search, lost: one more detection in a row if it comes a frame or two after the
+        previous one; the first of a new run otherwise (a repeat of a frame counts nothing)."""
         if self.found is None:
             self.in_a_row = 1
             return

@@ -58,7 +58,7 @@ REFINE_ITERATIONS = 6  # further fits of the chosen hypothesis
 CONVERGED_PX = 0.02  # stop refining when d changes by less than this (px per frame)
 LINEAR_RANGE_PX = 2.0  # constraints this far from a hypothesis still pull it (px per frame)
 REFINE_RANGE_PX = 1.0  # ... and once it is chosen
-EGO_ERROR = 0.05  # the head's rotation between frames is known to about 5 % (odometry timing)
+EGO_ERROR = 0.05  # the head's turn between frames is known to ~5 % (encoder step, timing)
 
 
 @dataclass(frozen=True)
