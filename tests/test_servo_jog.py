@@ -22,14 +22,15 @@ def rig_file(tmp_path: Path, protocol: str, extra: str = "") -> Path:
     return path
 
 
-def jog(path: Path, *args: str) -> int:
-    return main(["servo", "jog", "--rig", str(path), "--listen-ms", "200", *args])
+def jog(path: Path, *args: str, listen_ms: int = 200) -> int:
+    return main(["servo", "jog", "--rig", str(path), "--listen-ms", str(listen_ms), *args])
 
 
 def test_visca_move_shows_ack_and_completion(tmp_path: Path, capsys) -> None:
     path = rig_file(tmp_path, "visca")
     with HeadEmulator(load_rig(path)) as head:
-        assert jog(path, "--pan-deg", "7.5", "--tilt-deg", "-3") == 0
+        # the move takes ~0.1 s; listen long enough for its completion on a loaded machine
+        assert jog(path, "--pan-deg", "7.5", "--tilt-deg", "-3", listen_ms=2000) == 0
         out = capsys.readouterr().out
         assert "-> 81 01 06 02 18 14 00 00 06 04 0f 0f 0d 08 ff" in out  # 100 and -40 units
         assert "<- 90 41 ff   ack socket 1" in out
