@@ -10,6 +10,7 @@ still: the velocity the detectors report).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -57,6 +58,29 @@ def texture(
 
 def still_head(pan_rad: float = 0.0, tilt_rad: float = 0.0) -> HeadPath:
     return lambda t_s: HeadPose(pan_rad=pan_rad, tilt_rad=tilt_rad)
+
+
+def pursuing_head(
+    pan0_rad: float,
+    tilt0_rad: float,
+    pan_rate_rad_s: float,
+    tilt_rate_rad_s: float,
+    wobble_rad: float = math.radians(1.2),
+    wobble_hz: float = 2.5,
+) -> HeadPath:
+    """A head pursuing at constant rates from (pan0, tilt0), with a circular wobble of
+    `wobble_rad` at `wobble_hz` on top (rates up to the pursuit rate + 2π f·wobble)."""
+    w = 2 * math.pi * wobble_hz
+
+    def head(t_s: float) -> HeadPose:
+        return HeadPose(
+            pan_rad=pan0_rad + pan_rate_rad_s * t_s + wobble_rad * math.sin(w * t_s),
+            tilt_rad=tilt0_rad + tilt_rate_rad_s * t_s + wobble_rad * math.cos(w * t_s),
+            pan_rate_rad_s=pan_rate_rad_s + wobble_rad * w * math.cos(w * t_s),
+            tilt_rate_rad_s=tilt_rate_rad_s - wobble_rad * w * math.sin(w * t_s),
+        )
+
+    return head
 
 
 def sinusoidal_head(

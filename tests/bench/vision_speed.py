@@ -23,23 +23,14 @@ import numpy as np
 from gazed.config import VisionSection
 from gazed.geometry.camera import CameraModel
 from gazed.geometry.kinematics import HeadKinematics
-from gazed.messages import HeadPose
 from gazed.vision.pipeline import VisionPipeline
-from gazed.vision.synthetic import SyntheticScene, still_head
+from gazed.vision.synthetic import SyntheticScene, pursuing_head, still_head
 
 RATE_HZ = 25.0
 SEQUENCE = 60  # frames rendered per configuration, replayed until enough are timed
 
 
-def pursuit(t: float) -> HeadPose:
-    w, a = 2 * math.pi * 2.5, math.radians(1.2)
-    pan_rate, tilt_rate = math.radians(37.0), math.radians(-20.0)
-    return HeadPose(
-        pan_rad=-0.8 + pan_rate * t + a * math.sin(w * t),
-        tilt_rad=0.4 + tilt_rate * t + a * math.cos(w * t),
-        pan_rate_rad_s=pan_rate + a * w * math.cos(w * t),
-        tilt_rate_rad_s=tilt_rate - a * w * math.sin(w * t),
-    )
+pursuit = pursuing_head(-0.8, 0.4, math.radians(37.0), math.radians(-20.0))
 
 
 def frames(detector: str, width: int, height: int) -> tuple[CameraModel, list]:
