@@ -76,6 +76,19 @@ def child_env(**extra: str) -> dict[str, str]:
 PYTHON = sys.executable
 
 
+def start_service(name: str, rig_path: Path) -> subprocess.Popen[str]:
+    """The real entry point `python -m services.NAME --rig RIG`, its stdout and stderr together
+    on one text pipe."""
+    return subprocess.Popen(
+        [PYTHON, "-m", f"services.{name}", "--rig", str(rig_path)],
+        cwd=REPO,
+        env=child_env(),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
+
+
 @pytest.fixture
 def shared_data() -> Path:
     if not SHARED_DATA.is_dir():

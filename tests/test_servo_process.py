@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 import zenoh
-from conftest import PYTHON, REPO, child_env, poll_until, unique_rig_name
+from conftest import poll_until, start_service, unique_rig_name
 
 from gazed.bus import Bus
 from gazed.config import load_rig
@@ -120,15 +120,8 @@ class Loop:
         return poll_until(check, timeout_s, interval_s=0.0)
 
 
-def start_servo(rig_path: Path) -> subprocess.Popen:
-    return subprocess.Popen(
-        [PYTHON, "-m", "services.servo", "--rig", str(rig_path)],
-        cwd=REPO,
-        env=child_env(),
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-    )
+def start_servo(rig_path: Path) -> subprocess.Popen[str]:
+    return start_service("servo", rig_path)
 
 
 def stop(process: subprocess.Popen) -> str:

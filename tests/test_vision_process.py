@@ -5,7 +5,6 @@ and counted while it keeps going — driven step by step in-process, and as the 
 from __future__ import annotations
 
 import math
-import subprocess
 from collections import deque
 from pathlib import Path
 
@@ -13,7 +12,7 @@ import cv2
 import numpy as np
 import pytest
 import zenoh
-from conftest import PYTHON, REPO, child_env, poll_until, unique_rig_name, write_rig
+from conftest import poll_until, start_service, unique_rig_name, write_rig
 
 from gazed.bus import Bus
 from gazed.config import load_rig
@@ -160,14 +159,7 @@ def test_vision_process_end_to_end(tmp_path: Path) -> None:
         healths = bus.subscribe(health("vision"))
         frame_out = bus.publisher(SIM_FRAME)
         odometry_out = bus.publisher(SERVO_ODOMETRY)
-        child = subprocess.Popen(
-            [PYTHON, "-m", "services.vision", "--rig", str(path)],
-            cwd=REPO,
-            env=child_env(),
-            stdout=subprocess.PIPE,
-            stderr=subprocess.STDOUT,
-            text=True,
-        )
+        child = start_service("vision", path)
         try:
             poll_until(lambda: "vision" in bus.alive(0.5), 30.0)
             poll_until(frame_out.matched, 10.0)
@@ -279,14 +271,7 @@ def test_vision_process_reads_a_video_file_as_its_camera(tmp_path: Path) -> None
     with Bus(rig, "test", router=True) as bus:
         detections = bus.subscribe(VISION_DETECTION)
         healths = bus.subscribe(health("vision"))
-        child = subprocess.Popen(
-            [PYTHON, "-m", "services.vision", "--rig", str(path)],
-            cwd=REPO,
-            env=child_env(),
-            stdout=subprocess.PIPE,
-            stderr=subprocess.STDOUT,
-            text=True,
-        )
+        child = start_service("vision", path)
         try:
             got: list[Detection] = []
             poll_until(
