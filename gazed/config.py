@@ -719,13 +719,13 @@ class GazeSection(Section):
         2.0,
         ge=0,
         le=180,
-        description="Lost: the search region around the prediction grows this fast at least.",
+        description=(
+            "Lost: the search region around the prediction grows this fast at least; once it is"
+            " wider than the fovea, the fovea tours its edge, a look at each stop."
+        ),
     )
     lost_search_max_deg: float = Field(
         10.0, ge=0, le=90, description="Lost: largest search radius."
-    )
-    lost_scan_hz: float = Field(
-        1.0, gt=0, le=20, description="Lost: turns per second of the search circle."
     )
     trace_max_turn_deg: float = Field(
         30.0,

@@ -1,6 +1,8 @@
 """Process faults while tracking in the simulator: each of vision, estimator, gaze and servo is
-SIGKILLed in turn; the supervisor restarts it and the target is back in the fovea within 2 s of
-the kill; while gaze or estimator is down the servo's watchdog holds the head."""
+SIGKILLed in turn while tracking; the supervisor restarts it and the target is back in the fovea
+within 2 s of the kill; while gaze or estimator is down the servo's watchdog holds the head.
+Each fault comes while the rig tracks: the gaze pursuing a target it sees, not still coasting
+after the previous fault (that would be two faults at once)."""
 
 from __future__ import annotations
 
@@ -17,8 +19,8 @@ from conftest import REPO, RunningSupervisor, poll_until
 from gazed.eval.loop import private_rig
 from gazed.eval.loop_metrics import gaze_errors_rad
 from gazed.geometry.pose import CameraPose
-from gazed.messages import SimTruth
-from gazed.topics import SERVO_STATUS, SIM_TRUTH
+from gazed.messages import GazeStateName, SimTruth
+from gazed.topics import GAZE_STATE, SERVO_STATUS, SIM_TRUTH
 
 IN_FOVEA_FRAMES = 10  # tracking = the target inside the fovea for this many frames in a row
 # the first fault comes once tracking is established (1 s in the fovea), not in the first
@@ -36,6 +38,8 @@ class Watch:
         self.fovea_rad = math.radians(supervisor.rig.gaze.fovea_half_angle_deg)
         self._truth = supervisor.bus.subscribe(SIM_TRUTH, capacity=100000)
         self._status = supervisor.bus.subscribe(SERVO_STATUS, capacity=10000)
+        self._gaze = supervisor.bus.subscribe(GAZE_STATE, capacity=1000)
+        self.gaze_state: GazeStateName | None = None
         self.truth: list[SimTruth] = []
         self.holding_since: list[int] = []  # wall ns of servo statuses saying "holding"
 
@@ -43,6 +47,18 @@ class Watch:
         self.supervisor.bus.wait(0.2)
         self.truth.extend(self._truth.take())
         self.holding_since.extend(s.t_capture_ns for s in self._status.take() if s.holding)
+        for transition in self._gaze.take():
+            self.gaze_state = transition.state
+
+    def tracking(self) -> bool:
+        """The gaze pursues and the target has been in the fovea for the last frames."""
+        self.pump()
+        last = self.truth[-IN_FOVEA_FRAMES:]
+        return (
+            self.gaze_state == "pursuit"
+            and len(last) == IN_FOVEA_FRAMES
+            and bool(np.all(gaze_errors_rad(last, self.pose) <= self.fovea_rad))
+        )
 
     def recovered(self, name: str, killed_s: float, killed_ns: int) -> int | None:
         """Once `name` is alive again: when tracking resumed after the kill (None: not yet)."""
@@ -99,7 +115,7 @@ def test_tracking_survives_each_process_being_killed(tmp_path: Path) -> None:
             if name in ("estimator", "gaze"):
                 watch.pump()
             time.sleep(2.0)  # let the rig settle before the next fault
-            watch.pump()
+            poll_until(watch.tracking, 20.0, interval_s=0.0)
         watch_errors = np.degrees(gaze_errors_rad(watch.truth[-25:], watch.pose))
         assert np.all(watch_errors < supervisor.rig.gaze.fovea_half_angle_deg)
     finally:

@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import pytest
 
-from gazed.config import parse_rig
+from gazed.config import Rig, parse_rig
 from gazed.gaze.aim import move_duration_s
 from gazed.gaze.controller import GazeController
 from gazed.geometry.camera import CameraModel
@@ -20,6 +21,7 @@ RIG = parse_rig(
 )
 CAMERA = CameraModel.from_section(RIG.camera)
 F = CAMERA.K[0, 0]
+LIMITS = (math.radians(100.0), math.radians(400.0))  # the rig's head: rate, acceleration
 T0 = 1_000_000_000_000_000_000  # wall ns
 
 
@@ -89,8 +91,8 @@ def run_up(c: GazeController, clock: Clock, u: float, v: float, **kwargs) -> Non
         c.on_detection(detection(clock, u, v, age_s=0.04 * k, **kwargs))
 
 
-def in_search(clock: Clock) -> GazeController:
-    c = GazeController(RIG, clock.mono_s)
+def in_search(clock: Clock, rig: Rig = RIG) -> GazeController:
+    c = GazeController(rig, clock.mono_s)
     c.on_odometry(odometry(clock, 0.0, 0.0))
     decision = c.tick(clock.wall_ns, clock.mono_s)
     assert decision.transition is not None and decision.transition.state == "search"
@@ -100,8 +102,8 @@ def in_search(clock: Clock) -> GazeController:
     return c
 
 
-def in_pursuit(clock: Clock) -> GazeController:
-    c = in_search(clock)
+def in_pursuit(clock: Clock, rig: Rig = RIG) -> GazeController:
+    c = in_search(clock, rig)
     run_up(c, clock, 330.0, 245.0)
     c.on_detection(detection(clock, 330.0, 245.0))
     decision = c.tick(clock.wall_ns, clock.mono_s)
@@ -244,8 +246,13 @@ def test_pursuit_clamps_to_the_joint_limits() -> None:
 
 
 def test_lost_coasts_searches_a_growing_region_then_gives_up() -> None:
+    """Lost: the fovea stays on the prediction while the search region fits in it, then tours
+    the region's edge in stops a fovea apart, holding each for a look; detections from the
+    moves between stops are ignored, `reacquire_detections` in a look resume pursuit; after
+    search_after_ms, back to search."""
     clock = Clock()
-    c = in_pursuit(clock)
+    fast = RIG.gaze.model_copy(update={"lost_search_growth_deg_s": 10.0, "search_after_ms": 3000})
+    c = in_pursuit(clock, RIG.model_copy(update={"gaze": fast}))
     for _ in range(8):  # 320 ms without a detection, predictions still coming (coasting)
         clock.advance(0.04)
         c.on_prediction(prediction(clock, 5.0, -2.0))
@@ -254,14 +261,43 @@ def test_lost_coasts_searches_a_growing_region_then_gives_up() -> None:
         decision.transition.state == "lost"
         and decision.transition.reason == "no detection for 300 ms"
     )
-    radii = []
-    for _ in range(10):
-        clock.advance(0.05)
+    offsets: list[tuple[float, float]] = []
+    starts: list[int] = []  # the ticks at which a stop on the ring begins
+    while len(starts) < 3:  # a tick every 20 ms until the third stop begins
+        clock.advance(0.02)
         c.on_prediction(prediction(clock, 5.0, -2.0))
         d = c.tick(clock.wall_ns, clock.mono_s).demand
-        radii.append(math.hypot(math.degrees(d.pan_rad) - 5.0, math.degrees(d.tilt_rad) + 2.0))
-    assert radii[-1] > radii[0] > 0  # the region grows (2°/s by default)
-    assert radii[-1] == pytest.approx(2.0 * 0.5, abs=0.05)
+        offsets.append((math.degrees(d.pan_rad) - 5.0, math.degrees(d.tilt_rad) + 2.0))
+        if offsets[-1] != (offsets[-2] if len(offsets) > 1 else (0.0, 0.0)):
+            starts.append(len(offsets) - 1)
+    fovea_deg = RIG.gaze.fovea_half_angle_deg
+    region_deg = [  # 10°/s without a covariance, up to the largest radius
+        min(10.0 * 0.02 * (k + 1), fast.lost_search_max_deg) for k in range(len(offsets))
+    ]
+    inside = [k for k, r in enumerate(region_deg) if r <= fovea_deg]
+    assert starts[0] == len(inside) > 0  # on the prediction while the region fits the fovea
+    assert all(offsets[k] == pytest.approx((0.0, 0.0), abs=1e-9) for k in inside)
+    look_s = fast.settle_ms / 1000 + (fast.reacquire_detections + 1) * 0.04 + 0.15
+    for a, b in itertools.pairwise(starts):
+        assert (b - a) * 0.02 >= look_s - 1e-9  # each stop held for a look
+        ring = [math.hypot(*offsets[k]) for k in (a, b)]
+        assert ring[0] == pytest.approx(region_deg[a] - fovea_deg, abs=1e-6)
+        assert ring[1] == pytest.approx(region_deg[b] - fovea_deg, abs=1e-6)
+        step = math.atan2(offsets[b][1], offsets[b][0]) - math.atan2(offsets[a][1], offsets[a][0])
+        step = (step + math.pi) % (2 * math.pi) - math.pi
+        assert step == pytest.approx(min(2 * math.pi / 3, 2 * fovea_deg / ring[1]), abs=1e-6)
+    # a detection from the move to the third stop is ignored; one per frame after it counts
+    ignored = c.counts["ignored_while_moving"]
+    c.on_detection(detection(clock, 330.0, 240.0))
+    assert c.counts["ignored_while_moving"] == ignored + 1
+    move = [b - a for a, b in zip(offsets[starts[1]], offsets[starts[2]], strict=True)]
+    settled_s = fast.settle_ms / 1000 + max(move_duration_s(math.radians(m), *LIMITS) for m in move)
+    waited_s = 0.0
+    while waited_s < settled_s:
+        clock.advance(0.04)
+        waited_s += 0.04
+        c.on_prediction(prediction(clock, 5.0, -2.0))
+        assert c.tick(clock.wall_ns, clock.mono_s).transition is None
     for k in range(RIG.gaze.reacquire_detections):  # one per frame, in a row
         clock.advance(0.04)
         c.on_detection(detection(clock, 330.0, 240.0))
@@ -269,13 +305,13 @@ def test_lost_coasts_searches_a_growing_region_then_gives_up() -> None:
         assert (back.transition is None) == (k < RIG.gaze.reacquire_detections - 1)
     assert back.transition.state == "pursuit" and back.transition.reason == "target seen again"
     # lost again, and for longer than search_after_ms this time
-    for _ in range(40):
+    for _ in range(100):
         clock.advance(0.04)
         c.on_prediction(prediction(clock, 5.0, -2.0))
         decision = c.tick(clock.wall_ns, clock.mono_s)
         if decision.transition is not None and decision.transition.state == "search":
             break
-    assert c.state == "search" and decision.transition.reason.startswith("lost for 1.")
+    assert c.state == "search" and decision.transition.reason.startswith("lost for 3.")
 
 
 def test_lone_detections_while_lost_do_not_resume_pursuit() -> None:

@@ -24,7 +24,11 @@ States and transitions (each published with its reason):
   between where the target was seen and where it had been predicted to be; before the
   estimator has a prediction, the detection itself (its angles and angular rates);
 - lost coasts on the estimator's prediction and searches around it in a region that grows
-  with the prediction's covariance (or with time where the prediction carries none);
+  with the prediction's covariance (or with time where the prediction carries none): while the
+  region fits in the fovea the fovea stays on the prediction; past that it tours the region's
+  edge in stops a fovea apart, coasting with the prediction at each stop for a look
+  (`reacquire_detections` frames after settling); detections from the moves between stops are
+  ignored, for a turning head's compensation residue looks like motion;
 - trace follows a ground line's edge for the line calibration (seed 000 §3.2.1): move to the
   start, settle, take the edge point nearest the fovea's centre from `vision/edge` as a sample
   (its joint angles), step along the edge to the next point (keeping the same direction), again,
@@ -95,6 +99,16 @@ class Decision:
     trace: TraceResult | None = None
 
 
+@dataclass(frozen=True)
+class ScanStop:
+    """Lost: one stop of the fovea's tour of the search region's edge."""
+
+    phase_rad: float  # where on the ring around the prediction
+    ring_rad: float  # the ring's radius when the stop began
+    look_from_ns: int  # detections captured earlier come from the move here
+    next_s: float  # when to move on to the next stop (monotonic)
+
+
 @dataclass
 class TraceJob:
     """One ground line being traced (seed 000 §3.2.1): move, settle, look at the edge, sample
@@ -145,6 +159,7 @@ class GazeController:
         self.looking = True  # look-and-move: waiting for a fresh look (else moving)
         self.look_since_ns = 0  # look-and-move: a look needs a frame captured from here on
         self.correction = (0.0, 0.0)
+        self.scan: ScanStop | None = None  # lost: the current stop on the search ring
         self.predictions: deque[Prediction] = deque(maxlen=64)
         self.last_rates = (0.0, 0.0)
         self.last_tick_s = mono_s
@@ -180,7 +195,15 @@ class GazeController:
     def on_detection(self, detection: Detection) -> None:
         if not detection.found or detection.head is None:
             return
-        if self.state == "saccade" or (self.gaze.control == "look-and-move" and not self.looking):
+        if (
+            self.state == "saccade"
+            or (self.gaze.control == "look-and-move" and not self.looking)
+            or (
+                self.state == "lost"
+                and self.scan is not None
+                and detection.t_capture_ns < self.scan.look_from_ns
+            )
+        ):
             self.counts["ignored_while_moving"] += 1  # captured mid-move: blurred, off its track
             return
         if self.state == "pursuit":
@@ -248,6 +271,7 @@ class GazeController:
         self.entered_ns = wall_ns
         self.settled_since_s = None
         self.in_a_row = 0
+        self.scan = None
         self.counts["transitions"] += 1
 
     # -- states ------------------------------------------------------------------------------
@@ -367,14 +391,45 @@ class GazeController:
             return self._hold(wall_ns, mono_s)
         demand = self._follow(wall_ns, correction=False)
         assert demand is not None
-        radius = self._search_radius_rad(lost_s)
-        phase = 2.0 * math.pi * self.gaze.lost_scan_hz * lost_s
+        ring_rad = max(self._search_radius_rad(lost_s) - self.fovea_rad, 0.0)
+        if ring_rad == 0.0:  # the region fits in the fovea: keep it on the prediction
+            return demand
+        stop = self._scan_stop(ring_rad, wall_ns, mono_s)
         return demand.model_copy(
             update={
-                "pan_rad": demand.pan_rad + radius * math.cos(phase),
-                "tilt_rad": demand.tilt_rad + radius * math.sin(phase),
+                "pan_rad": demand.pan_rad + stop.ring_rad * math.cos(stop.phase_rad),
+                "tilt_rad": demand.tilt_rad + stop.ring_rad * math.sin(stop.phase_rad),
             }
         )
+
+    def _scan_stop(self, ring_rad: float, wall_ns: int, mono_s: float) -> ScanStop:
+        """The current stop on the ring around the prediction, or the next one once the look
+        at it is over: a fovea further round (neighbouring views touch), held for the move,
+        the settling, `reacquire_detections` frames and the visual latency of their reports."""
+        stop = self.scan
+        if stop is not None and mono_s < stop.next_s:
+            return stop
+        if stop is None:
+            phase_rad, move_pan, move_tilt = 0.0, ring_rad, 0.0
+        else:
+            phase_rad = stop.phase_rad + min(2.0 * math.pi / 3.0, 2.0 * self.fovea_rad / ring_rad)
+            move_pan = ring_rad * math.cos(phase_rad) - stop.ring_rad * math.cos(stop.phase_rad)
+            move_tilt = ring_rad * math.sin(phase_rad) - stop.ring_rad * math.sin(stop.phase_rad)
+        move_s = max(
+            move_duration_s(move_pan, self.rate_max[0], self.accel_max[0]),
+            move_duration_s(move_tilt, self.rate_max[1], self.accel_max[1]),
+        )
+        look_s = move_s + self.gaze.settle_ms / 1000.0
+        latency_s = self.prediction.visual_latency_s if self.prediction is not None else 0.0
+        frames_s = (self.gaze.reacquire_detections + 1) * self.frame_period_s
+        self.scan = ScanStop(
+            phase_rad,
+            ring_rad,
+            wall_ns + round(look_s * 1e9),
+            mono_s + look_s + frames_s + latency_s,
+        )
+        self.in_a_row = 0
+        return self.scan
 
     def _trace(self, wall_ns: int, mono_s: float) -> GazeDemand | None:
         job = self.trace_job
