@@ -725,7 +725,13 @@ class GazeSection(Section):
         ),
     )
     lost_search_max_deg: float = Field(
-        10.0, ge=0, le=90, description="Lost: largest search radius."
+        10.0,
+        ge=0,
+        le=90,
+        description=(
+            "Lost: largest search radius; a region growing past it (the prediction says too"
+            " little) sends the gaze back to search."
+        ),
     )
     trace_max_turn_deg: float = Field(
         30.0,

@@ -71,8 +71,7 @@ class GazeService:
         if fresh or now.mono_s >= self.next_tick_s:  # a new prediction acts at once
             self.next_tick_s = now.mono_s + self.period_s
             decision = c.tick(now.wall_ns, now.mono_s)
-            if decision.transition is not None:
-                t = decision.transition
+            for t in decision.transitions:
                 log.debug("%s -> %s: %s", t.previous, t.state, t.reason)  # gazed run logs them
                 self.states.put(t)
             if decision.demand is not None:

@@ -13,12 +13,13 @@ from gazed.gaze.controller import GazeController
 from gazed.geometry.camera import CameraModel
 from gazed.messages import Candidate, Candidates, Detection, HeadPose, Odometry, Prediction
 
-RIG = parse_rig(
+RIG_TEXT = (
     '[rig]\nname = "g"\n'
     "[head]\npan_max_deg = 60\npan_rate_max_deg_s = 100\npan_accel_max_deg_s2 = 400\n"
     "tilt_rate_max_deg_s = 100\ntilt_accel_max_deg_s2 = 400\n"
     "[gaze]\nsettle_ms = 100\nlost_after_ms = 300\nsearch_after_ms = 1000\nresidual_gain = 0\n"
 )
+RIG = parse_rig(RIG_TEXT)
 CAMERA = CameraModel.from_section(RIG.camera)
 F = CAMERA.K[0, 0]
 LIMITS = (math.radians(100.0), math.radians(400.0))  # the rig's head: rate, acceleration
@@ -122,9 +123,25 @@ def test_starts_parked_then_searches_holding_still() -> None:
     c.on_odometry(odometry(clock, 5.0, 0.0))
     assert c.tick(clock.wall_ns, clock.mono_s).demand.kind == "park"
     assert c.state == "park"  # not there yet
-    c = in_search(Clock())
-    hold = c.tick(c.entered_ns + 1, c.entered_s + 0.01).demand
+    clock = Clock()
+    c = in_search(clock)
+    hold = c.tick(clock.wall_ns, clock.mono_s).demand
     assert hold.kind == "hold" and hold.pan_rad == 0.0
+
+
+def test_a_hold_stays_where_it_began_as_the_encoder_reading_flickers() -> None:
+    """Holding still, the readings flicker by an encoder step (0.088°, late by a poll): the hold
+    keeps the angles it began with, for demanding each reading would make the head hunt."""
+    clock = Clock()
+    c = in_search(clock)
+    demanded = set()
+    for k in range(20):
+        clock.advance(0.02)
+        c.on_odometry(odometry(clock, 0.088 * (k % 2), 0.0), clock.wall_ns)
+        demand = c.tick(clock.wall_ns, clock.mono_s).demand
+        assert demand.kind == "hold"
+        demanded.add((demand.pan_rad, demand.tilt_rad))
+    assert demanded == {(0.0, 0.0)}
 
 
 def test_detection_outside_the_fovea_draws_a_saccade_to_where_the_target_will_be() -> None:
@@ -251,7 +268,13 @@ def test_lost_coasts_searches_a_growing_region_then_gives_up() -> None:
     moves between stops are ignored, `reacquire_detections` in a look resume pursuit; after
     search_after_ms, back to search."""
     clock = Clock()
-    fast = RIG.gaze.model_copy(update={"lost_search_growth_deg_s": 10.0, "search_after_ms": 3000})
+    fast = RIG.gaze.model_copy(
+        update={
+            "lost_search_growth_deg_s": 10.0,
+            "search_after_ms": 3000,
+            "lost_search_max_deg": 40.0,
+        }
+    )
     c = in_pursuit(clock, RIG.model_copy(update={"gaze": fast}))
     for _ in range(8):  # 320 ms without a detection, predictions still coming (coasting)
         clock.advance(0.04)
@@ -312,6 +335,29 @@ def test_lost_coasts_searches_a_growing_region_then_gives_up() -> None:
         if decision.transition is not None and decision.transition.state == "search":
             break
     assert c.state == "search" and decision.transition.reason.startswith("lost for 3.")
+
+
+def test_lost_with_a_prediction_that_says_too_little_goes_back_to_search_at_once() -> None:
+    """A track too young for a velocity coasts with a covariance wider than the largest search
+    region: the gaze goes back to search (whole-frame motion from a still head) at once
+    instead of coasting on it for search_after_ms."""
+    rig = parse_rig(RIG_TEXT + "[calibration]\ncamera_xyz_m = [0.0, 0.0, 3.0]\n")
+    clock = Clock()
+    c = in_pursuit(clock, rig)
+    vague = prediction(clock, 5.0, -2.0).model_copy(
+        update={"ground_xy_m": (0.0, 5.0), "position_cov_m2": ((4.0, 0.0), (0.0, 4.0))}
+    )
+    states = []
+    for _ in range(12):  # 480 ms without a detection
+        clock.advance(0.04)
+        c.on_prediction(vague.model_copy(update={"t_effect_ns": clock.wall_ns + 20_000_000}))
+        decision = c.tick(clock.wall_ns, clock.mono_s)
+        states.extend((t.state, t.reason) for t in decision.transitions)
+    # 2 m at 5.8 m: a region of 19.7° against the largest, 10°
+    assert states == [
+        ("lost", "no detection for 300 ms"),
+        ("search", "search region 20° wide after 0.0 s"),
+    ]
 
 
 def test_lone_detections_while_lost_do_not_resume_pursuit() -> None:

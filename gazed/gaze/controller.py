@@ -95,8 +95,13 @@ class Aim:
 @dataclass(frozen=True)
 class Decision:
     demand: GazeDemand | None
-    transition: GazeState | None
+    transitions: tuple[GazeState, ...]  # in order: one tick can pass through several states
     trace: TraceResult | None = None
+
+    @property
+    def transition(self) -> GazeState | None:
+        """The last transition of the tick (the state it ended in), if any."""
+        return self.transitions[-1] if self.transitions else None
 
 
 @dataclass(frozen=True)
@@ -160,10 +165,11 @@ class GazeController:
         self.look_since_ns = 0  # look-and-move: a look needs a frame captured from here on
         self.correction = (0.0, 0.0)
         self.scan: ScanStop | None = None  # lost: the current stop on the search ring
+        self.holding_at: tuple[float, float] | None = None  # a hold's joint angles
         self.predictions: deque[Prediction] = deque(maxlen=64)
         self.last_rates = (0.0, 0.0)
         self.last_tick_s = mono_s
-        self.pending: GazeState | None = None
+        self.pending: list[GazeState] = []
         self.trace_job: TraceJob | None = None
         self.edge: EdgeObservation | None = None
         self.finished_trace: TraceResult | None = None
@@ -248,23 +254,27 @@ class GazeController:
             "trace": self._trace,
         }[self.state]
         demand = handler(wall_ns, mono_s)
+        if demand is None or demand.kind != "hold":
+            self.holding_at = None
         if demand is not None:
             demand = self._limited(demand, dt_s)
             if demand is None:  # a non-finite number reached the demand: hold instead
                 demand = self._hold(wall_ns, mono_s)
-        transition, self.pending = self.pending, None
+        transitions, self.pending = tuple(self.pending), []
         trace, self.finished_trace = self.finished_trace, None
-        return Decision(demand, transition, trace)
+        return Decision(demand, transitions, trace)
 
     def enter(self, state: GazeStateName, reason: str, wall_ns: int, mono_s: float) -> None:
         if state == self.state:
             return
-        self.pending = GazeState(
-            t_capture_ns=wall_ns,
-            stamps=((STAGE, wall_ns),),
-            state=state,
-            previous=self.state,
-            reason=reason,
+        self.pending.append(
+            GazeState(
+                t_capture_ns=wall_ns,
+                stamps=((STAGE, wall_ns),),
+                state=state,
+                previous=self.state,
+                reason=reason,
+            )
         )
         self.state = state
         self.entered_s = mono_s
@@ -387,11 +397,18 @@ class GazeController:
         if lost_s > self.gaze.search_after_ms / 1000.0:
             self.enter("search", f"lost for {lost_s:.1f} s", wall_ns, mono_s)
             return self._hold(wall_ns, mono_s)
+        region_rad = self._search_radius_rad(lost_s)
+        if region_rad > math.radians(self.gaze.lost_search_max_deg):
+            # the prediction says too little (a track too young for a velocity, or coasted too
+            # long): the whole frame's motion, watched from a still head, says more
+            reason = f"search region {math.degrees(region_rad):.0f}° wide after {lost_s:.1f} s"
+            self.enter("search", reason, wall_ns, mono_s)
+            return self._hold(wall_ns, mono_s)
         if self._aim(wall_ns) is None:  # nothing to coast on
             return self._hold(wall_ns, mono_s)
         demand = self._follow(wall_ns, correction=False)
         assert demand is not None
-        ring_rad = max(self._search_radius_rad(lost_s) - self.fovea_rad, 0.0)
+        ring_rad = max(region_rad - self.fovea_rad, 0.0)
         if ring_rad == 0.0:  # the region fits in the fovea: keep it on the prediction
             return demand
         stop = self._scan_stop(ring_rad, wall_ns, mono_s)
@@ -544,10 +561,15 @@ class GazeController:
         return self._hold(wall_ns, mono_s)
 
     def _hold(self, wall_ns: int, mono_s: float) -> GazeDemand | None:
+        """Stay where the head was when the hold began: chasing each new reading instead would
+        close a loop through the odometry's delay and the encoder's step, and the head would
+        hunt by a step every poll (which the detectors see as motion)."""
         del mono_s
-        if self.odometry is None:
-            return None
-        return self._demand("hold", self.odometry.pan_rad, self.odometry.tilt_rad, wall_ns)
+        if self.holding_at is None:
+            if self.odometry is None:
+                return None
+            self.holding_at = (self.odometry.pan_rad, self.odometry.tilt_rad)
+        return self._demand("hold", *self.holding_at, wall_ns)
 
     # -- pursuit demands ------------------------------------------------------------------------
 
@@ -640,7 +662,7 @@ class GazeController:
                 p.ground_xy_m[0] - camera[0], p.ground_xy_m[1] - camera[1], camera[2]
             )
             grow = max(grow, sigma_m / distance_m)
-        return min(grow, math.radians(self.gaze.lost_search_max_deg))
+        return grow
 
     # -- helpers ---------------------------------------------------------------------------------
 
