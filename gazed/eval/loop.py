@@ -140,6 +140,29 @@ def running(rig_path: Path) -> Iterator[tuple[Rig, subprocess.Popen[bytes], Path
             supervisor.wait()
 
 
+def open_observer(
+    bus: Bus,
+    supervisor: subprocess.Popen[bytes],
+    log_path: Path,
+    timeout_s: float = START_TIMEOUT_S,
+) -> None:
+    """Open `bus` on the rig of a `gazed run` from `running` once its router listens; the run's
+    log in the error if it exits first."""
+    deadline = time.monotonic() + timeout_s
+    while True:
+        if supervisor.poll() is not None:
+            raise RuntimeError(
+                f"gazed run exited with {supervisor.returncode}:\n{log_path.read_text()[-2000:]}"
+            )
+        try:
+            bus.open()
+            return
+        except BusError:
+            if time.monotonic() > deadline:
+                raise RuntimeError("the private bus did not come up") from None
+            time.sleep(0.1)  # the supervisor's router is not listening yet
+
+
 def private_rig(
     rig_path: Path,
     directory: Path,
@@ -191,18 +214,7 @@ def _record(
 ) -> tuple[LoopRecord, dict[str, float]]:
     bus = Bus(rig, "eval")
     deadline = time.monotonic() + START_TIMEOUT_S
-    while True:
-        if supervisor.poll() is not None:
-            raise RuntimeError(
-                f"gazed run exited with {supervisor.returncode}:\n{log_path.read_text()[-2000:]}"
-            )
-        try:
-            bus.open()
-            break
-        except BusError:
-            if time.monotonic() > deadline:
-                raise RuntimeError("the private bus did not come up") from None
-            time.sleep(0.1)  # the supervisor's router is not listening yet
+    open_observer(bus, supervisor, log_path)
     try:
         truth, states = (
             bus.subscribe(SIM_TRUTH, capacity=100000),

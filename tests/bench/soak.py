@@ -32,9 +32,9 @@ import psutil
 REPO = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(REPO))
 
-from gazed.bus import Bus, BusError  # noqa: E402
+from gazed.bus import Bus  # noqa: E402
 from gazed.config import SERVICE_NAMES, Rig  # noqa: E402
-from gazed.eval.loop import cpu_seconds, private_rig, running  # noqa: E402
+from gazed.eval.loop import cpu_seconds, open_observer, private_rig, running  # noqa: E402
 from gazed.eval.loop_metrics import LoopRecord, score  # noqa: E402
 from gazed.geometry.pose import CameraPose  # noqa: E402
 from gazed.messages import Health, SupervisorStatus  # noqa: E402
@@ -72,16 +72,7 @@ class Soak:
         self.status: SupervisorStatus | None = None
 
     def open(self) -> None:
-        deadline = time.monotonic() + START_TIMEOUT_S
-        while True:
-            self._check_supervisor()
-            try:
-                self.bus.open()
-                return
-            except BusError:
-                if time.monotonic() > deadline:
-                    raise RuntimeError("the private bus did not come up") from None
-                time.sleep(0.2)  # the supervisor's router is not listening yet
+        open_observer(self.bus, self.supervisor, self.log_path, START_TIMEOUT_S)
 
     def run(self, minutes: float) -> dict[str, Any]:
         truth = self.bus.subscribe(SIM_TRUTH, capacity=100000)
