@@ -77,16 +77,18 @@ def one_seed(rig_file: Path, scenario: str, seed: int, seconds: float) -> dict[s
             finally:
                 bus.close()
     after = [t for t in truth if t.t_capture_ns > killed_ns]
+    if not after:
+        raise SystemExit(f"seed {seed}: no truth frames after the kill")
     fovea_rad = math.radians(rig.gaze.fovea_half_angle_deg)
     errors = gaze_errors_rad(after, CameraPose.from_rig(rig))
     outside = [t.t_capture_ns for t, e in zip(after, errors, strict=True) if e > fovea_rad]
     for_good_s = None
-    if after and (not outside or outside[-1] < after[-1].t_capture_ns):
+    if not outside or outside[-1] < after[-1].t_capture_ns:
         for_good_s = round(((outside[-1] if outside else killed_ns) - killed_ns) / 1e9, 2)
     return {
         "seed": seed,
         "in_fovea_for_good_after_s": for_good_s,
-        "max_error_deg": round(math.degrees(float(errors.max())), 1) if len(after) else None,
+        "max_error_deg": round(math.degrees(float(errors.max())), 1),
         "states": [
             (round((s.t_capture_ns - killed_ns) / 1e9, 2), s.state, s.reason)
             for s in states
