@@ -19,10 +19,12 @@ class LatencyWindow:
     def __init__(self, default_s: float, size: int = 50) -> None:
         self.default_s = default_s
         self._samples: deque[float] = deque(maxlen=size)
+        self._median_s: float | None = None  # of the samples as they are; None: not yet taken
 
     def add(self, latency_s: float) -> None:
         if np.isfinite(latency_s) and latency_s >= 0:
             self._samples.append(latency_s)
+            self._median_s = None
 
     @property
     def count(self) -> int:
@@ -30,7 +32,11 @@ class LatencyWindow:
 
     @property
     def median_s(self) -> float:
-        return float(np.median(self._samples)) if self._samples else self.default_s
+        if not self._samples:
+            return self.default_s
+        if self._median_s is None:
+            self._median_s = float(np.median(self._samples))
+        return self._median_s
 
 
 def stage_gap_s(message: Message, first: str, last: str) -> float | None:

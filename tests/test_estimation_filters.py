@@ -70,6 +70,32 @@ def test_each_ground_ekf_recovers_its_own_motion(model: str, factory, bounds) ->
     assert np.sqrt(np.mean(error**2)) < bounds[2]
 
 
+def test_imm_prediction_at_its_own_time_continues_the_propagated_one() -> None:
+    """Predicting to the state's own time skips the propagation (it is the identity there):
+    the result must match a prediction a nanosecond later, mean and covariance."""
+    truth = simulate_ground("CS", 0)[:60]
+    rng = np.random.default_rng(4)
+    estimator = build_estimator(SECTION, mode="imm")
+    for k, state in enumerate(truth):
+        v = state[2] * np.array([math.cos(state[3]), math.sin(state[3])])
+        estimator.update(
+            Measurement.ground(
+                k * T,
+                state[:2] + rng.normal(0, SIGMA_P, 2),
+                np.eye(2) * SIGMA_P**2,
+                v + rng.normal(0, SIGMA_V, 2),
+                np.eye(2) * SIGMA_V**2,
+            )
+        )
+    t_last = (len(truth) - 1) * T
+    now, later = estimator.predict(t_last), estimator.predict(t_last + 1e-9)
+    assert now is not None and later is not None
+    assert now.position == pytest.approx(later.position, abs=1e-8)
+    assert now.velocity == pytest.approx(later.velocity, abs=1e-7)
+    assert np.allclose(now.covariance, later.covariance, rtol=1e-6, atol=1e-12)
+    assert np.all(np.linalg.eigvalsh(now.covariance) > 0)
+
+
 @pytest.mark.parametrize(
     ("mode", "acceleration", "bound_m"),
     [("cv", (0.0, 0.0), 0.07), ("ca", (0.3, -0.2), 0.08), ("innovation", (0.3, -0.2), 0.11)],

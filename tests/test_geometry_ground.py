@@ -171,7 +171,7 @@ def test_covariance_matches_monte_carlo() -> None:
     r = np.array(
         [sample.pan_rate_rad_s, sample.tilt_rate_rad_s, sample.u_rate_px_s, sample.v_rate_px_s]
     )
-    stds = np.sqrt(np.diag(noise.covariance()))
+    stds = np.sqrt(noise.variances())
     outcomes = []
     for _ in range(3000):
         zn = z + rng.normal(0, stds[:4])
@@ -185,8 +185,32 @@ def test_covariance_matches_monte_carlo() -> None:
     assert np.abs((empirical - predicted) / scale).max() < 0.08
     # the velocity block depends on the position noise through the rates (the cross term)
     jacobian = geometry.ground_jacobian(*z)
-    without_cross = jacobian @ noise.covariance()[4:, 4:] @ jacobian.T
+    without_cross = jacobian @ np.diag(noise.variances()[4:]) @ jacobian.T
     assert not np.allclose(predicted[2:, 2:], without_cross, rtol=0.02)
+
+
+@pytest.mark.parametrize("camera", CAMERAS, ids=CAMERA_IDS)
+@pytest.mark.parametrize(
+    "rates", [(0.2, -0.1, 35.0, -20.0), (0.0, 0.0, 0.0, 0.0), (0.0, 0.3, 0.0, 0.0)]
+)
+def test_covariance_is_the_first_order_propagation(camera: CameraModel, rates) -> None:
+    """measure's F Σ Fᵀ against F built from central differences of `ground_jacobian` by each
+    input in turn (the velocity's derivative by the position inputs, column by column)."""
+    pose, ground = synthetic_rig("pan-tilt", 12.0, 60.0, -30.0, 3)
+    geometry = pose.ground_geometry(camera, 1.0)
+    pan, tilt = look_at(pose, ground, 4, 0.02)
+    sample = GazeSample(pan, tilt, 400.0, 150.0, *rates)
+    noise = MeasurementNoise(math.radians(0.05), math.radians(0.5), 1.0, 5.0)
+    z, r = np.array([pan, tilt, 400.0, 150.0]), np.array(rates)
+    jacobian = geometry.ground_jacobian(*z)
+    velocity_by_z = central_difference(
+        lambda *zi: geometry.ground_jacobian(*zi) @ r, z, np.array([1e-5, 1e-5, 1e-2, 1e-2])
+    )
+    f = np.block([[jacobian, np.zeros((2, 4))], [velocity_by_z, jacobian]])
+    expected = f @ np.diag(noise.variances()) @ f.T
+    measured = geometry.measure(sample, noise).covariance
+    scale = np.sqrt(np.outer(np.diag(expected), np.diag(expected)))
+    assert np.abs((measured - expected) / scale).max() < 1e-5
 
 
 def test_a_gaze_above_the_horizon_is_an_error_not_nan() -> None:

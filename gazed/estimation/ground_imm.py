@@ -100,9 +100,12 @@ class ImmEstimator(TrackEstimator):
 
     def _forecast(self, idx: slice | np.ndarray, dt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Each model predicted dt ahead without mixing, mapped to [X, Y, s cos θ, s sin θ]
-        through its Jacobian, then the μ-weighted mixture moments."""
-        x, F, Q = self.imm.models.propagate(self.imm.x[idx], dt)
-        P = F @ self.imm.P[idx] @ F.mT + Q
+        through its Jacobian, then the μ-weighted mixture moments. At dt = 0 (the state at
+        its own time, as the estimator publishes it) the propagation is the identity."""
+        x, P = self.imm.x[idx], self.imm.P[idx]
+        if np.any(dt):
+            x, F, Q = self.imm.models.propagate(x, dt)
+            P = F @ P @ F.mT + Q
         g, G = measure(x, with_velocity=True)
         return combine(self.imm.mu[idx], g, G @ P @ G.mT, None)
 

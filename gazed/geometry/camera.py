@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 from types import ModuleType
 
 import numpy as np
@@ -83,7 +84,7 @@ class CameraModel:
         """Mean focal length in pixels (rotational flow scale)."""
         return float((self.K[0, 0] + self.K[1, 1]) / 2.0)
 
-    @property
+    @cached_property
     def has_distortion(self) -> bool:
         return bool(np.any(self.distortion != 0.0))
 
@@ -121,22 +122,22 @@ class CameraModel:
         y = (v - K[1, 2]) / K[1, 1]
         return np.stack([x, y, np.ones_like(x)], axis=-1)
 
-    def ray_jacobian(self, u_px: float, v_px: float) -> np.ndarray:
-        """d(ray)/d(u, v) of `ray` at one pixel, 3x2 (its third row is zero: the ray has z = 1).
+    def ray_with_jacobian(self, u_px: float, v_px: float) -> tuple[np.ndarray, np.ndarray]:
+        """`ray` at one pixel (3,) and its derivative d(ray)/d(u, v), 3x2 (the third row is
+        zero: the ray has z = 1), from one undistortion.
 
-        Without distortion it is diag(1/fx, 1/fy); with distortion, the inverse of the
-        projection's Jacobian d(u, v)/d(x, y) at the undistorted ray (from cv2.projectPoints,
-        whose derivative by the translation is the derivative by the point)."""
+        Without distortion the derivative is diag(1/fx, 1/fy); with distortion, the inverse of
+        the projection's Jacobian d(u, v)/d(x, y) at the undistorted ray (from
+        cv2.projectPoints, whose derivative by the translation is the derivative by the point)."""
+        ray = self.ray(u_px, v_px)
         if not self.has_distortion:
             derivative = np.diag([1.0 / self.K[0, 0], 1.0 / self.K[1, 1]])
         else:
-            x, y, _ = self.ray(u_px, v_px)
-            point = np.array([[x, y, 1.0]])
             _, jacobian = _cv2().projectPoints(
-                point, np.zeros(3), np.zeros(3), self.K, self.distortion
+                ray[None, :], np.zeros(3), np.zeros(3), self.K, self.distortion
             )
             derivative = np.linalg.inv(jacobian[:, 3:5])
-        return np.vstack([derivative, np.zeros((1, 2))])
+        return ray, np.vstack([derivative, np.zeros((1, 2))])
 
     def pixel(self, ray_camera: np.ndarray) -> np.ndarray:
         """Pixel(s) (u, v) of camera-frame direction(s) in front of the camera; shape (..., 2).

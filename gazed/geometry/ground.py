@@ -25,9 +25,11 @@ from gazed.geometry.height import HeightCorrection
 from gazed.geometry.homography import GroundHomography
 from gazed.geometry.kinematics import FLIP_Y, HeadKinematics
 
-# Forward-difference steps for the derivative of the velocity by the position inputs.
-ANGLE_STEP_RAD = 1e-6
-PIXEL_STEP_PX = 1e-3
+# Forward-difference steps for the derivative of the velocity by the position inputs:
+# (pan, tilt, u, v) move by at most these.
+ANGLE_STEP_RAD = 1e-8
+PIXEL_STEP_PX = 1e-5
+INPUT_STEPS = np.array([ANGLE_STEP_RAD, ANGLE_STEP_RAD, PIXEL_STEP_PX, PIXEL_STEP_PX])
 
 
 class MissingCalibrationError(ValueError):
@@ -50,11 +52,11 @@ class MeasurementNoise:
         """Angle noise from the rig's [head]; pixel noise is the detector's."""
         return cls(head.angle_noise_rad, head.angle_rate_noise_rad_s, pixel_px, pixel_rate_px_s)
 
-    def covariance(self) -> np.ndarray:
-        """8x8, order (pan, tilt, u, v, pan_rate, tilt_rate, u_rate, v_rate)."""
+    def variances(self) -> np.ndarray:
+        """(8,), order (pan, tilt, u, v, pan_rate, tilt_rate, u_rate, v_rate)."""
         stds = [self.angle_rad] * 2 + [self.pixel_px] * 2
         stds += [self.angle_rate_rad_s] * 2 + [self.pixel_rate_px_s] * 2
-        return np.diag(np.square(stds))
+        return np.square(stds)
 
 
 @dataclass(frozen=True)
@@ -142,7 +144,10 @@ class GroundGeometry:
         """Ground position, velocity and their 4x4 covariance from one image measurement.
 
         Covariance F Σ F^T with F = [[J, 0], [d(J r)/dz, J]] (4x8), z = (pan, tilt, u, v),
-        r = their rates, J = `ground_jacobian`; d(J r)/dz by forward differences of J."""
+        r = their rates, J = `ground_jacobian`. Column i of d(J r)/dz is Σ_j ∂²g/∂z_i∂z_j r_j,
+        which by the symmetry of second derivatives is the derivative of J along r: one
+        forward difference (J(z + εr) - J(z)) / ε, ε scaled so no input moves by more than
+        its step, instead of one per input."""
         pan, tilt, u, v = sample.pan_rad, sample.tilt_rad, sample.u_px, sample.v_px
         rates = np.array(
             [sample.pan_rate_rad_s, sample.tilt_rate_rad_s, sample.u_rate_px_s, sample.v_rate_px_s]
@@ -151,19 +156,18 @@ class GroundGeometry:
         hit = self.homography.ground_from_direction(self.head.rotation(pan, tilt) @ ray[0])
         position = hit if self.height is None else self.height.target_from_hit(hit)
         jacobian = self._jacobian(pan, tilt, *ray)
-        h, p = ANGLE_STEP_RAD, PIXEL_STEP_PX
-        # forward differences: a covariance term needs no more, and they halve the cost
-        differences = (
-            self._jacobian(pan + h, tilt, *ray) - jacobian,
-            self._jacobian(pan, tilt + h, *ray) - jacobian,
-            self._jacobian(pan, tilt, *self._camera_ray(u + p, v)) - jacobian,
-            self._jacobian(pan, tilt, *self._camera_ray(u, v + p)) - jacobian,
-        )
-        velocity_by_z = np.column_stack(
-            [d @ rates / step for d, step in zip(differences, (h, h, p, p), strict=True)]
-        )
-        f = np.block([[jacobian, np.zeros((2, 4))], [velocity_by_z, jacobian]])
-        return GroundMeasurement(position, jacobian @ rates, f @ noise.covariance() @ f.T)
+        reach = float(np.max(np.abs(rates) / INPUT_STEPS))  # steps per unit ε
+        if reach > 0.0:
+            epsilon = 1.0 / reach
+            dz = epsilon * rates
+            moved = self._camera_ray(u + dz[2], v + dz[3]) if dz[2] or dz[3] else ray
+            velocity_by_z = (self._jacobian(pan + dz[0], tilt + dz[1], *moved) - jacobian) / epsilon
+        else:
+            velocity_by_z = 0.0
+        f = np.zeros((4, 8))
+        f[:2, :4] = f[2:, 4:] = jacobian
+        f[2:, :4] = velocity_by_z
+        return GroundMeasurement(position, jacobian @ rates, (f * noise.variances()) @ f.T)
 
     def gaze_from_ground(self, x_m: float, y_m: float) -> tuple[float, float]:
         """Joint angles (pan, tilt) that centre the target at ground position (x, y) — any
@@ -194,7 +198,8 @@ class GroundGeometry:
 
     def _camera_ray(self, u_px: float, v_px: float) -> tuple[np.ndarray, np.ndarray]:
         """The pixel's ray in the camera frame (y up) (3,) and its derivative by (u, v) (3x2)."""
-        return FLIP_Y @ self.camera.ray(u_px, v_px), FLIP_Y @ self.camera.ray_jacobian(u_px, v_px)
+        ray, ray_by_pixel = self.camera.ray_with_jacobian(u_px, v_px)
+        return FLIP_Y @ ray, FLIP_Y @ ray_by_pixel
 
     def _jacobian(
         self, pan_rad: float, tilt_rad: float, ray: np.ndarray, ray_by_pixel: np.ndarray

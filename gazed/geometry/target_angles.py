@@ -38,11 +38,8 @@ def target_angles(
 ) -> TargetAngles:
     """Angles that put pixel (u, v) of a frame taken at (pan, tilt) on the optical axis."""
     camera_to_base = kinematics.camera_to_base(pan_rad, tilt_rad)
-    direction = camera_to_base @ camera.ray(u_px, v_px)
+    ray, ray_by_pixel = camera.ray_with_jacobian(u_px, v_px)
+    direction = camera_to_base @ ray
     pan, tilt = kinematics.angles_from_direction(direction)
-    jacobian = (
-        kinematics.direction_angles_jacobian(direction)
-        @ camera_to_base
-        @ camera.ray_jacobian(u_px, v_px)
-    )
+    jacobian = kinematics.direction_angles_jacobian(direction) @ camera_to_base @ ray_by_pixel
     return TargetAngles(float(pan), float(tilt), jacobian)
