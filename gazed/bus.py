@@ -138,10 +138,12 @@ def open_session(
 
 @dataclass(frozen=True)
 class Frame:
-    """A frame as received: its header (stamps, size, encoding) and pixels."""
+    """A frame as received: its header (stamps, size, encoding), pixels, and when it arrived
+    (wall clock ns, taken as the bus delivered it)."""
 
     header: FrameHeader
     pixels: np.ndarray
+    t_received_ns: int
 
 
 class Stats:
@@ -236,7 +238,8 @@ def _decode_frame(topic: Topic, sample: zenoh.Sample) -> Frame:
     data = sample.payload.to_bytes()
     if len(data) != header.nbytes:
         raise ValueError(f"frame has {len(data)} bytes, header says {header.nbytes}")
-    return Frame(header, np.frombuffer(data, dtype=np.uint8).reshape(header.shape))
+    pixels = np.frombuffer(data, dtype=np.uint8).reshape(header.shape)
+    return Frame(header, pixels, time.time_ns())
 
 
 class Publisher(Generic[M]):

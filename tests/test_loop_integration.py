@@ -1,14 +1,17 @@
 """The product, end to end: `gazed run` on the simulated rig acquires the target, holds it in
-the fovea, and on SIGTERM parks the head and leaves no process behind."""
+the fovea, and on SIGTERM parks the head and leaves no process behind; `gazed eval loop`
+stopped by SIGTERM stops the rig it started."""
 
 from __future__ import annotations
 
 import math
 import signal
+import subprocess
 import time
 from pathlib import Path
 
-from conftest import REPO, RunningSupervisor, pid_alive, poll_until
+import psutil
+from conftest import PYTHON, REPO, RunningSupervisor, child_env, pid_alive, poll_until
 
 from gazed.eval.loop import private_rig
 from gazed.eval.loop_metrics import LoopRecord, score
@@ -63,3 +66,37 @@ def test_sim_rig_tracks_and_stops_parked(tmp_path: Path) -> None:
         and math.degrees(abs(last.tilt_rad - park_tilt)) < 0.5
     )
     assert [name for name, pid in pids.items() if pid_alive(pid)] == []
+
+
+def test_eval_loop_stopped_by_sigterm_stops_its_rig() -> None:
+    evaluation = subprocess.Popen(
+        [
+            PYTHON,
+            "-m",
+            "gazed.cli",
+            "eval",
+            "loop",
+            "--rig",
+            str(REPO / "configs" / "sim.toml"),
+            "--scenario",
+            "oval",
+            "--seconds",
+            "120",
+            "--json",
+        ],
+        cwd=REPO,
+        env=child_env(),
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    try:
+        parent = psutil.Process(evaluation.pid)
+        # the supervisor and its five processes
+        poll_until(lambda: len(parent.children(recursive=True)) >= 6, 60.0)
+        pids = [p.pid for p in parent.children(recursive=True)]
+        evaluation.send_signal(signal.SIGTERM)
+        assert evaluation.wait(timeout=40) == 128 + signal.SIGTERM
+        poll_until(lambda: not any(pid_alive(pid) for pid in pids), 10.0)
+    finally:
+        if evaluation.poll() is None:
+            evaluation.kill()

@@ -120,7 +120,8 @@ def run_loop(
 @contextlib.contextmanager
 def running(rig_path: Path) -> Iterator[tuple[Rig, subprocess.Popen[bytes], Path]]:
     """`gazed run RIG` in the background, its output in run.log beside the rig; stopped (SIGTERM,
-    then SIGKILL after 30 s) on the way out."""
+    then SIGKILL after 30 s) on the way out — also when this process is sent SIGTERM (`timeout`,
+    `kill`), which would otherwise end it at once and leave the supervisor running."""
     rig = load_rig(rig_path)
     log_path = rig_path.parent / "run.log"
     with log_path.open("w") as log:
@@ -129,15 +130,21 @@ def running(rig_path: Path) -> Iterator[tuple[Rig, subprocess.Popen[bytes], Path
             stdout=log,
             stderr=subprocess.STDOUT,
         )
+    previous = signal.signal(signal.SIGTERM, _exit_on_sigterm)
     try:
         yield rig, supervisor, log_path
     finally:
+        signal.signal(signal.SIGTERM, previous)
         supervisor.send_signal(signal.SIGTERM)
         try:
             supervisor.wait(timeout=30)
         except subprocess.TimeoutExpired:
             supervisor.kill()
             supervisor.wait()
+
+
+def _exit_on_sigterm(signum: int, _frame: object) -> None:
+    raise SystemExit(128 + signum)
 
 
 def open_observer(

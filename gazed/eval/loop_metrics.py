@@ -8,19 +8,22 @@ corrective saccades).
   `ACQUIRED_FRAMES` frames in a row; fovea fraction, error RMS / p95 and saccades count from there;
 - ground RMSE: the estimator's ground position at a capture time against the truth then, from
   acquisition on (before it, the estimator may still hold a track of something else);
-- latency: processing from the frame's publication by `sim` (its arrival at `vision`) to the
+- latency: processing from the frame's arrival at `vision` (its `vision.arrival` stamp) to the
   command bytes written, and end to end from capture; the first write of each capture counts.
 """
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from gazed.geometry.pose import CameraPose
 from gazed.messages import EstimatorState, GazeDemand, GazeState, SimTruth
+from gazed.vision.bus_frames import ARRIVAL_STAGE
 
 ACQUIRED_FRAMES = 10
 
@@ -108,21 +111,34 @@ def ground_rmse_m(truth: list[SimTruth], estimates: list[EstimatorState]) -> flo
     return round(math.sqrt(float(np.mean(squared))), 4) if squared else None
 
 
-def latencies_ms(commands: list[GazeDemand]) -> dict[str, float | None]:
+def latencies_ms(commands: list[GazeDemand]) -> dict[str, Any]:
+    """Processing p50/p99 and end-to-end p50 (ms), and the p50 of each hop of the processing:
+    the time from one stamp to the next, named by the later stamp's stage."""
     processing, end_to_end = [], []
+    hops: dict[str, list[float]] = {}
     seen: set[int] = set()
     for command in commands:
         stamps = dict(command.stamps)
-        if "sim" not in stamps or "servo" not in stamps or command.t_capture_ns in seen:
+        if ARRIVAL_STAGE not in stamps or "servo" not in stamps or command.t_capture_ns in seen:
             continue
         seen.add(command.t_capture_ns)
-        processing.append((stamps["servo"] - stamps["sim"]) / 1e6)
+        processing.append((stamps["servo"] - stamps[ARRIVAL_STAGE]) / 1e6)
         end_to_end.append((stamps["servo"] - command.t_capture_ns) / 1e6)
+        stages = [stage for stage, _ in command.stamps]
+        processed = stages[stages.index(ARRIVAL_STAGE) :]
+        for earlier, later in itertools.pairwise(processed):
+            hops.setdefault(later, []).append((stamps[later] - stamps[earlier]) / 1e6)
     if not processing:
-        return {"processing_p50": None, "processing_p99": None, "end_to_end_p50": None}
+        return {
+            "processing_p50": None,
+            "processing_p99": None,
+            "end_to_end_p50": None,
+            "hops_p50": {},
+        }
     p50, p99 = np.percentile(processing, [50, 99])
     return {
         "processing_p50": round(float(p50), 2),
         "processing_p99": round(float(p99), 2),
         "end_to_end_p50": round(float(np.median(end_to_end)), 2),
+        "hops_p50": {stage: round(float(np.median(v)), 2) for stage, v in hops.items()},
     }

@@ -3,6 +3,8 @@
 The subscription keeps only the newest frame (older ones are counted as `replaced` in the bus
 statistics); frames whose header lies about their size are dropped and counted as malformed by
 the bus layer before they get here. The link is `down` when no frame came for `silence_s`.
+Each frame gets a `vision.arrival` stamp, the moment the bus delivered it: vision's processing
+latency runs from there, the hop before it is the frame's transport.
 """
 
 from __future__ import annotations
@@ -13,6 +15,8 @@ from gazed.bus import Bus, Frame, Subscription
 from gazed.topics import SIM_FRAME
 from gazed.vision.frames import CapturedFrame
 from gazed.vision.source import FrameSource, LinkState, SourceStatus
+
+ARRIVAL_STAGE = "vision.arrival"
 
 
 class BusFrameSource(FrameSource):
@@ -47,9 +51,8 @@ class BusFrameSource(FrameSource):
         self._frames += 1
         self._last_s = time.monotonic()
         header = frame.header
-        return CapturedFrame(
-            frame.pixels, header.encoding, header.t_capture_ns, header.seq, header.stamps
-        )
+        stamps = (*header.stamps, (ARRIVAL_STAGE, frame.t_received_ns))
+        return CapturedFrame(frame.pixels, header.encoding, header.t_capture_ns, header.seq, stamps)
 
     def status(self) -> SourceStatus:
         link: LinkState
