@@ -14,7 +14,7 @@ from typing import TextIO
 import numpy as np
 
 from gazed.bus import Bus
-from gazed.latency import stage_gap_s
+from gazed.latency import processing_s
 from gazed.topics import ESTIMATOR_STATE, GAZE_STATE, SERVO_COMMAND
 
 REFRESH_S = 0.5
@@ -56,7 +56,7 @@ class LiveStatus:
             self.target = estimate.ground_xy_m
             self.model = estimate.most_likely or "-"
         for command in self._commands.take():
-            gap = stage_gap_s(command, "sim", "servo") or stage_gap_s(command, "vision", "servo")
+            gap = processing_s(command)
             if gap is not None and command.t_capture_ns not in self._seen_captures:
                 self._seen_captures.append(command.t_capture_ns)  # the first write of a capture
                 self._processing_ms.append(gap * 1e3)

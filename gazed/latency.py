@@ -1,7 +1,8 @@
 """Latencies measured live from message stamps (DESIGN §3: the stamps are the measure).
 
 `LatencyWindow` keeps the latest samples of one latency and gives their median, robust to the
-odd late message; `stage_gap_s` reads the time between two stages of one message's stamps.
+odd late message; `stage_gap_s` reads the time between two stages of one message's stamps, and
+`processing_s` the loop's own processing latency (frame arrival at vision -> command written).
 """
 
 from __future__ import annotations
@@ -10,7 +11,7 @@ from collections import deque
 
 import numpy as np
 
-from gazed.messages import Message
+from gazed.messages import ARRIVAL_STAGE, Message
 
 
 class LatencyWindow:
@@ -37,6 +38,12 @@ class LatencyWindow:
         if self._median_s is None:
             self._median_s = float(np.median(self._samples))
         return self._median_s
+
+
+def processing_s(message: Message) -> float | None:
+    """Seconds from the frame's arrival at vision to the command bytes written (a servo/command
+    message's `vision.arrival` and `servo` stamps; None if either is absent)."""
+    return stage_gap_s(message, ARRIVAL_STAGE, "servo")
 
 
 def stage_gap_s(message: Message, first: str, last: str) -> float | None:

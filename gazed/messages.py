@@ -18,6 +18,10 @@ from pydantic import BaseModel, ConfigDict, Field
 
 Stamp = tuple[str, int]
 
+# The stamp a frame source adds when a frame reaches `vision` (the bus delivered it, or the
+# camera's read returned it): where the loop's processing latency starts.
+ARRIVAL_STAGE = "vision.arrival"
+
 
 class Message(BaseModel):
     """Base of every wire message."""

@@ -8,7 +8,7 @@ import logging
 import pytest
 
 from gazed.console import LiveStatus
-from gazed.messages import EstimatorState, GazeDemand, GazeState
+from gazed.messages import ARRIVAL_STAGE, EstimatorState, GazeDemand, GazeState
 from gazed.topics import ESTIMATOR_STATE, GAZE_STATE, SERVO_COMMAND
 
 
@@ -56,7 +56,11 @@ def feed(bus: FakeBus) -> None:
         bus.inboxes[SERVO_COMMAND.suffix].items.append(
             GazeDemand(
                 t_capture_ns=capture,
-                stamps=(("sim", 1_000_000), ("servo", 1_000_000 + round(processing_ms * 1e6))),
+                stamps=(
+                    ("sim", 1_000_000),
+                    (ARRIVAL_STAGE, 3_000_000),  # the frame's transport is not processing
+                    ("servo", 3_000_000 + round(processing_ms * 1e6)),
+                ),
                 kind="pursuit",
                 pan_rad=0.0,
                 tilt_rad=0.0,

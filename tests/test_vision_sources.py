@@ -16,6 +16,7 @@ from conftest import poll_until
 from gazed.config import VisionSection
 from gazed.geometry.camera import CameraModel
 from gazed.geometry.kinematics import HeadKinematics
+from gazed.messages import ARRIVAL_STAGE
 from gazed.vision.frames import CapturedFrame, FrameError, gray_frame
 from gazed.vision.opencv_camera import OpenCvCamera, capture_target
 from gazed.vision.pipeline import VisionPipeline
@@ -75,6 +76,8 @@ def test_file_frames_arrive_newest_only_and_the_file_loops(tmp_path: Path) -> No
     assert seqs == sorted(set(seqs))  # each frame at most once, in order
     assert all(f.pixels.shape == (48, 64, 3) and f.encoding == "bgr8" for f in seen)
     assert all(b.t_capture_ns >= a.t_capture_ns for a, b in itertools.pairwise(seen))
+    # read() returned it here: its arrival at vision is its capture as far as gazed can see
+    assert all(f.stamps == ((ARRIVAL_STAGE, f.t_capture_ns),) for f in seen)
 
 
 def test_unopenable_source_reports_down_and_keeps_retrying(tmp_path: Path) -> None:

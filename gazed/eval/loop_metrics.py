@@ -22,8 +22,8 @@ from typing import Any
 import numpy as np
 
 from gazed.geometry.pose import CameraPose
-from gazed.messages import EstimatorState, GazeDemand, GazeState, SimTruth
-from gazed.vision.bus_frames import ARRIVAL_STAGE
+from gazed.latency import processing_s
+from gazed.messages import ARRIVAL_STAGE, EstimatorState, GazeDemand, GazeState, SimTruth
 
 ACQUIRED_FRAMES = 10
 
@@ -119,10 +119,11 @@ def latencies_ms(commands: list[GazeDemand]) -> dict[str, Any]:
     seen: set[int] = set()
     for command in commands:
         stamps = dict(command.stamps)
-        if ARRIVAL_STAGE not in stamps or "servo" not in stamps or command.t_capture_ns in seen:
+        gap_s = processing_s(command)
+        if gap_s is None or command.t_capture_ns in seen:
             continue
         seen.add(command.t_capture_ns)
-        processing.append((stamps["servo"] - stamps[ARRIVAL_STAGE]) / 1e6)
+        processing.append(gap_s * 1e3)
         end_to_end.append((stamps["servo"] - command.t_capture_ns) / 1e6)
         stages = [stage for stage, _ in command.stamps]
         processed = stages[stages.index(ARRIVAL_STAGE) :]

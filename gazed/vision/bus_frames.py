@@ -12,11 +12,10 @@ from __future__ import annotations
 import time
 
 from gazed.bus import Bus, Frame, Subscription
+from gazed.messages import ARRIVAL_STAGE
 from gazed.topics import SIM_FRAME
 from gazed.vision.frames import CapturedFrame
 from gazed.vision.source import FrameSource, LinkState, SourceStatus
-
-ARRIVAL_STAGE = "vision.arrival"
 
 
 class BusFrameSource(FrameSource):

@@ -20,6 +20,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from gazed.messages import ARRIVAL_STAGE
 from gazed.vision.frames import CapturedFrame
 from gazed.vision.source import Backoff, FrameSource, LinkState, SourceStatus
 
@@ -148,7 +149,8 @@ class OpenCvCamera(FrameSource):
     def _store(self, pixels: np.ndarray, t_ns: int) -> None:
         encoding = "gray8" if pixels.ndim == 2 else "bgr8"
         with self._lock:
-            self._newest = CapturedFrame(pixels, encoding, t_ns, self._frames)
+            arrival = ((ARRIVAL_STAGE, t_ns),)  # read() returned it: it is here, just captured
+            self._newest = CapturedFrame(pixels, encoding, t_ns, self._frames, arrival)
             self._frames += 1
             self._link = "connected"
             self._backoff.reset()
