@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 
 import numpy as np
 import pytest
@@ -32,6 +33,24 @@ def simulate_ground(model: str, seed: int) -> np.ndarray:
     return np.array(states)
 
 
+def measure_ground(estimator, truth: np.ndarray, seed: int) -> Iterator[None]:
+    """Update with each true state as a noisy position and velocity, T apart; yields after
+    each update."""
+    rng = np.random.default_rng(seed)
+    for k, state in enumerate(truth):
+        v = state[2] * np.array([math.cos(state[3]), math.sin(state[3])])
+        estimator.update(
+            Measurement.ground(
+                k * T,
+                state[:2] + rng.normal(0, SIGMA_P, 2),
+                np.eye(2) * SIGMA_P**2,
+                v + rng.normal(0, SIGMA_V, 2),
+                np.eye(2) * SIGMA_V**2,
+            )
+        )
+        yield
+
+
 @pytest.mark.parametrize(
     ("model", "factory", "bounds"),
     [
@@ -44,21 +63,8 @@ def test_each_ground_ekf_recovers_its_own_motion(model: str, factory, bounds) ->
     """A one-model IMM is that model's EKF. RMSE bounds over the second half: position (m),
     speed (m/s), and the model's rate (turn rate for CS rad/s, ṡ for CD m/s², heading rad for CSD)."""
     truth = simulate_ground(model, 0)
-    rng = np.random.default_rng(0)
     estimator = ImmEstimator((factory(),), np.array([[1.0]]))
-    estimates = []
-    for k, state in enumerate(truth):
-        v = state[2] * np.array([math.cos(state[3]), math.sin(state[3])])
-        estimator.update(
-            Measurement.ground(
-                k * T,
-                state[:2] + rng.normal(0, SIGMA_P, 2),
-                np.eye(2) * SIGMA_P**2,
-                v + rng.normal(0, SIGMA_V, 2),
-                np.eye(2) * SIGMA_V**2,
-            )
-        )
-        estimates.append(estimator.imm.x[0, 0].copy())
+    estimates = [estimator.imm.x[0, 0].copy() for _ in measure_ground(estimator, truth, seed=0)]
     est, tru = np.array(estimates)[STEPS // 2 :], truth[STEPS // 2 :]
     position = np.sqrt(np.mean(np.sum((est[:, :2] - tru[:, :2]) ** 2, axis=1)))
     speed = np.sqrt(np.mean((est[:, 2] - tru[:, 2]) ** 2))
@@ -74,19 +80,9 @@ def test_imm_prediction_at_its_own_time_continues_the_propagated_one() -> None:
     """Predicting to the state's own time skips the propagation (it is the identity there):
     the result must match a prediction a nanosecond later, mean and covariance."""
     truth = simulate_ground("CS", 0)[:60]
-    rng = np.random.default_rng(4)
     estimator = build_estimator(SECTION, mode="imm")
-    for k, state in enumerate(truth):
-        v = state[2] * np.array([math.cos(state[3]), math.sin(state[3])])
-        estimator.update(
-            Measurement.ground(
-                k * T,
-                state[:2] + rng.normal(0, SIGMA_P, 2),
-                np.eye(2) * SIGMA_P**2,
-                v + rng.normal(0, SIGMA_V, 2),
-                np.eye(2) * SIGMA_V**2,
-            )
-        )
+    for _ in measure_ground(estimator, truth, seed=4):
+        pass
     t_last = (len(truth) - 1) * T
     now, later = estimator.predict(t_last), estimator.predict(t_last + 1e-9)
     assert now is not None and later is not None
