@@ -202,6 +202,10 @@ def within(value: float, limits: tuple[float, float], tolerance: float = 1e-9) -
     return math.isfinite(value) and limits[0] - tolerance <= value <= limits[1] + tolerance
 
 
+def malformed(report: Health) -> dict[str, int]:
+    return {k: v for k, v in report.counters.items() if k.startswith("malformed")}
+
+
 def test_malformed_flood_leaves_every_process_alive_counting_and_tracking(tmp_path: Path) -> None:
     rig_path = private_rig(REPO / "configs" / "sim.toml", tmp_path, "oval", None, None, 5, None)
     supervisor = RunningSupervisor(rig_path, tmp_path)
@@ -248,14 +252,17 @@ def test_malformed_flood_leaves_every_process_alive_counting_and_tracking(tmp_pa
             flood_s = time.monotonic() - started
             after_ns = time.time_ns()
 
+            fresh: dict[str, list[Health]] = {name: [] for name in healths}
+
             def counted() -> dict[str, Health] | None:
-                reports = {}
+                """Each process's newest report once its malformed counters have stopped
+                moving, the same in two reports after the flood (on a loaded machine the
+                router still delivers the last samples after the flood has been sent)."""
                 for name, subscription in healths.items():
-                    fresh = [h for h in subscription.take() if h.t_capture_ns > after_ns]
-                    if not fresh:
-                        return None
-                    reports[name] = fresh[-1]
-                return reports
+                    fresh[name].extend(h for h in subscription.take() if h.t_capture_ns > after_ns)
+                if any(len(r) < 2 or malformed(r[-1]) != malformed(r[-2]) for r in fresh.values()):
+                    return None
+                return {name: r[-1] for name, r in fresh.items()}
 
             reports = poll_until(counted, 15.0, 0.1)
         record_truth.extend(truth.take())
