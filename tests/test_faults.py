@@ -50,6 +50,13 @@ class Watch:
         for transition in self._gaze.take():
             self.gaze_state = transition.state
 
+    def __repr__(self) -> str:
+        errors = np.degrees(gaze_errors_rad(self.truth[-IN_FOVEA_FRAMES:], self.pose))
+        return (
+            f"gaze {self.gaze_state}, last gaze errors {np.round(errors, 1).tolist()} deg, "
+            f"{len(self.truth)} truth frames, {len(self.holding_since)} holding statuses"
+        )
+
     def tracking(self) -> bool:
         """The gaze pursues and the target has been in the fovea for the last frames."""
         self.pump()
@@ -115,7 +122,10 @@ def test_tracking_survives_each_process_being_killed(tmp_path: Path) -> None:
             if name in ("estimator", "gaze"):
                 watch.pump()
             time.sleep(2.0)  # let the rig settle before the next fault
-            poll_until(watch.tracking, 20.0, interval_s=0.0)
+            try:
+                poll_until(watch.tracking, 20.0, interval_s=0.0)
+            except AssertionError as exc:
+                raise AssertionError(f"not tracking again after the {name} fault: {watch}") from exc
         watch_errors = np.degrees(gaze_errors_rad(watch.truth[-25:], watch.pose))
         assert np.all(watch_errors < supervisor.rig.gaze.fovea_half_angle_deg)
     finally:
