@@ -4,6 +4,7 @@ stopped by SIGTERM stops the rig it started."""
 
 from __future__ import annotations
 
+import contextlib
 import math
 import signal
 import subprocess
@@ -89,14 +90,19 @@ def test_eval_loop_stopped_by_sigterm_stops_its_rig() -> None:
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
     )
+    family: list[psutil.Process] = []
     try:
         parent = psutil.Process(evaluation.pid)
         # the supervisor and its five processes
         poll_until(lambda: len(parent.children(recursive=True)) >= 6, 60.0)
-        pids = [p.pid for p in parent.children(recursive=True)]
+        family = parent.children(recursive=True)
         evaluation.send_signal(signal.SIGTERM)
         assert evaluation.wait(timeout=40) == 128 + signal.SIGTERM
-        poll_until(lambda: not any(pid_alive(pid) for pid in pids), 10.0)
+        poll_until(lambda: not any(pid_alive(p.pid) for p in family), 10.0)
     finally:
         if evaluation.poll() is None:
             evaluation.kill()
+            evaluation.wait()
+        for process in family:  # what a failure left behind
+            with contextlib.suppress(psutil.NoSuchProcess):
+                process.kill()
