@@ -63,6 +63,7 @@ from gazed.messages import (
     GazeDemand,
     GazeState,
     GazeStateName,
+    HeadPose,
     Odometry,
     Prediction,
     Stamp,
@@ -692,7 +693,7 @@ class GazeController:
         if (wall_ns - c.t_capture_ns) / 1e6 > self.gaze.lost_after_ms:
             return None
         head = c.head
-        if max(abs(head.pan_rate_rad_s), abs(head.tilt_rate_rad_s)) >= STILL_RATE_RAD_S:
+        if not _at_rest(head):
             # seen while the head still turned: whatever its compensation missed looks like
             # motion too, so only frames from a head at rest are searched
             self.counts["ignored_while_moving"] += 1
@@ -717,11 +718,8 @@ class GazeController:
         o = self.odometry
         if o is None:
             return False
-        still = (
-            abs(o.pan_rate_rad_s) < STILL_RATE_RAD_S and abs(o.tilt_rate_rad_s) < STILL_RATE_RAD_S
-        )
         return (
-            still
+            _at_rest(o)
             and angle_between(o.pan_rad, o.tilt_rad, pan_rad, tilt_rad, self.kinematics)
             <= tolerance_rad
         )
@@ -781,3 +779,8 @@ class GazeController:
     @property
     def clamps(self) -> int:
         return self.limiter.clamps
+
+
+def _at_rest(pose: HeadPose | Odometry) -> bool:
+    """Both joints turning slower than STILL_RATE_RAD_S."""
+    return max(abs(pose.pan_rate_rad_s), abs(pose.tilt_rate_rad_s)) < STILL_RATE_RAD_S
