@@ -167,6 +167,13 @@ class ServoStatus(Message):
     dead_reckoned: bool = Field(
         False, description="Odometry is computed from commands (no position feedback)."
     )
+    response_lag_s: float | None = Field(
+        None,
+        ge=0,
+        le=60,
+        description="How late the head follows its set-points, measured from its position "
+        "reports while it moves; None before it is measured or without position feedback.",
+    )
 
 
 class GazeDemand(Message):

@@ -62,7 +62,7 @@ GAZE_COMMAND = Topic("gaze/command", GazeCommand, "gazed calibrate trace", ("gaz
 GAZE_TRACE = Topic("gaze/trace", TraceResult, "gaze", ("gazed calibrate trace",))
 VISION_EDGE = Topic("vision/edge", EdgeObservation, "vision", ("gaze",))
 SERVO_ODOMETRY = Topic("servo/odometry", Odometry, "servo", ("vision", "gaze"))
-SERVO_STATUS = Topic("servo/status", ServoStatus, "servo", ("gazed status",))
+SERVO_STATUS = Topic("servo/status", ServoStatus, "servo", ("gazed status", "estimator"))
 # Each demand as written to the head (limited), its stamps ending ("servo", t) at the moment its
 # bytes were written: the end of the loop for `gazed latency` and `gazed eval loop`.
 SERVO_COMMAND = Topic("servo/command", GazeDemand, "servo", ("gazed latency", "estimator"))

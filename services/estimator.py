@@ -2,7 +2,8 @@
 loop's latency (DESIGN §5; seed 000 §4-6).
 
 Inputs: `vision/detection` (the target's pixel and independent image velocity, with the head
-pose at capture), `servo/command` (the stamps of the demands as written: the actuation latency).
+pose at capture), `servo/command` (the stamps of the demands as written) and `servo/status` (the
+head's response lag): the actuation latency.
 Outputs: `estimator/state` (the filter's state, covariance, model probabilities) and
 `estimator/prediction` (pan, tilt and their rates for the instant the demand made from it will
 act: now + the actuation latency, i.e. capture + visual latency + actuation latency) after every
@@ -13,9 +14,12 @@ Settings: [estimator] filter and its noises, gate, coasting; [camera], [head] an
 A frame without a detection (or without a head pose, or with a ray above the horizon) is a
 predict-only step: the track coasts. With no detection at all for two frame periods (vision
 restarting, frames lost) the track is still predicted at the camera's rate, marked coasting,
-for up to `coast_max_ms`, so the gaze keeps following where the target should be. Both latencies are measured live from stamps: visual as
-the time from capture to the detection's arrival here, actuation as the median time from this
-process's stamp to the servo's write stamp on `servo/command`.
+for up to `coast_max_ms`, so the gaze keeps following where the target should be. Both latencies
+are measured live: visual from stamps, as the time from capture to the detection's arrival here;
+actuation as the median time from this process's stamp to the servo's write stamp on
+`servo/command`, plus the time the head then takes to get where it was told (the response lag
+the servo measures from the head's position reports, `gazed.servo.response_lag`; 0 until
+measured, and for a head that cannot report its position).
 """
 
 from __future__ import annotations
@@ -41,6 +45,7 @@ from gazed.topics import (
     ESTIMATOR_PREDICTION,
     ESTIMATOR_STATE,
     SERVO_COMMAND,
+    SERVO_STATUS,
     VISION_DETECTION,
 )
 from services.runtime import HealthReport, Now, main
@@ -71,11 +76,13 @@ class EstimatorService:
         )
         self.detections = bus.subscribe(VISION_DETECTION, capacity=64)
         self.commands = bus.subscribe(SERVO_COMMAND, capacity=256)
+        self.servo_status = bus.subscribe(SERVO_STATUS, capacity=4)
         self.states = bus.publisher(ESTIMATOR_STATE)
         self.predictions = bus.publisher(ESTIMATOR_PREDICTION)
         self.events = bus.publisher(ESTIMATOR_EVENT)
         self.visual = LatencyWindow(default_s=0.0)
         self.actuation = LatencyWindow(default_s=section.actuation_latency_default_ms / 1000.0)
+        self.head_response_s = 0.0
         self.counts = {
             "detections": 0,
             "measured": 0,
@@ -98,6 +105,8 @@ class EstimatorService:
             gap = stage_gap_s(command, STAGE, "servo")
             if gap is not None:
                 self.actuation.add(gap)
+        for status in self.servo_status.take():
+            self.head_response_s = status.response_lag_s or 0.0
         detections = self.detections.take()
         for detection in detections:
             started = time.perf_counter()
@@ -115,6 +124,11 @@ class EstimatorService:
             return self.silence_s
         return self._silent(now)
 
+    @property
+    def actuation_s(self) -> float:
+        """From this process's stamp until the head is where the demand told it to be."""
+        return self.actuation.median_s + self.head_response_s
+
     def _silent(self, now: Now) -> float:
         """No detection for a while (vision restarting, frames lost): keep predicting from the
         track, marked coasting, at the camera's rate, for up to coast_max_ms."""
@@ -124,7 +138,7 @@ class EstimatorService:
         if silent_s > self.coast_max_s:
             return IDLE_S
         if silent_s >= self.silence_s:
-            t_effect_ns = now.wall_ns + round(self.actuation.median_s * 1e9)
+            t_effect_ns = now.wall_ns + round(self.actuation_s * 1e9)
             predicted = self.estimator.predict(t_effect_ns / 1e9)
             if predicted is not None:
                 stamps = ((STAGE, now.wall_ns),)
@@ -181,7 +195,7 @@ class EstimatorService:
 
     def _publish(self, detection: Detection, t_ns: int) -> None:
         stamps = (*detection.stamps, (STAGE, t_ns))
-        t_effect_ns = t_ns + round(self.actuation.median_s * 1e9)
+        t_effect_ns = t_ns + round(self.actuation_s * 1e9)
         # without prediction over the latency (the baseline), the estimate at the capture is
         # offered as if it held when the demand acts
         t_predicted_s = (t_effect_ns if self.predict_over_latency else detection.t_capture_ns) / 1e9
@@ -262,7 +276,7 @@ class EstimatorService:
             ground_velocity_m_s=velocity,
             position_cov_m2=cov,
             visual_latency_s=(t_ns - t_capture_ns) / 1e9,
-            actuation_latency_s=self.actuation.median_s,
+            actuation_latency_s=self.actuation_s,
             coasting=coasting,
         )
 
@@ -274,7 +288,8 @@ class EstimatorService:
             stage_ms={
                 "step": round(self.stage_ms, 3),
                 "visual_latency": round(self.visual.median_s * 1e3, 2),
-                "actuation_latency": round(self.actuation.median_s * 1e3, 2),
+                "actuation_latency": round(self.actuation_s * 1e3, 2),
+                "head_response_lag": round(self.head_response_s * 1e3, 2),
             },
             notes={"filter": self.filter, "most_likely": self.estimator.most_likely()},
         )

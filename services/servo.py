@@ -34,6 +34,7 @@ from gazed.messages import GazeDemand, Odometry, ServoStatus
 from gazed.servo import CodecError, HandshakeError, make_codec
 from gazed.servo.driver import DeviceError, DevicePosition, ServoDriver, ServoTimeout
 from gazed.servo.limits import DemandLimiter, Target
+from gazed.servo.response_lag import ResponseLag
 from gazed.servo.setpoints import SetpointGenerator
 from gazed.servo.transport import LinkError, SerialTransport
 from gazed.topics import GAZE_DEMAND, SERVO_COMMAND, SERVO_ODOMETRY, SERVO_STATUS
@@ -71,6 +72,7 @@ class ServoService:
         inset_rad = self.codec.resolution_rad
         self.limiter = DemandLimiter(rig.head, inset_rad)
         self.setpoints = SetpointGenerator(rig.head, time.monotonic(), inset_rad)
+        self.response_lag = ResponseLag()
         self.demands = bus.subscribe(GAZE_DEMAND, capacity=64)
         self.odometry = bus.publisher(SERVO_ODOMETRY)
         self.status = bus.publisher(SERVO_STATUS)
@@ -160,6 +162,7 @@ class ServoService:
             self._backoff_s = min(2.0 * self._backoff_s, self.servo.reconnect_max_s)
             return
         self.setpoints.reset(pan, tilt, now.mono_s)
+        self.response_lag.reset()
         self._written = (pan, tilt)
         self.holding = True
         self._last_demand_s = None
@@ -261,6 +264,7 @@ class ServoService:
         started = time.perf_counter()
         try:
             position = self.driver.query_position(between=self._between_poll_frames)
+            answered_s = time.monotonic()  # the reply was just read
         except ServoTimeout as exc:
             self.counts["timeouts"] += 1
             self._poll_failures += 1
@@ -279,6 +283,8 @@ class ServoService:
                 pan_rate = wrap_angle(pan - last_pan) / dt_s
                 tilt_rate = (tilt - last_tilt) / dt_s
         self._last_reading = (pan, tilt, position.t_read_ns)
+        setpoint = self.setpoints.advance(answered_s)  # where the head was told to be then
+        self.response_lag.observe(setpoint, self.setpoints.rates_rad_s, (pan, tilt))
         self._publish_odometry(position.t_read_ns, pan, tilt, pan_rate, tilt_rate, dead=False)
 
     def _publish_odometry(
@@ -325,6 +331,7 @@ class ServoService:
                 timeouts=self.counts["timeouts"],
                 commands=self.counts["commands"],
                 dead_reckoned=not self.codec.can_report_position,
+                response_lag_s=self.response_lag.lag_s,
             )
         )
 
@@ -334,6 +341,7 @@ class ServoService:
             joint_clamps=self.limiter.joint_clamps,
             rate_clamps=self.limiter.rate_clamps,
             setpoint_clamps=self.setpoints.clamps,
+            response_lag_outliers=self.response_lag.outliers,
             refused=self.refused,
             discarded_bytes=self.codec.discarded_bytes,
             bad_frames=self.codec.bad_frames,
@@ -342,11 +350,10 @@ class ServoService:
         notes = {"link": self.link, "holding": str(self.holding)}
         if self.last_error:
             notes["last_error"] = self.last_error
-        return HealthReport(
-            counters=counters,
-            stage_ms={"write": self._write_ms, "poll": self._poll_ms},
-            notes=notes,
-        )
+        stage_ms = {"write": self._write_ms, "poll": self._poll_ms}
+        if self.response_lag.lag_s is not None:
+            stage_ms["head_response_lag"] = round(self.response_lag.lag_s * 1e3, 2)
+        return HealthReport(counters=counters, stage_ms=stage_ms, notes=notes)
 
     def close(self) -> None:
         """Drive the head to park (set-points at the limits, at most `PARK_TIMEOUT_S`), then

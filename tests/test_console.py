@@ -6,30 +6,14 @@ import io
 import logging
 
 import pytest
+from stand_in_bus import Inbox, StandInBus
 
 from gazed.console import LiveStatus
 from gazed.messages import ARRIVAL_STAGE, EstimatorState, GazeDemand, GazeState
 from gazed.topics import ESTIMATOR_STATE, GAZE_STATE, SERVO_COMMAND
 
 
-class Inbox:
-    def __init__(self) -> None:
-        self.items: list[object] = []
-
-    def take(self) -> list[object]:
-        items, self.items = self.items, []
-        return items
-
-
-class FakeBus:
-    def __init__(self) -> None:
-        self.inboxes: dict[str, Inbox] = {}
-
-    def subscribe(self, topic, capacity: int = 0) -> Inbox:
-        return self.inboxes.setdefault(topic.suffix, Inbox())
-
-
-def feed(bus: FakeBus) -> None:
+def feed(bus: StandInBus) -> None:
     """A state change, an estimate, three writes (to the inboxes that exist)."""
     bus.inboxes.setdefault(ESTIMATOR_STATE.suffix, Inbox())
     bus.inboxes.setdefault(SERVO_COMMAND.suffix, Inbox())
@@ -69,7 +53,7 @@ def feed(bus: FakeBus) -> None:
 
 
 def test_live_line_in_a_terminal() -> None:
-    bus, stream = FakeBus(), io.StringIO()
+    bus, stream = StandInBus(), io.StringIO()
     status = LiveStatus(bus, stream, live=True)
     feed(bus)
     status.refresh(0.0, 5, 5)
@@ -79,7 +63,7 @@ def test_live_line_in_a_terminal() -> None:
 
 
 def test_state_changes_are_logged_without_a_terminal(caplog: pytest.LogCaptureFixture) -> None:
-    bus, stream = FakeBus(), io.StringIO()
+    bus, stream = StandInBus(), io.StringIO()
     status = LiveStatus(bus, stream, live=False)
     feed(bus)
     with caplog.at_level(logging.INFO, logger="gazed.run"):

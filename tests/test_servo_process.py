@@ -2,7 +2,7 @@
 real pty: commanded angles reached within the protocol's resolution; out-of-limit and NaN
 demands clamped or refused, counted, never sent; hold on timeout; link loss reported and
 recovered when the pty returns; park on SIGTERM; dead-reckoned odometry where the head cannot
-report its position."""
+report its position; the head's response lag measured while it pursues."""
 
 from __future__ import annotations
 
@@ -32,7 +32,9 @@ SERVO_KEYS = {
 }
 
 
-def write_servo_rig(tmp_path: Path, protocol: str, port: int, servo_extra: str = "") -> Path:
+def write_servo_rig(
+    tmp_path: Path, protocol: str, port: int, servo_extra: str = "", head_latency_ms: float = 5
+) -> Path:
     name = unique_rig_name("servo")
     path = tmp_path / f"{name}.toml"
     path.write_text(
@@ -63,7 +65,7 @@ tilt_accel_max_deg_s2 = 3000
 park_pan_deg = 5
 park_tilt_deg = -5
 [sim]
-head_latency_ms = 5
+head_latency_ms = {head_latency_ms}
 """
     )
     return path
@@ -257,5 +259,31 @@ def test_dead_reckoned_odometry_without_position_feedback(tmp_path: Path) -> Non
                 lambda: abs(head.pose_at(time.monotonic()).pan_rad - math.radians(20.0)) < 1e-4,
                 timeout_s=5.0,
             )
+        finally:
+            stop(servo)
+
+
+def test_response_lag_measured_while_the_head_pursues(tmp_path: Path) -> None:
+    """A pursuit at 20°/s on a head with a 40 ms command latency: `servo/status` reports a
+    response lag of at least that latency (plus the head's own following), none before."""
+    rig_path = write_servo_rig(tmp_path, "dynamixel", 17517, head_latency_ms=40)
+    rig = load_rig(rig_path)
+    with Bus(rig, "test", router=True) as bus, HeadEmulator(rig):
+        loop = Loop(bus)
+        servo = start_servo(rig_path)
+        try:
+            loop.until(lambda s: s.status is not None and s.status.link == "connected")
+            assert loop.status.response_lag_s is None
+            started_s, started_ns = time.monotonic(), time.time_ns()
+
+            def pursue(s: Loop) -> bool:  # a gaze process's demands: where the target is now
+                s.demand(-50.0 + 20.0 * (time.monotonic() - started_s), 0.0, "pursuit", 20.0)
+                # a status from 1.5 s on: the move to the start is over, the pursuit steady
+                return s.status.response_lag_s is not None and (
+                    s.status.t_capture_ns > started_ns + 1_500_000_000
+                )
+
+            loop.until(pursue, timeout_s=5.0)  # to +50°, inside the 60° limit
+            assert 0.04 <= loop.status.response_lag_s < 0.15, loop.status
         finally:
             stop(servo)

@@ -16,50 +16,26 @@ from __future__ import annotations
 import argparse
 import os
 import statistics
+import sys
 import time
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
 from gazed.config import load_rig
 from gazed.geometry.camera import CameraModel
 from gazed.geometry.pose import CameraPose
-from gazed.messages import Detection, HeadPose, Message
+from gazed.messages import Detection, HeadPose
 from gazed.sim.trajectories import make_trajectory
 from services.estimator import EstimatorService
 from services.runtime import Now
 
 REPO = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(REPO / "tests"))
+from stand_in_bus import StandInBus  # noqa: E402  (tests/ is not a package)
+
 FOLLOW_LAG_S = 0.1
 RATE_STEP_S = 1e-3
-
-
-class Inbox:
-    def __init__(self) -> None:
-        self.items: list[Any] = []
-
-    def take(self) -> list[Any]:
-        items, self.items = self.items, []
-        return items
-
-
-class Outbox:
-    def put(self, message: Message) -> None:
-        message.to_json()
-
-
-class StandInBus:
-    """What EstimatorService asks of a bus: inboxes it takes from, outboxes that encode."""
-
-    def __init__(self) -> None:
-        self.inboxes: dict[str, Inbox] = {}
-
-    def subscribe(self, topic: Any, capacity: int = 0) -> Inbox:
-        return self.inboxes.setdefault(topic.suffix, Inbox())
-
-    def publisher(self, topic: Any) -> Outbox:
-        return Outbox()
 
 
 def detections(rig_path: Path, n: int) -> list[Detection]:
@@ -111,7 +87,7 @@ def detections(rig_path: Path, n: int) -> list[Detection]:
 
 
 def step_us(rig_path: Path, stream: list[Detection]) -> tuple[list[float], EstimatorService]:
-    service = EstimatorService(load_rig(rig_path), StandInBus())  # type: ignore[arg-type]
+    service = EstimatorService(load_rig(rig_path), StandInBus(keep=False))  # type: ignore[arg-type]
     inbox = service.detections
     times = []
     for detection in stream:
