@@ -5,7 +5,8 @@ Inputs: `gaze/demand` (joint angles and rates).
 Outputs: `servo/odometry` (joint angles, rates, the time the reply was read),
 `servo/command` (each fresh demand as written, limited, its stamps ending `("servo", t)` when
 its bytes were written) and `servo/status` (link state, holding, errors, clamps, refusals,
-reconnects; on every change and once a second).
+reconnects, the head's response lag — how late it follows the set-points, from its position
+replies, `gazed.servo.response_lag`; on every change and once a second).
 Settings: [head] signs, zero offsets, joint, rate and acceleration limits, park angles; [servo]
 protocol and its keys, port, baud, timeout_ms, command_timeout_ms, odometry_rate_hz,
 command_rate_hz, reconnect_max_s.
