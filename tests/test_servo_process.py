@@ -284,6 +284,7 @@ def test_response_lag_measured_while_the_head_pursues(tmp_path: Path) -> None:
                 )
 
             loop.until(pursue, timeout_s=5.0)  # to +50°, inside the 60° limit
+            print(f"response lag {loop.status.response_lag_s * 1e3:.1f} ms")  # README figure
             assert 0.04 <= loop.status.response_lag_s < 0.15, loop.status
         finally:
             stop(servo)

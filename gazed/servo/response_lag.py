@@ -34,14 +34,13 @@ class ResponseLag:
     """The head's lag behind its set-points (seconds), from position reports while it moves."""
 
     def __init__(self) -> None:
-        self._window = LatencyWindow(default_s=0.0, size=WINDOW)
-        self._previous_rates: tuple[float, float] | None = None
         self.outliers = 0
+        self.reset()
 
     def reset(self) -> None:
-        """Forget everything (a reconnected link may be another head)."""
+        """Forget the samples (a reconnected link may be another head); outliers stay counted."""
         self._window = LatencyWindow(default_s=0.0, size=WINDOW)
-        self._previous_rates = None
+        self._previous_rates: tuple[float, float] | None = None
 
     def observe(
         self,
