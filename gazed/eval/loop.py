@@ -232,7 +232,7 @@ def _record(
             bus.subscribe(ESTIMATOR_STATE, capacity=100000),
         )
         status = bus.subscribe(SUPERVISOR_STATUS)
-        pids = wait_running(bus, status, supervisor, deadline, log_path)
+        pids = _wait_running(bus, status, supervisor, deadline, log_path)
         for subscription in (truth, states, commands, estimates):
             subscription.take()
         processes = {name: psutil.Process(pid) for name, pid in pids.items()}
@@ -259,7 +259,7 @@ def _record(
         bus.close()
 
 
-def wait_running(
+def _wait_running(
     bus: Bus, status: Any, supervisor: subprocess.Popen[bytes], deadline: float, log_path: Path
 ) -> dict[str, int]:
     """Pids of the processes once the supervisor reports every one running."""

@@ -18,6 +18,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -25,20 +26,21 @@ REPO = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(REPO))
 
 from gazed.bus import Bus  # noqa: E402
-from gazed.eval.loop import START_TIMEOUT_S, open_observer, private_rig, running, wait_running  # noqa: E402
+from gazed.config import Rig  # noqa: E402
+from gazed.eval.loop import START_TIMEOUT_S, open_observer, private_rig, running  # noqa: E402
 from gazed.geometry.camera import CameraModel  # noqa: E402
 from gazed.geometry.kinematics import HeadKinematics  # noqa: E402
 from gazed.geometry.pose import CameraPose  # noqa: E402
 from gazed.geometry.target_angles import target_angles  # noqa: E402
 from gazed.topics import (  # noqa: E402
     ESTIMATOR_PREDICTION,
+    GAZE_STATE,
     SERVO_COMMAND,
     SIM_TRUTH,
-    SUPERVISOR_STATUS,
     VISION_DETECTION,
 )
 
-SETTLE_S = 3.0  # after every process is up: acquisition
+SETTLE_S = 2.0  # after the first pursuit: the track settles
 MIN_RATE_DEG_S = 2.0
 TOPICS = {
     "truth": SIM_TRUTH,
@@ -48,7 +50,9 @@ TOPICS = {
 }
 
 
-def record(rig_file: Path, scenario: str, seconds: float, seed: int | None) -> tuple:
+def record(
+    rig_file: Path, scenario: str, seconds: float, seed: int | None
+) -> tuple[Rig, dict[str, list[Any]]]:
     with tempfile.TemporaryDirectory(prefix="gazed-parts-") as directory:
         rig_path = private_rig(rig_file, Path(directory), scenario, None, None, seed, None)
         with running(rig_path) as (rig, supervisor, log_path):
@@ -56,9 +60,13 @@ def record(rig_file: Path, scenario: str, seconds: float, seed: int | None) -> t
             open_observer(bus, supervisor, log_path)
             try:
                 subscriptions = {k: bus.subscribe(t, capacity=100_000) for k, t in TOPICS.items()}
-                status = bus.subscribe(SUPERVISOR_STATUS)
-                wait_running(bus, status, supervisor, time.monotonic() + START_TIMEOUT_S, log_path)
-                time.sleep(SETTLE_S)  # a bench, not a test: let it acquire
+                states = bus.subscribe(GAZE_STATE, capacity=1000)
+                deadline_s = time.monotonic() + START_TIMEOUT_S
+                while not any(s.state == "pursuit" for s in states.take()):
+                    if time.monotonic() > deadline_s:
+                        raise SystemExit(f"no pursuit within {START_TIMEOUT_S:g} s")
+                    bus.wait(0.1)
+                time.sleep(SETTLE_S)  # a bench, not a test
                 for subscription in subscriptions.values():
                     subscription.take()
                 recorded: dict[str, list] = {k: [] for k in TOPICS}
@@ -75,7 +83,7 @@ def record(rig_file: Path, scenario: str, seconds: float, seed: int | None) -> t
 class Truth:
     """The target's joint angles, their rates and the head's, interpolated in time."""
 
-    def __init__(self, rig, truth: list) -> None:
+    def __init__(self, rig: Rig, truth: list[Any]) -> None:
         pose, self.kinematics = CameraPose.from_rig(rig), HeadKinematics.from_section(rig.head)
         truth = sorted(truth, key=lambda t: t.t_capture_ns)
         self.t_s = np.array([t.t_capture_ns for t in truth]) / 1e9
