@@ -50,6 +50,10 @@ STAGE = "servo"
 log = logging.getLogger("gazed.servo")
 
 
+def _rate(change_rad: float, dt_ns: int) -> float:
+    return change_rad / (dt_ns / 1e9) if dt_ns > 0 else 0.0
+
+
 def wrap_angle(angle_rad: float) -> float:
     """Into (-π, π]."""
     wrapped = math.remainder(angle_rad, 2.0 * math.pi)
@@ -92,6 +96,7 @@ class ServoService:
             "commands": 0,
             "odometry": 0,
             "demands": 0,
+            "held_for_the_line": 0,
         }
         self._connected_before = False
         self._backoff_s = BACKOFF_INITIAL_S
@@ -103,7 +108,7 @@ class ServoService:
         self._poll_failures = 0
         self._written: tuple[float, float] | None = None
         self._fresh: tuple[GazeDemand, Target] | None = None
-        self._last_reading: tuple[float, float, int] | None = None
+        self._last_reading: tuple[float, float, int, int] | None = None
         self._write_ms = 0.0
         self._poll_ms = 0.0
         self._published_state: tuple[str, bool] | None = None
@@ -216,6 +221,11 @@ class ServoService:
     def _command(self, now: Now) -> None:
         if now.mono_s < self._next_command_s:
             return
+        busy_s = self.driver.transport.line_busy_s()
+        if busy_s > 0:  # the last set-point is still on the line: the newest goes after it
+            self._next_command_s = now.mono_s + busy_s
+            self.counts["held_for_the_line"] += 1
+            return
         setpoint = self.setpoints.advance(now.mono_s)
         if setpoint == self._written and self._fresh is None:
             self._next_command_s = now.mono_s + self.command_period_s
@@ -265,7 +275,7 @@ class ServoService:
         started = time.perf_counter()
         try:
             position = self.driver.query_position(between=self._between_poll_frames)
-            answered_s = time.monotonic()  # the reply was just read
+            answered_s, answered_ns = time.monotonic(), time.time_ns()  # the reply was just read
         except ServoTimeout as exc:
             self.counts["timeouts"] += 1
             self._poll_failures += 1
@@ -276,17 +286,20 @@ class ServoService:
         self._poll_ms = (time.perf_counter() - started) * 1000.0
         self._poll_failures = 0
         pan, tilt = self._joint(position)
+        reading = (pan, tilt, position.t_pan_ns, position.t_tilt_ns)
         pan_rate = tilt_rate = 0.0
         if self._last_reading is not None:
-            last_pan, last_tilt, last_t_ns = self._last_reading
-            dt_s = (position.t_read_ns - last_t_ns) / 1e9
-            if dt_s > 0:
-                pan_rate = wrap_angle(pan - last_pan) / dt_s
-                tilt_rate = (tilt - last_tilt) / dt_s
-        self._last_reading = (pan, tilt, position.t_read_ns)
-        setpoint = self.setpoints.advance(answered_s)  # where the head was told to be then
+            last_pan, last_tilt, last_pan_ns, last_tilt_ns = self._last_reading
+            pan_rate = _rate(wrap_angle(pan - last_pan), position.t_pan_ns - last_pan_ns)
+            tilt_rate = _rate(tilt - last_tilt, position.t_tilt_ns - last_tilt_ns)
+        self._last_reading = reading
+        # both axes at the later of their two instants (Pelco-D and PTU read them one by one)
+        t_ns = max(position.t_pan_ns, position.t_tilt_ns)
+        pan += pan_rate * (t_ns - position.t_pan_ns) / 1e9
+        tilt += tilt_rate * (t_ns - position.t_tilt_ns) / 1e9
+        setpoint = self.setpoints.advance(answered_s - (answered_ns - t_ns) / 1e9)
         self.response_lag.observe(setpoint, self.setpoints.rates_rad_s, (pan, tilt))
-        self._publish_odometry(position.t_read_ns, pan, tilt, pan_rate, tilt_rate, dead=False)
+        self._publish_odometry(t_ns, pan, tilt, pan_rate, tilt_rate, dead=False)
 
     def _publish_odometry(
         self, t_ns: int, pan: float, tilt: float, pan_rate: float, tilt_rate: float, dead: bool

@@ -2,7 +2,7 @@
 
     with ServoDriver(codec, SerialTransport(rig.servo.port, rig.servo.baud), 0.1) as head:
         t_ns = head.set_position(pan_rad, tilt_rad)      # device angles
-        where = head.query_position()                     # DevicePosition, t_read_ns
+        where = head.query_position()                     # DevicePosition, per-axis times
 
 Request/reply matching: each frame is written, then the driver reads until the codec has decoded
 as many synchronous replies as `codec.replies_expected(frame)` says (none for Pelco-D motion
@@ -11,7 +11,12 @@ one status packet per ID of a Dynamixel Sync Read), or the read timeout passes. 
 next frame written, so a half-duplex line never has two talkers and VISCA never has more commands
 in flight than its sockets. Asynchronous replies (VISCA completions, PTU `!P`/`!T`) are kept in
 `notices`. Bytes waiting before a request are stale answers to a request that timed out: they
-are decoded, counted and dropped.
+are decoded, counted and dropped. The read timeout runs from when the request has left the line
+(`SerialTransport.line_busy_s`), not from when it was handed to the port.
+
+A position is as old as the reply that carried it: the device read its axis as it began to
+answer, which is before the host has the reply's last byte by the reply's time on the line
+(8 ms for a PTU's `* 1234` at 9600 baud). Each axis keeps that instant.
 """
 
 from __future__ import annotations
@@ -35,11 +40,13 @@ class DeviceError(RuntimeError):
 
 @dataclass(frozen=True)
 class DevicePosition:
-    """Both axes in device angles, and when the (last) reply was read (wall clock, ns)."""
+    """Both axes in device angles, each with when the device read it (wall clock, ns): the two
+    differ where pan and tilt come in two replies (Pelco-D, PTU)."""
 
     pan_rad: float
     tilt_rad: float
-    t_read_ns: int
+    t_pan_ns: int
+    t_tilt_ns: int
 
 
 class ServoDriver:
@@ -83,17 +90,16 @@ class ServoDriver:
 
     def exchange(self, frame: bytes) -> list[Reply]:
         """Write one frame and return its synchronous replies (raises `ServoTimeout`)."""
-        return self.send([frame])[1]
+        return [reply for reply, _ in self.send([frame])[1]]
 
     def send(
         self, frames: list[bytes], between: Callable[[], None] | None = None
-    ) -> tuple[int, list[Reply], int]:
+    ) -> tuple[int, list[tuple[Reply, int]]]:
         """Write frames one after another, each after its replies, calling `between()` after
         every frame but the last (the line is quiet then). Returns the time the first frame was
-        written, every synchronous reply, and the time the last reply was read."""
+        written and every synchronous reply with the time the device began to send it."""
         t_written_ns = 0
-        t_read_ns = 0
-        replies: list[Reply] = []
+        replies: list[tuple[Reply, int]] = []
         for i, frame in enumerate(frames):
             if i and between is not None:
                 between()
@@ -101,15 +107,14 @@ class ServoDriver:
             t_ns = self.transport.write(frame)
             self.counters["frames_written"] += 1
             t_written_ns = t_written_ns or t_ns
-            got, t_last_ns = self._collect(self.codec.replies_expected(frame))
-            replies += got
-            t_read_ns = t_last_ns or t_read_ns
-        return t_written_ns, replies, t_read_ns
+            replies += self._collect(self.codec.replies_expected(frame))
+        return t_written_ns, replies
 
     def command(self, frames: list[bytes]) -> int:
         """Send command frames; returns when the first was written. A device error reply raises
         `DeviceError` (after the remaining frames were sent)."""
-        t_written_ns, replies, _ = self.send(frames)
+        t_written_ns, timed = self.send(frames)
+        replies = [reply for reply, _ in timed]
         errors = [r.reason or "error" for r in replies if r.kind == "error"]
         if errors:
             self.counters["device_errors"] += len(errors)
@@ -138,26 +143,30 @@ class ServoDriver:
         frames = self.codec.encode_query_position()
         if not self.codec.replies_identify_themselves:
             between = None
-        _, replies, t_read_ns = self.send(frames, between)
+        _, replies = self.send(frames, between)
         pan = tilt = None
-        for reply in replies:
+        t_pan_ns = t_tilt_ns = 0
+        for reply, t_sent_ns in replies:
             if reply.kind == "error":
                 self.counters["device_errors"] += 1
                 self.last_error = reply.reason or "error"
                 raise DeviceError(self.last_error)
             if reply.kind == "position":
-                pan = reply.pan_rad if reply.pan_rad is not None else pan
-                tilt = reply.tilt_rad if reply.tilt_rad is not None else tilt
+                if reply.pan_rad is not None:
+                    pan, t_pan_ns = reply.pan_rad, t_sent_ns
+                if reply.tilt_rad is not None:
+                    tilt, t_tilt_ns = reply.tilt_rad, t_sent_ns
         if pan is None or tilt is None:
-            raise DeviceError(f"position reply incomplete: {[r.describe() for r in replies]}")
-        return DevicePosition(pan, tilt, t_read_ns)
+            got = [reply.describe() for reply, _ in replies]
+            raise DeviceError(f"position reply incomplete: {got}")
+        return DevicePosition(pan, tilt, t_pan_ns, t_tilt_ns)
 
     # --- reading ---------------------------------------------------------------------------
 
-    def _collect(self, expected: int) -> tuple[list[Reply], int]:
-        replies: list[Reply] = []
-        t_read_ns = 0
-        deadline = time.monotonic() + self.timeout_s
+    def _collect(self, expected: int) -> list[tuple[Reply, int]]:
+        replies: list[tuple[Reply, int]] = []
+        byte_time_ns = self.transport.byte_time_s * 1e9
+        deadline = time.monotonic() + self.transport.line_busy_s() + self.timeout_s
         while len(replies) < expected:
             remaining = deadline - time.monotonic()
             if remaining <= 0:
@@ -172,9 +181,8 @@ class ServoDriver:
                 if reply.asynchronous:
                     self._notice(reply)
                 else:
-                    replies.append(reply)
-                    t_read_ns = t_ns
-        return replies, t_read_ns
+                    replies.append((reply, t_ns - round(len(reply.raw) * byte_time_ns)))
+        return replies
 
     def _drain(self) -> None:
         data, _ = self.transport.read(0)

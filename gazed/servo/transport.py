@@ -5,6 +5,12 @@ never knows which (STYLE 2; pyserial `serial/urlhandler/`).
 One lifecycle (STYLE 1): `connect()`, `disconnect()`, `is_connected`, `write()` / `read()`,
 usable as a context manager; I/O before `connect()` raises `NotConnectedError`. Every failure of
 the port (unplugged adapter, closed pty) comes out as `LinkError`.
+
+A write returns as soon as the port has the bytes; the line then takes ten bit times a byte
+(8N1) to send them: 15 ms for two 7-byte Pelco-D frames at 9600 baud. The transport keeps the
+time its line will be free (`line_busy_s()`), so the driver waits for a reply only from when
+its request has left, and the servo holds a set-point back instead of queueing it behind the
+last. `socket://` and `loop://` have no serial line behind them: their bytes take no time.
 """
 
 from __future__ import annotations
@@ -17,6 +23,8 @@ import serial
 # Longest single blocking read; callers loop until their own deadline.
 READ_SLICE_S = 0.01
 WRITE_TIMEOUT_S = 1.0
+BITS_PER_BYTE = 10  # 8N1: start bit, eight data bits, stop bit
+UNPACED_SCHEMES = ("socket://", "loop://")
 
 
 class LinkError(ConnectionError):
@@ -33,7 +41,9 @@ class SerialTransport:
     def __init__(self, url: str, baud: int) -> None:
         self.url = url
         self.baud = baud
+        self.byte_time_s = 0.0 if url.startswith(UNPACED_SCHEMES) else BITS_PER_BYTE / baud
         self._serial: serial.SerialBase | None = None
+        self._line_free_s = 0.0
 
     def __enter__(self) -> SerialTransport:
         self.connect()
@@ -80,7 +90,12 @@ class SerialTransport:
             port.write(data)
         except (serial.SerialException, OSError) as exc:
             raise LinkError(f"{self.url}: write failed: {exc}") from exc
+        self._line_free_s = max(self._line_free_s, time.monotonic()) + len(data) * self.byte_time_s
         return time.time_ns()
+
+    def line_busy_s(self) -> float:
+        """How long the bytes written so far still take to leave at the baud rate (0: idle)."""
+        return max(0.0, self._line_free_s - time.monotonic())
 
     def read(self, timeout_s: float) -> tuple[bytes, int]:
         """Whatever arrives within `timeout_s` (at most `READ_SLICE_S` of blocking), and the

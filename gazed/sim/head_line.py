@@ -15,13 +15,12 @@ from collections.abc import Callable
 from typing import Protocol
 
 from gazed.config import Rig
+from gazed.servo.transport import BITS_PER_BYTE
 from gazed.sim.head_dynamixel import DynamixelDevice
 from gazed.sim.head_flir_ptu import FlirPtuDevice
 from gazed.sim.head_mechanics import HeadMechanics
 from gazed.sim.head_pelco_d import PelcoDDevice
 from gazed.sim.head_visca import ViscaDevice
-
-BITS_PER_BYTE = 10  # 8N1: start bit, eight data bits, stop bit
 
 
 class DeviceModel(Protocol):
