@@ -110,6 +110,7 @@ class ServoService:
         self._fresh: tuple[GazeDemand, Target] | None = None
         self._last_reading: tuple[float, float, int, int] | None = None
         self._write_ms = 0.0
+        self._setpoint_line_s = 0.0  # how long the last set-point's bytes took on the line
         self._poll_ms = 0.0
         self._published_state: tuple[str, bool] | None = None
 
@@ -221,9 +222,11 @@ class ServoService:
     def _command(self, now: Now) -> None:
         if now.mono_s < self._next_command_s:
             return
-        busy_s = self.driver.transport.line_busy_s()
-        if busy_s > 0:  # the last set-point is still on the line: the newest goes after it
-            self._next_command_s = now.mono_s + busy_s
+        # a set-point may queue behind the one on the line, not behind a whole one more: on a
+        # line that cannot carry them all, the newest replaces those not yet sent
+        waiting_s = self.driver.transport.line_busy_s() - self._setpoint_line_s
+        if waiting_s > 0:
+            self._next_command_s = now.mono_s + waiting_s
             self.counts["held_for_the_line"] += 1
             return
         setpoint = self.setpoints.advance(now.mono_s)
@@ -231,8 +234,10 @@ class ServoService:
             self._next_command_s = now.mono_s + self.command_period_s
             return
         started = time.perf_counter()
+        busy_before_s = self.driver.transport.line_busy_s()
         t_ns = self.driver.set_position(*device_from_joint(self.head, *setpoint))
         self._write_ms = (time.perf_counter() - started) * 1000.0
+        self._setpoint_line_s = max(0.0, self.driver.transport.line_busy_s() - busy_before_s)
         self._written = setpoint
         self.counts["commands"] += 1
         if self._fresh is not None:

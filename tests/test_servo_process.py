@@ -2,7 +2,8 @@
 real pty: commanded angles reached within the protocol's resolution; out-of-limit and NaN
 demands clamped or refused, counted, never sent; hold on timeout; link loss reported and
 recovered when the pty returns; park on SIGTERM; dead-reckoned odometry where the head cannot
-report its position; the head's response lag measured while it pursues."""
+report its position; the head's response lag measured while it pursues; a slow line kept
+from being overrun."""
 
 from __future__ import annotations
 
@@ -21,7 +22,7 @@ from gazed.config import load_rig
 from gazed.messages import GazeDemand
 from gazed.servo import make_codec
 from gazed.sim.head_emulator import HeadEmulator
-from gazed.topics import GAZE_DEMAND, SERVO_COMMAND, SERVO_ODOMETRY, SERVO_STATUS
+from gazed.topics import GAZE_DEMAND, SERVO_COMMAND, SERVO_ODOMETRY, SERVO_STATUS, health
 
 PORTS = {"pelco-d": 17511, "visca": 17512, "flir-ptu": 17513, "dynamixel": 17514}
 SERVO_KEYS = {
@@ -33,7 +34,13 @@ SERVO_KEYS = {
 
 
 def write_servo_rig(
-    tmp_path: Path, protocol: str, port: int, servo_extra: str = "", head_latency_ms: float = 5
+    tmp_path: Path,
+    protocol: str,
+    port: int,
+    servo_extra: str = "",
+    head_latency_ms: float = 5,
+    baud: int = 115200,
+    odometry_rate_hz: float = 50,
 ) -> Path:
     name = unique_rig_name("servo")
     path = tmp_path / f"{name}.toml"
@@ -46,10 +53,10 @@ listen = ["tcp/127.0.0.1:{port}"]
 [servo]
 protocol = "{protocol}"
 port = "{tmp_path / "head"}"
-baud = 115200
+baud = {baud}
 timeout_ms = 100
 command_timeout_ms = 300
-odometry_rate_hz = 50
+odometry_rate_hz = {odometry_rate_hz}
 reconnect_max_s = 0.5
 {SERVO_KEYS[protocol]}
 {servo_extra}
@@ -286,5 +293,50 @@ def test_response_lag_measured_while_the_head_pursues(tmp_path: Path) -> None:
             loop.until(pursue, timeout_s=5.0)  # to +50°, inside the 60° limit
             print(f"response lag {loop.status.response_lag_s * 1e3:.1f} ms")  # README figure
             assert 0.04 <= loop.status.response_lag_s < 0.15, loop.status
+        finally:
+            stop(servo)
+
+
+def test_a_slow_line_is_not_overrun_by_set_points(tmp_path: Path) -> None:
+    """Pelco-D at 2400 baud without position feedback, where a set-point takes 58 ms on the
+    line, pursuing a ramp demanded at about 50 Hz: a set-point may queue behind the one on the
+    line but not behind one more (the newest replaces it), so the head follows the ramp a
+    set-point or two late instead of falling further behind with every second."""
+    rig_path = write_servo_rig(
+        tmp_path,
+        "pelco-d",
+        17518,
+        "position_feedback = false\ncommand_rate_hz = 20",
+        head_latency_ms=20,
+        baud=2400,
+    )
+    rig = load_rig(rig_path)
+    with Bus(rig, "test", router=True) as bus, HeadEmulator(rig) as emulator:
+        loop = Loop(bus)
+        servo_health = bus.subscribe(health("servo"))
+        servo = start_servo(rig_path)
+        try:
+            loop.until(lambda s: s.status is not None and s.status.link == "connected")
+            loop.until(lambda s: True, keep_demanding=(-30.0, 0.0), timeout_s=1.0)
+            poll_until(lambda: emulator.settled, timeout_s=5.0)
+            started_s = time.monotonic()
+
+            def ramp_deg() -> float:
+                return -30.0 + 10.0 * (time.monotonic() - started_s)
+
+            def pursue(s: Loop) -> bool:
+                s.demand(ramp_deg(), 0.0, "pursuit", 10.0)
+                return time.monotonic() - started_s > 4.0
+
+            loop.until(pursue, timeout_s=10.0)
+            behind_deg = ramp_deg() - math.degrees(
+                emulator.device_pose_at(time.monotonic()).pan_rad
+            )
+            counters = poll_until(servo_health.take, timeout_s=3.0)[-1].counters
+            print(f"head {behind_deg:.2f} deg behind the ramp; servo {counters}")
+            assert counters["held_for_the_line"] > 0
+            # 58 ms for the set-point on the line, as much for one queued, the head's 20 ms
+            # and its acceleration: about 2 degrees at 10 deg/s (a backlog: 8 after 4 s)
+            assert 0.0 < behind_deg < 4.0
         finally:
             stop(servo)
