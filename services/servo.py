@@ -14,10 +14,13 @@ command_rate_hz, reconnect_max_s.
 Every demand is limited (`DemandLimiter`: non-finite refused, joint limits — brought in by one
 device unit, so rounding never crosses them — and rate limits clamped, all counted) and
 becomes the target of the set-point generator, whose set-points — never a jump — are written at
-once for a fresh demand and at `command_rate_hz` while a move is under way.
+once for a fresh demand and at `command_rate_hz` while a move is under way — but not behind a
+whole set-point still waiting for the serial line (the newest then replaces it, counted as
+`held_for_the_line`).
 No fresh demand within `command_timeout_ms` -> hold (decelerate to rest). Position is polled at
-`odometry_rate_hz`; a head that cannot report it (Pelco-D without the extended queries) gets its
-odometry dead-reckoned from the set-points, marked `dead_reckoned`. A failed link (port gone,
+`odometry_rate_hz` and dated when the head read it (each axis by its own reply); a head that
+cannot report it (Pelco-D without the extended queries) gets its odometry dead-reckoned from
+the set-points, marked `dead_reckoned`. A failed link (port gone,
 three unanswered polls in a row, a failed handshake) is reported and reopened with exponential
 backoff up to `reconnect_max_s`. On SIGTERM the head is driven to park, then the port closed.
 """
