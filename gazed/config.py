@@ -17,7 +17,15 @@ import tomllib
 from pathlib import Path
 from typing import Annotated, Any, Literal, get_args, get_origin
 
-from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError, model_validator
+from pydantic import (
+    AfterValidator,
+    BaseModel,
+    ConfigDict,
+    Field,
+    PrivateAttr,
+    ValidationError,
+    model_validator,
+)
 from pydantic.fields import FieldInfo
 
 __all__ = [
@@ -30,6 +38,18 @@ __all__ = [
 ]
 
 ENDPOINT_PATTERN = r"^(tcp|udp|tls|quic|ws|unixsock-stream)/.+$"
+
+
+def _has_port(endpoint: str) -> str:
+    """A network endpoint ends in a port that exists (zenoh refuses one only at start-up)."""
+    protocol, _, address = endpoint.partition("/")
+    port = address.split("#", 1)[0].rpartition(":")[2]
+    if protocol != "unixsock-stream" and not (port.isdigit() and int(port) <= 65535):
+        raise ValueError(f"{endpoint!r} has no port 0-65535 (expected e.g. tcp/127.0.0.1:7447)")
+    return endpoint
+
+
+Endpoint = Annotated[str, Field(pattern=ENDPOINT_PATTERN), AfterValidator(_has_port)]
 
 
 class Section(BaseModel):
@@ -49,11 +69,11 @@ class RigSection(Section):
 
 
 class BusSection(Section):
-    listen: list[Annotated[str, Field(pattern=ENDPOINT_PATTERN)]] = Field(
+    listen: list[Endpoint] = Field(
         default_factory=lambda: ["tcp/127.0.0.1:7447"],
         description="zenoh endpoints the supervisor's router listens on. Loopback only by default.",
     )
-    connect: list[Annotated[str, Field(pattern=ENDPOINT_PATTERN)]] = Field(
+    connect: list[Endpoint] = Field(
         default_factory=list,
         description="Endpoints the processes and tools connect to; empty means the listen endpoints.",
     )

@@ -218,3 +218,19 @@ def test_rig_error_lists_problems() -> None:
     assert info.value.problems == [
         "r.toml: bus.connect: must name the router's endpoint(s) when router = false (expected a list of endpoints)"
     ]
+
+
+@pytest.mark.parametrize("endpoint", ["tcp/127.0.0.1:752020", "tcp/127.0.0.1", "udp/[::1]:port"])
+def test_an_endpoint_without_a_real_port_is_a_rig_error(endpoint: str) -> None:
+    with pytest.raises(RigError) as info:
+        parse_rig(f'[rig]\nname = "x"\n[bus]\nlisten = ["{endpoint}"]\n', "r.toml")
+    (problem,) = info.value.problems
+    assert problem.startswith("r.toml: bus.listen") and "no port 0-65535" in problem
+
+
+def test_endpoints_with_ports_and_sockets_load() -> None:
+    rig = parse_rig(
+        '[rig]\nname = "x"\n[bus]\nlisten = ["tcp/0.0.0.0:7447", "tls/[::]:7448#iface=lo", '
+        '"unixsock-stream//tmp/gazed.sock"]\nconnect = ["tcp/10.0.0.2:0"]\n'
+    )
+    assert len(rig.bus.listen) == 3
