@@ -20,9 +20,9 @@ whole set-point still waiting for the serial line (the newest then replaces it, 
 No fresh demand within `command_timeout_ms` -> hold (decelerate to rest). Position is polled at
 `odometry_rate_hz` and dated when the head read it (each axis by its own reply); a head that
 cannot report it (Pelco-D without the extended queries) gets its odometry dead-reckoned from
-the set-points, marked `dead_reckoned`. A failed link (port gone,
-three unanswered polls in a row, a failed handshake) is reported and reopened with exponential
-backoff up to `reconnect_max_s`. On SIGTERM the head is driven to park, then the port closed.
+the set-points, marked `dead_reckoned`. A failed link (port gone, three unanswered polls in a
+row, a failed handshake) is reported and reopened with exponential backoff up to
+`reconnect_max_s`. On SIGTERM the head is driven to park, then the port closed.
 """
 
 from __future__ import annotations

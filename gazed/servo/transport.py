@@ -9,8 +9,8 @@ the port (unplugged adapter, closed pty) comes out as `LinkError`.
 A write returns as soon as the port has the bytes; the line then takes ten bit times a byte
 (8N1) to send them: 15 ms for two 7-byte Pelco-D frames at 9600 baud. The transport keeps the
 time its line will be free (`line_busy_s()`), so the driver waits for a reply only from when
-its request has left, and the servo holds a set-point back instead of queueing it behind the
-last. `socket://` and `loop://` have no serial line behind them: their bytes take no time.
+its request has left, and the servo never queues a set-point behind more than the one on the
+line. `socket://` and `loop://` have no serial line behind them: their bytes take no time.
 """
 
 from __future__ import annotations
