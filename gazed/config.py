@@ -449,8 +449,9 @@ class VisionSection(Section):
         200.0,
         gt=0,
         le=10000,
-        description="Interpolate odometry across gaps up to this, extrapolate this far past "
-        "the newest sample; beyond, a frame gets no pose and no compensation.",
+        description="Interpolate odometry across gaps up to this; extrapolate past the "
+        "newest sample by two of the stream's periods, at most this; beyond, a frame gets no "
+        "pose and no compensation.",
     )
     frame_gap_max_ms: float = Field(
         500.0,

@@ -42,13 +42,38 @@ class Watch:
         self.gaze_state: GazeStateName | None = None
         self.truth: list[SimTruth] = []
         self.holding_since: list[int] = []  # wall ns of servo statuses saying "holding"
+        self.events: list[tuple[int, str]] = []  # gaze transitions and servo link changes
 
     def pump(self) -> None:
         self.supervisor.bus.wait(0.2)
         self.truth.extend(self._truth.take())
-        self.holding_since.extend(s.t_capture_ns for s in self._status.take() if s.holding)
+        for status in self._status.take():
+            if status.holding:
+                self.holding_since.append(status.t_capture_ns)
+            self.events.append(
+                (
+                    status.t_capture_ns,
+                    f"servo {status.link} holding={status.holding} errors={status.errors} "
+                    f"timeouts={status.timeouts} {status.last_error or ''}",
+                )
+            )
         for transition in self._gaze.take():
             self.gaze_state = transition.state
+            self.events.append(
+                (transition.t_capture_ns, f"gaze {transition.state} ({transition.reason})")
+            )
+
+    def story(self, since_ns: int) -> str:
+        """What the gaze and the servo said since `since_ns`, and the gaze error once a
+        quarter second: to read when a fault was not recovered from."""
+        frames = [t for t in self.truth if t.t_capture_ns > since_ns]
+        errors = np.degrees(gaze_errors_rad(frames, self.pose)) if frames else []
+        lines = [
+            (t, f"error {e:.1f} deg")
+            for t, e in zip([f.t_capture_ns for f in frames], errors, strict=True)
+        ]
+        lines = lines[::6] + [e for e in self.events if e[0] > since_ns]
+        return "\n".join(f"{(t - since_ns) / 1e9:7.2f} s  {text}" for t, text in sorted(lines))
 
     def __repr__(self) -> str:
         errors = np.degrees(gaze_errors_rad(self.truth[-IN_FOVEA_FRAMES:], self.pose))
@@ -125,9 +150,13 @@ def test_tracking_survives_each_process_being_killed(tmp_path: Path) -> None:
             try:
                 poll_until(watch.tracking, 20.0, interval_s=0.0)
             except AssertionError as exc:
-                raise AssertionError(f"not tracking again after the {name} fault: {watch}") from exc
+                raise AssertionError(
+                    f"not tracking again after the {name} fault: {watch}\n{watch.story(killed_ns)}"
+                ) from exc
         watch_errors = np.degrees(gaze_errors_rad(watch.truth[-25:], watch.pose))
-        assert np.all(watch_errors < supervisor.rig.gaze.fovea_half_angle_deg)
+        assert np.all(watch_errors < supervisor.rig.gaze.fovea_half_angle_deg), (
+            f"{watch}\n{watch.story(killed_ns)}\n{''.join(supervisor.stderr[-40:])}"
+        )
     finally:
         supervisor.stop()
     print("recovery times (s):", {k: round(v, 2) for k, v in recoveries.items()})

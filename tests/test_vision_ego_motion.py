@@ -129,6 +129,23 @@ def test_odometry_extrapolates_only_within_the_gap_and_not_before_the_first_samp
     assert history.pose_at(round(0.9e9)) is None  # before the first sample
 
 
+def test_a_stalled_odometry_stream_is_not_extrapolated_past_two_of_its_periods() -> None:
+    """A servo killed mid-turn: its last sample says 0.12 rad/s, the head has stopped. A frame
+    taken 150 ms later must get no pose (uncompensated), not one turned on by 18 mrad."""
+    history = OdometryHistory(span_s=2.0, max_gap_s=0.2)
+    for i in range(50):  # 50 Hz, turning at 0.12 rad/s
+        history.add(odometry(0.02 * i, 0.12 * 0.02 * i, 0.0, 0.12, 0.0))
+    newest_s = 0.02 * 49
+    assert history.extrapolation_ns() == round(0.04e9)
+    ahead = history.pose_at(round((newest_s + 0.03) * 1e9))  # a sample late: still extrapolated
+    assert ahead is not None and ahead.pan_rad == pytest.approx(0.12 * (newest_s + 0.03))
+    assert history.pose_at(round((newest_s + 0.05) * 1e9)) is None
+    assert history.pose_at(round((newest_s + 0.15) * 1e9)) is None  # within max_gap, stalled
+    history.add(odometry(newest_s + 1.0, 0.2, 0.0))  # the servo is back: one long interval
+    assert history.extrapolation_ns() == round(0.04e9)  # the period is still 20 ms
+    assert history.pose_at(round((newest_s + 0.5) * 1e9)) is None  # across the outage: none
+
+
 def test_odometry_forgets_what_is_older_than_the_span() -> None:
     history = OdometryHistory(span_s=0.5, max_gap_s=0.1)
     for i in range(100):

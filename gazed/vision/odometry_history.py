@@ -2,16 +2,24 @@
 
 Odometry arrives as `servo/odometry` samples (angles and rates, stamped when they were read);
 frames arrive later and are stamped when they were captured. `pose_at(t)` interpolates angles
-and rates linearly between the two samples around `t`; after the newest sample it extrapolates
-with the newest rates. Either only across gaps of at most `max_gap_s`: beyond that, or before
+and rates linearly between the two samples around `t`, across gaps of at most `max_gap_s`.
+After the newest sample it extrapolates with the newest rates, but only by two of the stream's
+own periods (the median interval between its recent samples; at most `max_gap_s`): a stream
+that has fallen further behind has stalled — a servo process killed, a link lost — and its
+head has most likely stopped rather than kept turning at its last rate. Beyond that, or before
 the oldest sample, there is no pose (and no ego-motion compensation).
 """
 
 from __future__ import annotations
 
 import bisect
+import statistics
+from collections import deque
 
 from gazed.messages import HeadPose, Odometry
+
+EXTRAPOLATION_PERIODS = 2  # how far past the newest sample, in the stream's own periods
+INTERVALS_KEPT = 16  # recent intervals between samples whose median is the period
 
 
 class OdometryHistory:
@@ -20,6 +28,7 @@ class OdometryHistory:
         self.max_gap_ns = int(max_gap_s * 1e9)
         self._times: list[int] = []
         self._samples: list[Odometry] = []
+        self._intervals: deque[int] = deque(maxlen=INTERVALS_KEPT)
 
     def __len__(self) -> int:
         return len(self._samples)
@@ -33,6 +42,8 @@ class OdometryHistory:
         t = odometry.t_capture_ns
         if now_ns is not None and t - now_ns > self.max_gap_ns:
             return False
+        if self._times and t > self._times[-1]:
+            self._intervals.append(t - self._times[-1])
         i = bisect.bisect_left(self._times, t)
         if i < len(self._times) and self._times[i] == t:
             self._samples[i] = odometry
@@ -46,6 +57,13 @@ class OdometryHistory:
     def newest_ns(self) -> int | None:
         return self._times[-1] if self._times else None
 
+    def extrapolation_ns(self) -> int:
+        """How far past the newest sample a pose is still given."""
+        if not self._intervals:
+            return self.max_gap_ns
+        period_ns = statistics.median_low(self._intervals)
+        return min(self.max_gap_ns, EXTRAPOLATION_PERIODS * period_ns)
+
     def pose_at(self, t_ns: int) -> HeadPose | None:
         """Angles and rates at `t_ns`; None when odometry does not cover it."""
         if not self._times:
@@ -56,7 +74,7 @@ class OdometryHistory:
         before = self._samples[i - 1]
         if i == len(self._times):
             gap = t_ns - self._times[-1]
-            if gap > self.max_gap_ns:
+            if gap > self.extrapolation_ns():
                 return None
             dt_s = gap * 1e-9
             return HeadPose(
@@ -78,7 +96,3 @@ class OdometryHistory:
             tilt_rate_rad_s=before.tilt_rate_rad_s
             + a * (after.tilt_rate_rad_s - before.tilt_rate_rad_s),
         )
-
-    def clear(self) -> None:
-        self._times.clear()
-        self._samples.clear()
