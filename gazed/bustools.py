@@ -38,6 +38,7 @@ TROUBLE_COUNTERS = (
     "rejected",
     "future",
     "off_the",
+    "overload",
 )
 
 

@@ -174,6 +174,13 @@ class ServoStatus(Message):
         description="How late the head follows its set-points, measured from its position "
         "reports while it moves; None before it is measured or without position feedback.",
     )
+    line_load: float | None = Field(
+        None,
+        ge=0,
+        description="Share of the last second the serial line carried bytes, both ways (over "
+        "0.8: set-points wait and replies come late); None before a second has passed or on a "
+        "link without a baud rate (socket://).",
+    )
 
 
 class GazeDemand(Message):

@@ -6,7 +6,8 @@ Outputs: `servo/odometry` (joint angles, rates, the time the reply was read),
 `servo/command` (each fresh demand as written, limited, its stamps ending `("servo", t)` when
 its bytes were written) and `servo/status` (link state, holding, errors, clamps, refusals,
 reconnects, the head's response lag — how late it follows the set-points, from its position
-replies, `gazed.servo.response_lag`; on every change and once a second).
+replies, `gazed.servo.response_lag`; how full the serial line was over the last second; on
+every change and once a second).
 Settings: [head] signs, zero offsets, joint, rate and acceleration limits, park angles; [servo]
 protocol and its keys, port, baud, timeout_ms, command_timeout_ms, odometry_rate_hz,
 command_rate_hz, reconnect_max_s.
@@ -16,7 +17,8 @@ device unit, so rounding never crosses them — and rate limits clamped, all cou
 becomes the target of the set-point generator, whose set-points — never a jump — are written at
 once for a fresh demand and at `command_rate_hz` while a move is under way — but not behind a
 whole set-point still waiting for the serial line (the newest then replaces it, counted as
-`held_for_the_line`).
+`held_for_the_line`). A line busier than `LINE_LOAD_WARN` of a second is warned about and
+counted (`line_overloaded_s`): its rates ask more than its baud rate carries.
 No fresh demand within `command_timeout_ms` -> hold (decelerate to rest). Position is polled at
 `odometry_rate_hz` and dated when the head read it (each axis by its own reply); a head that
 cannot report it (Pelco-D without the extended queries) gets its odometry dead-reckoned from
@@ -48,6 +50,7 @@ BACKOFF_INITIAL_S = 0.25
 STATUS_PERIOD_S = 1.0
 POLL_FAILURES_FOR_LINK_DOWN = 3
 PARK_TIMEOUT_S = 2.5
+LINE_LOAD_WARN = 0.8  # share of a second on the line past which set-points wait, replies lag
 STAGE = "servo"
 
 log = logging.getLogger("gazed.servo")
@@ -100,6 +103,7 @@ class ServoService:
             "odometry": 0,
             "demands": 0,
             "held_for_the_line": 0,
+            "line_overloaded_s": 0,
         }
         self._connected_before = False
         self._backoff_s = BACKOFF_INITIAL_S
@@ -116,6 +120,8 @@ class ServoService:
         self._setpoint_line_s = 0.0  # how long the last set-point's bytes took on the line
         self._poll_ms = 0.0
         self._published_state: tuple[str, bool] | None = None
+        self.line_load: float | None = None
+        self._line_mark = (0.0, 0.0)  # (monotonic s, transport.line_s) at the last measurement
 
     # --- the loop --------------------------------------------------------------------------
 
@@ -130,6 +136,7 @@ class ServoService:
                 self._check_hold(now)
                 self._command(now)
                 self._poll(now)
+                self._measure_line(now)
         except LinkError as exc:
             self._link_lost(now, exc)
         except (DeviceError, CodecError) as exc:
@@ -181,6 +188,8 @@ class ServoService:
         self._poll_failures = 0
         self._backoff_s = BACKOFF_INITIAL_S
         self._next_poll_s = now.mono_s
+        self._line_mark = (now.mono_s, self.driver.transport.line_s)
+        self.line_load = None
         self.link = "connected"
         if self._connected_before:
             self.counts["reconnects"] += 1
@@ -325,6 +334,34 @@ class ServoService:
         )
         self.counts["odometry"] += 1
 
+    # --- the line ----------------------------------------------------------------------------
+
+    def _measure_line(self, now: Now) -> None:
+        """Once a second: the share of it the line carried bytes; a warning when it turns
+        nearly full (the rates ask more than the baud rate carries)."""
+        mark_s, mark_line_s = self._line_mark
+        elapsed_s = now.mono_s - mark_s
+        if elapsed_s < STATUS_PERIOD_S:
+            return
+        transport = self.driver.transport
+        self._line_mark = (now.mono_s, transport.line_s)
+        if transport.byte_time_s == 0.0:
+            return
+        load = (transport.line_s - mark_line_s) / elapsed_s
+        overloaded = load > LINE_LOAD_WARN
+        if overloaded:
+            self.counts["line_overloaded_s"] += 1
+            if self.line_load is None or self.line_load <= LINE_LOAD_WARN:
+                log.warning(
+                    "the line to %s at %d baud was %.0f%% busy over the last second: "
+                    "set-points wait for it and replies come late; lower odometry_rate_hz "
+                    "or command_rate_hz, or raise the baud rate",
+                    self.servo.port,
+                    transport.baud,
+                    100.0 * load,
+                )
+        self.line_load = load
+
     # --- status and health -------------------------------------------------------------------
 
     @property
@@ -354,6 +391,7 @@ class ServoService:
                 commands=self.counts["commands"],
                 dead_reckoned=not self.codec.can_report_position,
                 response_lag_s=self.response_lag.lag_s,
+                line_load=self.line_load,
             )
         )
 
@@ -372,6 +410,8 @@ class ServoService:
         notes = {"link": self.link, "holding": str(self.holding)}
         if self.last_error:
             notes["last_error"] = self.last_error
+        if self.line_load is not None:
+            notes["line_load"] = f"{self.line_load:.0%}"
         stage_ms = {"write": self._write_ms, "poll": self._poll_ms}
         if self.response_lag.lag_s is not None:
             stage_ms["head_response_lag"] = round(self.response_lag.lag_s * 1e3, 2)

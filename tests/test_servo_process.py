@@ -275,13 +275,14 @@ def test_response_lag_measured_while_the_head_pursues(tmp_path: Path) -> None:
     response lag of at least that latency (plus the head's own following), none before."""
     rig_path = write_servo_rig(tmp_path, "dynamixel", 17517, head_latency_ms=40)
     rig = load_rig(rig_path)
-    with Bus(rig, "test", router=True) as bus, HeadEmulator(rig):
+    with Bus(rig, "test", router=True) as bus, HeadEmulator(rig) as head:
         loop = Loop(bus)
         servo = start_servo(rig_path)
         try:
             loop.until(lambda s: s.status is not None and s.status.link == "connected")
             assert loop.status.response_lag_s is None
             started_s, started_ns = time.monotonic(), time.time_ns()
+            bytes_before = head.bytes_received + head.bytes_sent
 
             def pursue(s: Loop) -> bool:  # a gaze process's demands: where the target is now
                 s.demand(-50.0 + 20.0 * (time.monotonic() - started_s), 0.0, "pursuit", 20.0)
@@ -293,6 +294,12 @@ def test_response_lag_measured_while_the_head_pursues(tmp_path: Path) -> None:
             loop.until(pursue, timeout_s=5.0)  # to +50°, inside the 60° limit
             print(f"response lag {loop.status.response_lag_s * 1e3:.1f} ms")  # README figure
             assert 0.04 <= loop.status.response_lag_s < 0.15, loop.status
+            # the line's share as the head's end of it counted the bytes, both ways (a fresh
+            # demand every bus wake-up and a poll each 20 ms: about 0.6-0.8 of 115 200 baud)
+            line_s = (head.bytes_received + head.bytes_sent - bytes_before) * 10 / 115200
+            expected = line_s / (time.monotonic() - started_s)
+            print(f"line load {loop.status.line_load:.2f}, at the head {expected:.2f}")
+            assert abs(loop.status.line_load - expected) < 0.25 * expected, loop.status
         finally:
             stop(servo)
 
@@ -338,5 +345,9 @@ def test_a_slow_line_is_not_overrun_by_set_points(tmp_path: Path) -> None:
             # 58 ms for the set-point on the line, as much for one queued, the head's 20 ms
             # and its acceleration: about 2 degrees at 10 deg/s (a backlog: 8 after 4 s)
             assert 0.0 < behind_deg < 4.0
+            # set-points written as soon as the line is free: it is full, and said to be
+            assert 0.85 < loop.status.line_load < 1.15, loop.status
+            assert counters["line_overloaded_s"] >= 1
         finally:
-            stop(servo)
+            out = stop(servo)
+        assert "busy over the last second" in out

@@ -10,7 +10,9 @@ A write returns as soon as the port has the bytes; the line then takes ten bit t
 (8N1) to send them: 15 ms for two 7-byte Pelco-D frames at 9600 baud. The transport keeps the
 time its line will be free (`line_busy_s()`), so the driver waits for a reply only from when
 its request has left, and the servo never queues a set-point behind more than the one on the
-line. `socket://` and `loop://` have no serial line behind them: their bytes take no time.
+line; it also adds up the line's time of every byte written and read (`line_s`), from which the
+servo tells how full the line is. `socket://` and `loop://` have no serial line behind them:
+their bytes take no time.
 """
 
 from __future__ import annotations
@@ -44,6 +46,7 @@ class SerialTransport:
         self.byte_time_s = 0.0 if url.startswith(UNPACED_SCHEMES) else BITS_PER_BYTE / baud
         self._serial: serial.SerialBase | None = None
         self._line_free_s = 0.0
+        self.line_s = 0.0  # the line's time of every byte written and read so far
 
     def __enter__(self) -> SerialTransport:
         self.connect()
@@ -91,6 +94,7 @@ class SerialTransport:
         except (serial.SerialException, OSError) as exc:
             raise LinkError(f"{self.url}: write failed: {exc}") from exc
         self._line_free_s = max(self._line_free_s, time.monotonic()) + len(data) * self.byte_time_s
+        self.line_s += len(data) * self.byte_time_s
         return time.time_ns()
 
     def line_busy_s(self) -> float:
@@ -111,4 +115,5 @@ class SerialTransport:
                     data += port.read(port.in_waiting)
         except (serial.SerialException, OSError) as exc:
             raise LinkError(f"{self.url}: read failed: {exc}") from exc
+        self.line_s += len(data) * self.byte_time_s
         return data, time.time_ns()
