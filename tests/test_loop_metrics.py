@@ -7,6 +7,7 @@ import math
 import numpy as np
 import pytest
 
+from gazed.eval.loop import servo_summary
 from gazed.eval.loop_metrics import (
     ACQUIRED_FRAMES,
     LoopRecord,
@@ -17,7 +18,14 @@ from gazed.eval.loop_metrics import (
 )
 from gazed.geometry.kinematics import HeadKinematics
 from gazed.geometry.pose import CameraPose
-from gazed.messages import EstimatorState, GazeDemand, GazeState, HeadPose, SimTruth
+from gazed.messages import (
+    EstimatorState,
+    GazeDemand,
+    GazeState,
+    HeadPose,
+    ServoStatus,
+    SimTruth,
+)
 
 POSE = CameraPose(
     np.array([0.0, -5.0, 3.0]), math.radians(90), math.radians(-25), head=HeadKinematics("pan-tilt")
@@ -110,3 +118,25 @@ def test_latency_counts_the_first_write_of_each_capture() -> None:
     assert latency["end_to_end_p50"] == 162.0
     # vision took 1 ns, the rest of each first write's processing is the servo hop here
     assert latency["hops_p50"] == {"vision": 0.0, "servo": 12.0}
+
+
+def test_servo_summary_of_a_run() -> None:
+    def status(load: float | None, timeouts: int, lag_s: float | None) -> ServoStatus:
+        return ServoStatus(
+            t_capture_ns=1,
+            protocol="pelco-d",
+            port="/dev/ttyUSB0",
+            link="connected",
+            timeouts=timeouts,
+            line_load=load,
+            response_lag_s=lag_s,
+        )
+
+    summary = servo_summary([status(None, 2, None), status(0.5, 3, 0.08), status(0.9, 7, 0.09)])
+    assert summary == {
+        "line_load_mean": 0.7,
+        "line_load_max": 0.9,
+        "timeouts": 5,
+        "response_lag_ms": 90.0,
+    }
+    assert servo_summary([])["line_load_mean"] is None

@@ -23,6 +23,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import psutil
 import tomlkit
 
@@ -30,7 +31,15 @@ from gazed.bus import Bus, BusError
 from gazed.config import Rig, RigError, load_rig
 from gazed.eval.loop_metrics import LoopRecord, score
 from gazed.geometry.pose import CameraPose
-from gazed.topics import ESTIMATOR_STATE, GAZE_STATE, SERVO_COMMAND, SIM_TRUTH, SUPERVISOR_STATUS
+from gazed.messages import ServoStatus
+from gazed.topics import (
+    ESTIMATOR_STATE,
+    GAZE_STATE,
+    SERVO_COMMAND,
+    SERVO_STATUS,
+    SIM_TRUTH,
+    SUPERVISOR_STATUS,
+)
 
 FILTERS = ("imm", "innovation", "alphabeta", "image-cv", "none")
 COMPARED = ("imm", "image-cv", "none")
@@ -105,7 +114,7 @@ def run_loop(
             rig_path, Path(directory), scenario, filter_mode, latency_ms, seed, control
         )
         with running(private) as (rig, supervisor, log_path):
-            record, cpu = _record(rig, supervisor, seconds, log_path)
+            record, cpu, servo = _record(rig, supervisor, seconds, log_path)
         result: dict[str, Any] = {
             "scenario": scenario,
             "filter": filter_mode or rig.estimator.filter,
@@ -114,7 +123,22 @@ def run_loop(
         result.update(score(record, CameraPose.from_rig(rig), rig.gaze.fovea_half_angle_deg))
         del result["frames"]
         result["cpu_percent"] = cpu
+        result["servo"] = servo_summary(servo)
         return result
+
+
+def servo_summary(statuses: list[ServoStatus]) -> dict[str, Any]:
+    """What the servo said of its line during the run: how full it was (mean and worst
+    second), polls unanswered, and the head's response lag at the end."""
+    loads = [s.line_load for s in statuses if s.line_load is not None]
+    last = statuses[-1] if statuses else None
+    lag_s = last.response_lag_s if last is not None else None
+    return {
+        "line_load_mean": round(float(np.mean(loads)), 3) if loads else None,
+        "line_load_max": round(max(loads), 3) if loads else None,
+        "timeouts": (last.timeouts - statuses[0].timeouts) if last is not None else None,
+        "response_lag_ms": round(lag_s * 1e3, 1) if lag_s is not None else None,
+    }
 
 
 @contextlib.contextmanager
@@ -218,7 +242,7 @@ def private_rig(
 
 def _record(
     rig: Any, supervisor: subprocess.Popen[bytes], seconds: float, log_path: Path
-) -> tuple[LoopRecord, dict[str, float]]:
+) -> tuple[LoopRecord, dict[str, float], list[ServoStatus]]:
     bus = Bus(rig, "eval")
     deadline = time.monotonic() + START_TIMEOUT_S
     open_observer(bus, supervisor, log_path)
@@ -231,20 +255,23 @@ def _record(
             bus.subscribe(SERVO_COMMAND, capacity=100000),
             bus.subscribe(ESTIMATOR_STATE, capacity=100000),
         )
+        servo_statuses = bus.subscribe(SERVO_STATUS, capacity=10000)
         status = bus.subscribe(SUPERVISOR_STATUS)
         pids = _wait_running(bus, status, supervisor, deadline, log_path)
-        for subscription in (truth, states, commands, estimates):
+        for subscription in (truth, states, commands, estimates, servo_statuses):
             subscription.take()
         processes = {name: psutil.Process(pid) for name, pid in pids.items()}
         cpu_start = {name: cpu_seconds(p) for name, p in processes.items()}
         started = time.monotonic()
         record = LoopRecord([], [], [], [])
+        servo: list[ServoStatus] = []
         while time.monotonic() - started < seconds:
             bus.wait(0.5)
             record.truth.extend(truth.take())
             record.states.extend(states.take())
             record.commands.extend(commands.take())
             record.estimates.extend(estimates.take())
+            servo.extend(servo_statuses.take())
             if supervisor.poll() is not None:
                 raise RuntimeError(
                     f"gazed run stopped during the run:\n{log_path.read_text()[-2000:]}"
@@ -254,7 +281,7 @@ def _record(
             name: round(100.0 * (cpu_seconds(p) - cpu_start[name]) / elapsed, 1)
             for name, p in processes.items()
         }
-        return record, cpu
+        return record, cpu, servo
     finally:
         bus.close()
 

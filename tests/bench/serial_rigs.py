@@ -50,12 +50,15 @@ def main() -> None:
             result = json.loads(subprocess.run(command, capture_output=True, text=True).stdout)
             error = result["gaze_error_deg"] or {}
             latency = result["latency_ms"]
+            servo = result["servo"]
             print(
                 f"{head:<10} acquired after {result['acquired_after_s']} s, gaze error RMS "
                 f"{error.get('rms')} p95 {error.get('p95')} deg, fovea "
                 f"{result['fovea_fraction']}, saccades {result['saccades_after_acquisition']}, "
                 f"processing p50 {latency['processing_p50']} ms, "
-                f"servo hop p50 {latency['hops_p50'].get('servo')} ms"
+                f"servo hop p50 {latency['hops_p50'].get('servo')} ms; line load mean "
+                f"{servo['line_load_mean']} max {servo['line_load_max']}, polls timed out "
+                f"{servo['timeouts']}, response lag {servo['response_lag_ms']} ms"
             )
 
 
