@@ -177,9 +177,9 @@ class ServoStatus(Message):
     line_load: float | None = Field(
         None,
         ge=0,
-        description="Share of the last second the serial line carried bytes, both ways (over "
-        "0.8: set-points wait and replies come late); None before a second has passed or on a "
-        "link without a baud rate (socket://).",
+        description="Share of the last second the serial line carried bytes, both ways (near 1: "
+        "the line is full, set-points wait and replies come late); None before a second has "
+        "passed or on a link without a baud rate (socket://).",
     )
 
 

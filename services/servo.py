@@ -50,7 +50,7 @@ BACKOFF_INITIAL_S = 0.25
 STATUS_PERIOD_S = 1.0
 POLL_FAILURES_FOR_LINK_DOWN = 3
 PARK_TIMEOUT_S = 2.5
-LINE_LOAD_WARN = 0.8  # share of a second on the line past which set-points wait, replies lag
+LINE_LOAD_WARN = 0.95  # share of a second on the line past which it is full: set-points wait
 STAGE = "servo"
 
 log = logging.getLogger("gazed.servo")

@@ -4,10 +4,12 @@ baud rate, timeouts and rates; the port swapped for the emulator's pty), scored 
 `gazed eval loop`.
 
     python tests/bench/serial_rigs.py [--seconds 20] [--scenario oval] [--only pelco-d]
+                                      [--odometry-rate-hz 15] [--command-rate-hz 15]
 
 The emulator keeps each line's timing at its baud rate, so this shows whether a shipped rig's
 rates fit its line: a 9600 baud Pelco-D or PTU line carries a set-point in 15-40 ms and a
-position poll in 30 ms.
+position poll in 30 ms; the servo's `line_load` says how full the line was. The rate options
+replace the shipped rates, to find the ones a line carries.
 """
 
 from __future__ import annotations
@@ -25,10 +27,14 @@ HEADS = ("pelco-d", "visca", "flir-ptu", "dynamixel")
 SECTION = re.compile(r"^\[servo\]\n.*?(?=^\[)", re.S | re.M)
 
 
-def rig_text(head: str, port: Path) -> str:
-    """The sim rig with `head`'s [servo] section, talking to the emulator on `port`."""
+def rig_text(head: str, port: Path, rates: dict[str, float | None]) -> str:
+    """The sim rig with `head`'s [servo] section, talking to the emulator on `port`, with the
+    rates given (None: the shipped one)."""
     servo = SECTION.search((REPO / "configs" / f"{head}.toml").read_text()).group(0)
     servo = re.sub(r"^port = .*$", f'port = "{port}"', servo, flags=re.M)
+    for key, value in rates.items():
+        if value is not None:
+            servo = re.sub(rf"^{key} = .*$", f"{key} = {value}", servo, flags=re.M)
     sim = (REPO / "configs" / "sim.toml").read_text()
     return SECTION.sub(lambda _: servo, sim).replace('name = "sim"', f'name = "bench-{head}"')
 
@@ -39,11 +45,14 @@ def main() -> None:
     parser.add_argument("--scenario", default="oval")
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--only", choices=HEADS, action="append")
+    parser.add_argument("--odometry-rate-hz", type=float)
+    parser.add_argument("--command-rate-hz", type=float)
     args = parser.parse_args()
+    rates = {"odometry_rate_hz": args.odometry_rate_hz, "command_rate_hz": args.command_rate_hz}
     with tempfile.TemporaryDirectory(prefix="gazed-serial-") as tmp:
         for head in args.only or HEADS:
             rig = Path(tmp) / f"{head}.toml"
-            rig.write_text(rig_text(head, Path(tmp) / f"{head}-pty"))
+            rig.write_text(rig_text(head, Path(tmp) / f"{head}-pty", rates))
             command = [sys.executable, "-m", "gazed.cli", "eval", "loop", "--rig", str(rig)]
             command += ["--scenario", args.scenario, "--seconds", str(args.seconds)]
             command += ["--seed", str(args.seed), "--json"]
