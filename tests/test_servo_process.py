@@ -21,6 +21,7 @@ from gazed.bus import Bus
 from gazed.config import load_rig
 from gazed.messages import GazeDemand
 from gazed.servo import make_codec
+from gazed.servo.transport import BITS_PER_BYTE
 from gazed.sim.head_emulator import HeadEmulator
 from gazed.topics import GAZE_DEMAND, SERVO_COMMAND, SERVO_ODOMETRY, SERVO_STATUS, health
 
@@ -296,7 +297,11 @@ def test_response_lag_measured_while_the_head_pursues(tmp_path: Path) -> None:
             assert 0.04 <= loop.status.response_lag_s < 0.15, loop.status
             # the line's share as the head's end of it counted the bytes, both ways (a fresh
             # demand every bus wake-up and a poll each 20 ms: about 0.6-0.8 of 115 200 baud)
-            line_s = (head.bytes_received + head.bytes_sent - bytes_before) * 10 / 115200
+            line_s = (
+                (head.bytes_received + head.bytes_sent - bytes_before)
+                * BITS_PER_BYTE
+                / rig.servo.baud
+            )
             expected = line_s / (time.monotonic() - started_s)
             print(f"line load {loop.status.line_load:.2f}, at the head {expected:.2f}")
             assert abs(loop.status.line_load - expected) < 0.25 * expected, loop.status
