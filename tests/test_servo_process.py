@@ -211,6 +211,9 @@ def test_limits_refusals_hold_and_link_loss(tmp_path: Path) -> None:
                 keep_demanding=(75.0, 0.0),
             )
             loop.until(lambda s: s.status.clamps >= 1)
+            # the demands stopped: once the servo holds and the head is at rest, no set-point
+            # is left to write (else the hold's own could land after the count below)
+            loop.until(lambda s: s.status.holding, timeout_s=5.0)
             poll_until(lambda: head.settled, timeout_s=5.0)
             assert head.mechanics.pan.target_rad <= math.radians(60.0)
             assert head.mechanics.pan.clamps == 0  # nothing beyond the limit reached the head
