@@ -28,8 +28,6 @@ import logging
 import time
 from dataclasses import replace
 
-import numpy as np
-
 from gazed.bus import Bus
 from gazed.config import Rig
 from gazed.estimation import PredictedState, build_estimator
@@ -209,21 +207,20 @@ class EstimatorService:
         )
         now_state = self.estimator.predict(detection.t_capture_ns / 1e9)
         if now_state is not None:
+            probabilities = self.estimator.model_probabilities()
+            position, velocity = now_state.position.tolist(), now_state.velocity.tolist()
+            on_ground = self.geometry is not None
             self.states.put(
                 EstimatorState(
                     t_capture_ns=detection.t_capture_ns,
                     stamps=stamps,
                     filter=self.filter,
-                    x=tuple(
-                        float(v) for v in np.concatenate([now_state.position, now_state.velocity])
-                    ),
-                    P=tuple(tuple(float(v) for v in row) for row in now_state.covariance),
-                    model_probabilities=self.estimator.model_probabilities(),
-                    most_likely=self.estimator.most_likely(),
-                    ground_xy_m=_pair(now_state.position) if self.geometry is not None else None,
-                    ground_velocity_m_s=_pair(now_state.velocity)
-                    if self.geometry is not None
-                    else None,
+                    x=(*position, *velocity),
+                    P=tuple(map(tuple, now_state.covariance.tolist())),
+                    model_probabilities=probabilities,
+                    most_likely=max(probabilities, key=probabilities.__getitem__),
+                    ground_xy_m=tuple(position) if on_ground else None,
+                    ground_velocity_m_s=tuple(velocity) if on_ground else None,
                     coasting=coasting,
                 )
             )
@@ -251,17 +248,16 @@ class EstimatorService:
         coasting: bool,
     ) -> Prediction:
         if self.geometry is None:  # image-cv: the state is the gaze itself
-            pan, tilt = (float(v) for v in predicted.position)
-            pan_rate, tilt_rate = (float(v) for v in predicted.velocity)
+            pan, tilt = predicted.position.tolist()
+            pan_rate, tilt_rate = predicted.velocity.tolist()
             ground = velocity = cov = None
         else:
-            x, y = (float(v) for v in predicted.position)
-            vx, vy = (float(v) for v in predicted.velocity)
+            x, y = predicted.position.tolist()
+            vx, vy = predicted.velocity.tolist()
             pan, tilt = self.geometry.gaze_from_ground(x, y)
             pan_rate, tilt_rate = self.geometry.gaze_rates_from_ground(x, y, vx, vy)
             ground, velocity = (x, y), (vx, vy)
-            c = predicted.covariance
-            cov = ((float(c[0, 0]), float(c[0, 1])), (float(c[1, 0]), float(c[1, 1])))
+            cov = tuple(map(tuple, predicted.covariance[:2, :2].tolist()))
         return Prediction(
             t_capture_ns=t_capture_ns,
             stamps=stamps,
@@ -296,10 +292,6 @@ class EstimatorService:
 
     def close(self) -> None:
         pass
-
-
-def _pair(values: np.ndarray) -> tuple[float, float]:
-    return float(values[0]), float(values[1])
 
 
 def build(rig: Rig, bus: Bus) -> EstimatorService:

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from gazed.estimation.ground_models import (
+    SCALAR_MAX_STATES,
     SERIES_LIMIT,
     GroundModelBank,
     canonicalise,
@@ -175,15 +176,21 @@ def test_wrap_angle_keeps_the_half_open_interval() -> None:
 
 
 def test_batch_propagation_equals_one_state_at_a_time() -> None:
-    """The bank on (K, M, 6) states with K different intervals gives each state's own result
-    (constants tiled per K, the turning rows' series and closed forms mixed in one call)."""
+    """The bank on (K, M, 6) states with K different intervals gives each state's own result:
+    a batch of more than SCALAR_MAX_STATES states is evaluated on rows of arrays (constants
+    tiled per K, the turning rows' series and closed forms mixed in one call), one track's
+    three per state in floats, and both agree."""
+    K = SCALAR_MAX_STATES // 3 + 2
     rng = np.random.default_rng(3)
-    x = rng.normal(size=(5, 3, 6))
+    x = rng.normal(size=(K, 3, 6))
     x[:2, :, 5] = [[1e-5], [0.0]]  # ω -> 0 rows next to turning ones
-    dt = rng.uniform(0.01, 1.0, 5)
+    x[2, :, 3] = math.pi - 1e-3  # a heading that wraps
+    x[2, :, 5] = 1.0
+    dt = rng.uniform(0.01, 1.0, K)
     xn, F, Q = BANK.propagate(x, dt)
-    for k in range(5):
+    for k in range(K):
         xk, Fk, Qk = BANK.propagate(x[k : k + 1], dt[k : k + 1])
         np.testing.assert_allclose(xn[k], xk[0], rtol=1e-14, atol=1e-15)
         np.testing.assert_allclose(F[k], Fk[0], rtol=1e-14, atol=1e-15)
         np.testing.assert_allclose(Q[k], Qk[0], rtol=1e-14, atol=1e-15)
+    assert xn[2, 1, 3] < 0  # wrapped to (-π, π] on both paths

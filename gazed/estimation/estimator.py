@@ -34,6 +34,7 @@ import numpy as np
 
 from gazed.estimation.chi_square import chi2_quantile
 from gazed.estimation.events import ManeuverEvent, ManeuverTracker
+from gazed.estimation.masks import every, some
 from gazed.estimation.small_matrices import positive_definite
 
 Space = Literal["ground", "gaze"]
@@ -193,7 +194,7 @@ class Forecast:
 
 def _select(mask: np.ndarray) -> slice | np.ndarray:
     """Index of the True rows: a slice when it is all of them (views, no copies)."""
-    return slice(None) if mask.all() else np.flatnonzero(mask)
+    return slice(None) if every(mask) else np.flatnonzero(mask)
 
 
 def _rows(idx: slice | np.ndarray, n: int) -> np.ndarray:
@@ -285,7 +286,7 @@ class TrackEstimator(ABC):
         """(N, M) model probabilities; uniform for tracks that are not running."""
         p = np.full((self.n_tracks, len(self.model_names)), 1.0 / len(self.model_names))
         running = self.status == TRACKING
-        if running.any():
+        if some(running):
             idx = _select(running)
             p[idx] = self._probabilities(idx)
         return p
@@ -332,12 +333,12 @@ class TrackEstimator(ABC):
         """`step` after validation: good (N,) marks the present, usable measurements."""
         n = self.n_tracks
         dt = t - self.t_s  # NaN for tracks without a state: every comparison below is False
-        if (
+        if every(
             good
             & (self.status == TRACKING)
             & (dt > 0)
             & (t - self.t_measured_s <= self.coast_max_s)
-        ).all():
+        ):
             return self._step_all(t, z, R, dt)  # the common case: every track updates
         if present is None:
             present = np.ones(n, bool)
@@ -353,32 +354,32 @@ class TrackEstimator(ABC):
 
         finite_t = np.isfinite(t)
         dropped = stale & ~good & finite_t
-        if dropped.any():
+        if some(dropped):
             outcome[dropped] = Outcome.DROPPED
             self._forget(np.flatnonzero(dropped))
-        if (stale & good).any():  # a measurement after a long gap starts afresh
+        if some(stale & good):  # a measurement after a long gap starts afresh
             self.counts[np.flatnonzero(stale & good), Outcome.DROPPED] += 1
             self._forget(np.flatnonzero(stale & good))
 
         coasting = (~good) & finite_t & (self.status == TRACKING) & ~late
         tracked = good & (self.status == TRACKING)
         moving = coasting | tracked
-        if moving.any():
+        if some(moving):
             idx = _select(moving)
             self._predict(idx, t[idx] - self.t_s[idx])
             self.t_s[idx] = t[idx]
             outcome[coasting & ~present] = Outcome.COASTED
-        if tracked.any():
+        if some(tracked):
             self._filter(_select(tracked), t, z, R, outcome)
         starting = good & (self.status != TRACKING) & ~tracked
-        if starting.any():
+        if some(starting):
             self._start(np.flatnonzero(starting), t, z, R, outcome)
 
         self.counts[self._track_numbers, outcome] += 1
         rejected = present & ~good & ~late & (outcome != Outcome.NONFINITE)
         self.counts[rejected, Outcome.NONFINITE] += 1  # rejected, then dropped by the coast
         stepped = (self.status == TRACKING) & (outcome != Outcome.IDLE)
-        if stepped.any():
+        if some(stepped):
             self._observe_maneuvers(_select(stepped), t)
         return outcome
 
@@ -392,7 +393,7 @@ class TrackEstimator(ABC):
         self.t_s[:] = t
         self.counts[self._track_numbers, outcome] += 1
         tracking = self.status == TRACKING  # a track restarted from one position is pending
-        self._observe_maneuvers(slice(None) if tracking.all() else np.flatnonzero(tracking), t)
+        self._observe_maneuvers(_select(tracking), t)
         return outcome
 
     def _observe_maneuvers(self, idx: slice | np.ndarray, t: np.ndarray) -> None:
@@ -408,19 +409,20 @@ class TrackEstimator(ABC):
         """
         n = self.n_tracks
         t = _times(t_s, n)
-        position = np.full((n, 2), math.nan)
-        velocity = np.full((n, 2), math.nan)
-        covariance = np.full((n, 4, 4), math.nan)
+        mean = np.empty((n, 4))  # [p, v]
+        covariance = np.empty((n, 4, 4))
+        mean.fill(math.nan)
+        covariance.fill(math.nan)
         tracking = self.status == TRACKING
-        if tracking.any():
+        if some(tracking):
             idx = _select(tracking)
             dt = t[idx] - self.t_s[idx]
-            if np.any(dt < 0) or not np.all(np.isfinite(dt)):
+            if not every((dt >= 0.0) & (dt < math.inf)):
                 raise ValueError("cannot forecast to a time before a track's state (or not finite)")
-            mean, cov = self._forecast(idx, dt)
-            position[idx], velocity[idx], covariance[idx] = mean[:, :2], mean[:, 2:], cov
+            mean[idx], covariance[idx] = self._forecast(idx, dt)
+        position, velocity = mean[:, :2], mean[:, 2:]
         pending = self.status == PENDING
-        if pending.any():
+        if some(pending):
             position[pending] = self._pending_z[pending]
             velocity[pending] = 0.0
             covariance[pending] = 0.0
@@ -446,14 +448,14 @@ class TrackEstimator(ABC):
         """Gate and update the tracks idx (a slice or an index array), already predicted to t."""
         statistic, handle = self._innovate(idx, z[idx], R[idx])
         inside = statistic <= self._gate[z.shape[-1]]
-        if inside.all():  # the common case, on views when idx is a slice
+        if every(inside):  # the common case, on views when idx is a slice
             self._correct(idx, handle, None)
             outcome[idx] = Outcome.ACCEPTED
             self.misses[idx] = 0
             self.t_measured_s[idx] = t[idx]
             return
         rows = _rows(idx, self.n_tracks)
-        if inside.any():
+        if some(inside):
             self._correct(idx, handle, inside)
             ok = rows[inside]
             outcome[ok] = Outcome.ACCEPTED

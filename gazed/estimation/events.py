@@ -11,6 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from gazed.estimation.masks import some
+
 
 @dataclass(frozen=True)
 class ManeuverEvent:
@@ -59,11 +61,11 @@ class ManeuverTracker:
         likely model."""
         previous = self.model[idx]
         new = model != previous
-        if new.any():
+        if some(new):
             if isinstance(idx, slice):
                 idx = np.arange(len(self.model))[idx]
             ended = new & (previous >= 0)
-            if ended.any():
+            if some(ended):
                 tracks = idx[ended]
                 self._ended.append(
                     (

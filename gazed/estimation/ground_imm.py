@@ -23,6 +23,7 @@ from gazed.estimation.ground_models import (
     measure,
 )
 from gazed.estimation.imm import ImmFilter, Innovation, combine
+from gazed.estimation.masks import some
 
 
 def _measure(x: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray]:
@@ -103,7 +104,7 @@ class ImmEstimator(TrackEstimator):
         through its Jacobian, then the μ-weighted mixture moments. At dt = 0 (the state at
         its own time, as the estimator publishes it) the propagation is the identity."""
         x, P = self.imm.x[idx], self.imm.P[idx]
-        if np.any(dt):
+        if some(dt):
             x, F, Q = self.imm.models.propagate(x, dt)
             P = F @ P @ F.mT + Q
         g, G = measure(x, with_velocity=True)

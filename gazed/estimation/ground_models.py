@@ -23,9 +23,13 @@ order through e = G [e_speed, e_heading]ᵀ, so Q = G diag(q_speed, q_heading) G
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
+
+from gazed.estimation.masks import some
 
 STATE_DIM = 6
 IX, IY, IS, ITH, ISD, ITD = range(STATE_DIM)
@@ -65,34 +69,98 @@ def cd(q_jerk_m2_s6: float, q_turn_rate_rad2_s2: float) -> GroundModel:
     return GroundModel("CD", False, True, q_jerk_m2_s6, q_turn_rate_rad2_s2)
 
 
-# Per-call costs on a single track's few states are dominated by NumPy's dispatch, which is
-# cheapest for operands of one shape; so the bank works on flat (K·M,) rows with its per-model
-# constants tiled to the same length (cached per length), and avoids Python-float operands.
+# How the bank is evaluated. The update equation of one state is written once (`_motion`) in
+# arithmetic that floats and NumPy arrays share. A bank of at most SCALAR_MAX_STATES states
+# (a single track's three models) runs it per state in Python floats: NumPy costs about
+# 0.3-1 µs per call however small its operands, three to ten times Python's float arithmetic
+# on three-element rows. A larger bank runs it once on flat (L,) rows of all its states, with
+# the per-model constants tiled to the same length (cached per length). Either way the terms
+# come out as one (24, L) array, scattered into x', ∇f and G by one assignment each.
+SCALAR_MAX_STATES = 16
 _PI = np.array(np.pi)
 _TWO_PI = np.array(2.0 * np.pi)
-_HALF = np.array(0.5)
-_THIRD = np.array(1.0 / 3.0)
-_POWERS = np.arange(4.0)
 _QUARTER_TURN = np.array([0.0, 0.5 * np.pi])  # (cos a, sin a) = cos(a - this)
 _PERPENDICULAR = np.array([-1.0, 1.0])  # (p, q)[::-1] * this = (-q, p), a quarter turn
-# Series of [[A, A'], [B, B']] (see `_a_b`) in powers u⁰..u³, as rows of the flattened 2x2:
-# A = 1 - u²/6, A' = -u/3 + u³/30, B = u/2 - u³/24, B' = 1/2 - u²/8
-_A_B_SERIES = np.array(
-    [
-        [1.0, 0.0, 0.0, 0.5],
-        [0.0, -1.0 / 3.0, 0.5, 0.0],
-        [-1.0 / 6.0, 0.0, 0.0, -1.0 / 8.0],
-        [0.0, 1.0 / 30.0, -1.0 / 24.0, 0.0],
-    ]
-)
+# Where `_motion`'s terms go. x' is terms 0-5. Terms 6-15 are entries of ∇f transposed (row j
+# holds ∂(X, Y, ...)/∂x_j), 16-23 entries of G transposed (row 0 the speed noise's gains,
+# row 1 the heading noise's), as flat indices into one state's 6x6 and 2x6.
+_JACOBIAN_PAIRS = ((IS, IX), (IS, IY), (ITH, IX), (ITH, IY), (ISD, IX), (ISD, IY), (ITD, IX))
+_JACOBIAN_PAIRS += ((ITD, IY), (ISD, IS), (ITD, ITH))
+_JACOBIAN_ENTRIES = np.array([row * STATE_DIM + column for row, column in _JACOBIAN_PAIRS])
+_GAIN_ENTRIES = np.array([IX, IY, IS, ISD, *(STATE_DIM + i for i in (IX, IY, ITH, ITD))])
 # ∇h's constant part, transposed: ∂(X, Y)/∂(X, Y) = I (the velocity rows are set per state)
 _HT_TEMPLATE = {m: np.eye(STATE_DIM, m) for m in (2, 4)}
 _HT_TEMPLATE[4][2:, 2:] = 0.0
 _SPEED_SIGN = np.array([1.0, 1.0, -1.0, 1.0, -1.0, 1.0])  # D of `canonicalise`
 _SPEED_SIGN_FLIP = _SPEED_SIGN[:, None] * _SPEED_SIGN[None, :]
 _CACHED_LENGTHS = 8
-# [[A, A'], [B, B']] at u = 0 (a model that does not turn)
-_A_B_STRAIGHT = np.array([[1.0, 0.0], [0.0, 0.5]])
+
+
+def _motion(
+    X: Any, Y: Any, s: Any, th: Any, s_dot: Any, theta_dot: Any, T: Any, accel: Any, turns: Any
+) -> tuple[Any, ...]:
+    """The update equation of the module docstring, its Jacobian and its noise gains.
+
+    Every argument is a float (one state; `accel` and `turns` 0.0 or 1.0, the model's
+    switches) or every one an array of the same length (rows of states). Returns the 24
+    terms of x' (X, Y, s, θ, ṡ, θ̇), ∇f (see _JACOBIAN_ENTRIES) and G (_GAIN_ENTRIES).
+    """
+    xp = math if isinstance(T, float) else np
+    a = s_dot * accel  # the ṡ the model propagates (CD)
+    w = theta_dot * turns  # the θ̇ it propagates (CS)
+    u = w * T
+    half_T2 = 0.5 * T * T
+    d = s * T + a * half_T2  # distance along the path: sT + ṡT²/2
+    A, B, A1, B1 = _a_b(u) if xp is math else _a_b_rows(u)
+    cos_th, sin_th = xp.cos(th), xp.sin(th)
+    # (A, B) and (A', B') rotated by θ: the displacement's direction per unit of d, and its
+    # derivative by u
+    e0x, e0y = cos_th * A - sin_th * B, sin_th * A + cos_th * B
+    e1x, e1y = cos_th * A1 - sin_th * B1, sin_th * A1 + cos_th * B1
+    heading = th + u
+    heading = heading + 2.0 * math.pi * xp.floor((math.pi - heading) / (2.0 * math.pi))
+    # Noise gains T^k/k! (§4.1.2, first order): a channel of order 0 (ṡ, θ̇) enters X, Y, its
+    # state and its rate with T²/2, T, 1; one of order 1 (s̈ for CD, θ̈ for CS) with T³/6,
+    # T²/2, T: those of order 0 times T/3, T/2, T.
+    speed = _gains(accel, T, half_T2)
+    turn = _gains(turns, T, half_T2)
+    s_turn = s * turn[0]
+    return (
+        X + d * e0x,
+        Y + d * e0y,
+        s + a * T,
+        heading,
+        a,
+        w,
+        e0x * T,  # ∂(X, Y)/∂s
+        e0y * T,
+        -d * e0y,  # ∂(X, Y)/∂θ
+        d * e0x,
+        accel * half_T2 * e0x,  # ∂(X, Y)/∂ṡ (CD)
+        accel * half_T2 * e0y,
+        turns * d * T * e1x,  # ∂(X, Y)/∂θ̇ (CS)
+        turns * d * T * e1y,
+        accel * T,  # ∂s/∂ṡ (CD)
+        turns * T,  # ∂θ/∂θ̇ (CS)
+        cos_th * speed[0],  # X, Y of the speed noise: along θ
+        sin_th * speed[0],
+        speed[1],  # s
+        speed[2],  # ṡ
+        -sin_th * s_turn,  # X, Y of the heading noise: across θ, times s
+        cos_th * s_turn,
+        turn[1],  # θ
+        turn[2],  # θ̇
+    )
+
+
+def _gains(order: Any, T: Any, half_T2: Any) -> tuple[Any, Any, Any]:
+    """T^k/k! for k = (2, 1, 0) + order, order 0.0 or 1.0 (exact for both)."""
+    other = 1.0 - order
+    return (
+        half_T2 * (other + order * T / 3.0),
+        T * (other + order * 0.5 * T),
+        other + order * T,
+    )
 
 
 @dataclass(frozen=True)
@@ -101,10 +169,7 @@ class _Tiled:
 
     accel: np.ndarray  # (L,) 1 where the model propagates ṡ (CD)
     turns: np.ndarray  # (L,) 1 where the model propagates θ̇ (CS)
-    turning: np.ndarray  # (L_turn,) the rows of turning models
-    a_b: np.ndarray  # (L, 2, 2) `_a_b` of a straight path
     Ft: np.ndarray  # (L, 6, 6) ∇f's constant part, transposed
-    gain_index: np.ndarray  # (L, 6) flat indices into the (L, 4) powers T^k/k!
     q: np.ndarray  # (L, 1, 2) noise variances (speed, heading channel)
 
 
@@ -126,17 +191,11 @@ class GroundModelBank:
         Ft = np.zeros((len(self.models), STATE_DIM, STATE_DIM))
         Ft[:, range(4), range(4)] = 1.0
         Ft[:, ISD, ISD], Ft[:, ITD, ITD] = accel, turns
-        # Noise gains (§4.1.2, first order) are T^k/k! for k = 0..3: the speed channel enters
-        # at ṡ (order 0) or at s̈ (CD, order 1), the heading channel at θ̇ (order 0) or at θ̈
-        # (CS, order 1). Per model, the power k of each gain
-        # [X,Y of the speed noise, s, ṡ, X,Y of the heading noise, θ, θ̇]:
-        # order 0 -> (2, 1, 0), order 1 -> (3, 2, 1).
-        gain_power = np.array(
-            [[2 + a, 1 + a, a, 2 + t, 1 + t, t] for a, t in zip(accel, turns, strict=True)],
-            dtype=np.intp,
-        )
         q = np.array([[m.q_speed, m.q_heading] for m in self.models])
-        object.__setattr__(self, "_per_model", (accel, turns, Ft, gain_power, q[:, None, :]))
+        object.__setattr__(self, "_per_model", (accel, turns, Ft, q[:, None, :]))
+        object.__setattr__(
+            self, "_switches", list(zip(accel.tolist(), turns.tolist(), strict=True))
+        )
         object.__setattr__(self, "_tiles", {})
 
     @property
@@ -148,16 +207,9 @@ class GroundModelBank:
         if K not in tiles:
             if len(tiles) >= _CACHED_LENGTHS:
                 tiles.pop(next(iter(tiles)))
-            accel, turns, Ft, gain_power, q = self._per_model  # type: ignore[attr-defined]
-            L = K * len(self.models)
+            accel, turns, Ft, q = self._per_model  # type: ignore[attr-defined]
             tiles[K] = _Tiled(
-                np.tile(accel, K),
-                np.tile(turns, K),
-                np.flatnonzero(np.tile(turns, K)),
-                np.tile(_A_B_STRAIGHT, (L, 1, 1)),
-                np.tile(Ft, (K, 1, 1)),
-                np.tile(gain_power, (K, 1)) + 4 * np.arange(L)[:, None],
-                np.tile(q, (K, 1, 1)),
+                np.tile(accel, K), np.tile(turns, K), np.tile(Ft, (K, 1, 1)), np.tile(q, (K, 1, 1))
             )
         return tiles[K]
 
@@ -172,73 +224,59 @@ class GroundModelBank:
         if dt.shape != shape[:-2]:
             raise ValueError(f"dt has shape {dt.shape} for states of shape {shape}")
         c = self._tiled(dt.size)
-        T = np.repeat(dt.ravel(), shape[-2])  # (L,) one interval per state
-        x = x.reshape(-1, STATE_DIM)
-        _, _, s, th, s_dot, theta_dot = x.T
-        L = len(T)
-
-        xn = np.empty((L, STATE_DIM))
-        a = np.multiply(s_dot, c.accel, out=xn[:, ISD])  # the ṡ the model propagates (CD)
-        w = np.multiply(theta_dot, c.turns, out=xn[:, ITD])  # the θ̇ it propagates (CS)
-        powers = np.empty((L, 4))  # T^k / k!
-        powers[:, 0] = 1.0
-        powers[:, 1] = T
-        half_T2 = np.multiply(np.multiply(T, T, out=powers[:, 2]), _HALF, out=powers[:, 2])
-        np.multiply(np.multiply(half_T2, T, out=powers[:, 3]), _THIRD, out=powers[:, 3])
-        d = s * T + a * half_T2  # distance along the path: sT + ṡT²/2
-        u = w * T
-        R = np.empty((L, 2, 2))  # rotation by θ
-        np.cos(th, out=R[:, 0, 0])
-        np.sin(th, out=R[:, 1, 0])
-        R[:, 1, 1] = R[:, 0, 0]
-        np.negative(R[:, 1, 0], out=R[:, 0, 1])
-        ab = c.a_b.copy()
-        if len(c.turning):
-            ab[c.turning] = _a_b(u[c.turning])
-        e = R @ ab  # [[ex, ex'], [ey, ey']]: (A, B) and (A', B') rotated by θ
-        e0 = e[:, :, 0]  # direction of the displacement per unit of d
-
-        np.add(x[:, :2], d[:, None] * e0, out=xn[:, :2])  # X + d ex, Y + d ey
-        np.add(s, a * T, out=xn[:, IS])  # s + ṡT
-        wrap_angle(np.add(th, u, out=xn[:, ITH]), out=xn[:, ITH])  # θ + θ̇T, wrapped
-
+        M = shape[-2]
+        L = dt.size * M
+        if L <= SCALAR_MAX_STATES:
+            switches = self._switches  # type: ignore[attr-defined]
+            states = x.reshape(L, STATE_DIM).tolist()
+            terms = np.array(
+                [
+                    _motion(*state, T, *switches[i % M])
+                    for i, (state, T) in enumerate(
+                        zip(states, dt.ravel().repeat(M).tolist(), strict=True)
+                    )
+                ]
+            ).T
+        else:
+            T = dt.ravel().repeat(M)
+            terms = np.array(_motion(*x.reshape(L, STATE_DIM).T, T, c.accel, c.turns))
         Ft = c.Ft.copy()  # row j: ∂(X, Y, ...)/∂x_j
-        np.multiply(e0, T[:, None], out=Ft[:, IS, :2])
-        np.multiply(e0[:, ::-1] * _PERPENDICULAR, d[:, None], out=Ft[:, ITH, :2])
-        np.multiply(e0, (c.accel * half_T2)[:, None], out=Ft[:, ISD, :2])  # CD
-        np.multiply(e[:, :, 1], (c.turns * d * T)[:, None], out=Ft[:, ITD, :2])  # CS
-        np.multiply(c.accel, T, out=Ft[:, ISD, IS])  # ∂s/∂ṡ (CD)
-        np.multiply(c.turns, T, out=Ft[:, ITD, ITH])  # ∂θ/∂θ̇ (CS)
-
-        # e = G [e_speed, e_heading]ᵀ with the gains T^k/k! of `gain_power`; Q = G diag(q) Gᵀ
-        g = powers.take(c.gain_index)  # (L, 6)
+        Ft.reshape(L, STATE_DIM * STATE_DIM)[:, _JACOBIAN_ENTRIES] = terms[6:16].T
         Gt = np.zeros((L, 2, STATE_DIM))
-        np.multiply(R[:, :, 0], g[:, :1], out=Gt[:, 0, :2])  # X, Y of the speed noise: along θ
-        np.multiply(R[:, :, 1], (s * g[:, 3])[:, None], out=Gt[:, 1, :2])  # heading noise: across
-        Gt[:, 0, IS::2] = g[:, 1:3]  # s, ṡ
-        Gt[:, 1, ITH::2] = g[:, 4:]  # θ, θ̇
-        Q = (Gt.mT * c.q) @ Gt
+        Gt.reshape(L, 2 * STATE_DIM)[:, _GAIN_ENTRIES] = terms[16:].T
+        Q = (Gt.mT * c.q) @ Gt  # G diag(q) Gᵀ
         square = (*shape, STATE_DIM)
-        return xn.reshape(shape), Ft.mT.reshape(square), Q.reshape(square)
+        return terms[:6].T.reshape(shape), Ft.mT.reshape(square), Q.reshape(square)
 
 
-def _a_b(u: np.ndarray) -> np.ndarray:
-    """[[A, A'], [B, B']] (L, 2, 2) of A = sin u / u, B = (1 - cos u)/u and their
-    derivatives A' = (cos u - A)/u, B' = (sin u - B)/u, by their series below |u| =
-    SERIES_LIMIT."""
+def _a_b(u: float) -> tuple[float, float, float, float]:
+    """A = sin u / u, B = (1 - cos u)/u and their derivatives A' = (cos u - A)/u,
+    B' = (sin u - B)/u of one u, by their series below |u| = SERIES_LIMIT."""
+    if abs(u) < SERIES_LIMIT:
+        return _a_b_series(u)
+    return _a_b_closed(u, math.sin(u), math.cos(u))
+
+
+def _a_b_rows(u: np.ndarray) -> np.ndarray:
+    """`_a_b` of every element of u (L,): rows A, B, A', B' (4, L)."""
     small = np.abs(u) < SERIES_LIMIT
     us = np.where(small, 1.0, u)  # those closed-form values are discarded
-    sin_u, cos_u = np.sin(us), np.cos(us)
-    inv = 1.0 / us
-    ab = np.empty((len(u), 2, 2))
-    A = np.multiply(sin_u, inv, out=ab[:, 0, 0])
-    B = np.multiply(1.0 - cos_u, inv, out=ab[:, 1, 0])
-    np.multiply(cos_u - A, inv, out=ab[:, 0, 1])
-    np.multiply(sin_u - B, inv, out=ab[:, 1, 1])
-    if small.any():
-        series = (u[:, None] ** _POWERS @ _A_B_SERIES).reshape(-1, 2, 2)
-        np.copyto(ab, series, where=small[:, None, None])
+    ab = np.array(_a_b_closed(us, np.sin(us), np.cos(us)))
+    if np.count_nonzero(small):
+        ab[:, small] = _a_b_series(u[small])
     return ab
+
+
+def _a_b_closed(u: Any, sin_u: Any, cos_u: Any) -> tuple[Any, Any, Any, Any]:
+    A, B = sin_u / u, (1.0 - cos_u) / u
+    return A, B, (cos_u - A) / u, (sin_u - B) / u
+
+
+def _a_b_series(u: Any) -> tuple[Any, Any, Any, Any]:
+    """A = 1 - u²/6, B = u/2 - u³/24, A' = -u/3 + u³/30, B' = 1/2 - u²/8 (the next terms are
+    below 1e-14 for |u| < SERIES_LIMIT)."""
+    u2 = u * u
+    return 1.0 - u2 / 6.0, u * (0.5 - u2 / 24.0), u * (u2 / 30.0 - 1.0 / 3.0), 0.5 - u2 / 8.0
 
 
 def cos_sin(angle: np.ndarray) -> np.ndarray:
@@ -279,7 +317,7 @@ def canonicalise(x: np.ndarray, P: np.ndarray) -> bool:
     Returns whether any state changed.
     """
     neg = x[..., IS] < 0
-    if not neg.any():
+    if not some(neg):
         return False
     x[neg, IS] *= -1.0
     x[neg, ISD] *= -1.0

@@ -32,6 +32,7 @@ from gazed.estimation.kalman import (
     joseph_update,
     predict_covariance,
 )
+from gazed.estimation.masks import every
 
 
 class MotionModels(Protocol):
@@ -142,7 +143,7 @@ def posterior(prior: np.ndarray, log_likelihood: np.ndarray) -> np.ndarray:
     """
     w = prior * np.exp(log_likelihood - log_likelihood.max(axis=-1, keepdims=True))
     total = w.sum(axis=-1, keepdims=True)
-    if not total.all():
+    if not every(total):
         with np.errstate(divide="ignore"):
             log_w = np.log(prior) + log_likelihood
         w = np.exp(log_w - log_w.max(axis=-1, keepdims=True))
