@@ -245,8 +245,22 @@ class TrackEstimator(ABC):
     def update(self, measurement: Measurement) -> Outcome:
         """Filter one measurement of track 0."""
         m = measurement
+        t = np.array([m.t_s])
+        if self.n_tracks == 1 and self._ready(m):  # `_step`'s common case, checked in floats
+            return Outcome(self._step_all(t, m.z[None], m.R[None], t - self.t_s)[0])
         good = np.array([m.usable])  # the checks of `step`, on the 2x2 blocks
-        return Outcome(self._step(np.array([m.t_s]), m.z[None], m.R[None], None, good)[0])
+        return Outcome(self._step(t, m.z[None], m.R[None], None, good)[0])
+
+    def _ready(self, m: Measurement) -> bool:
+        """A single track that is running takes a usable measurement later than its state,
+        within coast_max_s of the last one: the condition of `_step`'s common case."""
+        t_s, t_measured_s = float(self.t_s[0]), float(self.t_measured_s[0])
+        return (
+            self.status[0] == TRACKING
+            and m.t_s > t_s
+            and m.t_s - t_measured_s <= self.coast_max_s
+            and m.usable
+        )
 
     def coast(self, t_s: float) -> Outcome:
         """Predict-only step of track 0 to t_s (a frame without a detection)."""
@@ -387,10 +401,15 @@ class TrackEstimator(ABC):
         """`step` when every track is running and has a usable, later measurement: block by
         block (see BLOCK_TRACKS), each predicted and filtered while its arrays are in cache."""
         outcome = self._all_accepted.copy()
+        accepted = True
         for block in self._blocks:
             self._predict(block, dt[block])
-            self._filter(block, t, z, R, outcome)
+            accepted &= self._filter(block, t, z, R, outcome)
         self.t_s[:] = t
+        if accepted:  # the common case: one column of counts, every track still running
+            self.counts[:, Outcome.ACCEPTED] += 1
+            self._observe_maneuvers(slice(None), t)
+            return outcome
         self.counts[self._track_numbers, outcome] += 1
         tracking = self.status == TRACKING  # a track restarted from one position is pending
         self._observe_maneuvers(_select(tracking), t)
@@ -444,8 +463,9 @@ class TrackEstimator(ABC):
         z: np.ndarray,
         R: np.ndarray,
         outcome: np.ndarray,
-    ) -> None:
-        """Gate and update the tracks idx (a slice or an index array), already predicted to t."""
+    ) -> bool:
+        """Gate and update the tracks idx (a slice or an index array), already predicted to t;
+        True when every one was accepted."""
         statistic, handle = self._innovate(idx, z[idx], R[idx])
         inside = statistic <= self._gate[z.shape[-1]]
         if every(inside):  # the common case, on views when idx is a slice
@@ -453,7 +473,7 @@ class TrackEstimator(ABC):
             outcome[idx] = Outcome.ACCEPTED
             self.misses[idx] = 0
             self.t_measured_s[idx] = t[idx]
-            return
+            return True
         rows = _rows(idx, self.n_tracks)
         if some(inside):
             self._correct(idx, handle, inside)
@@ -470,6 +490,7 @@ class TrackEstimator(ABC):
             self._forget(restart)
             self._start(restart, t, z, R, outcome)
             outcome[restart] = Outcome.REINITIALISED
+        return False
 
     def _start(
         self, idx: np.ndarray, t: np.ndarray, z: np.ndarray, R: np.ndarray, outcome: np.ndarray

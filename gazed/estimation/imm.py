@@ -215,7 +215,8 @@ class ImmFilter:
         i = innovation
         x, P = joseph_update(self.x[idx], self.P[idx], i.y, i.H, i.R, i.HP, i.S_inv)
         if self.angle_index is not None:
-            x[..., self.angle_index] = wrap_angle(x[..., self.angle_index])
+            heading = x[..., self.angle_index]
+            wrap_angle(heading, out=heading)
         self.x[idx] = x
         self.P[idx] = P
         self.mu[idx] = posterior(self.mu[idx], i.log_likelihood)
