@@ -75,7 +75,7 @@ class CameraModel:
         cy = camera.cy_px if camera.cy_px is not None else (h - 1) / 2.0
         return cls.from_intrinsics(w, h, fx, fy, cx, cy, tuple(camera.distortion))
 
-    @property
+    @cached_property
     def K_inv(self) -> np.ndarray:
         return np.linalg.inv(self.K)
 

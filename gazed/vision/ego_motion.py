@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -66,14 +67,14 @@ def rotational_flow(
 
 
 def rotation_homography(
-    K: np.ndarray, kinematics: HeadKinematics, head_from: HeadPose, head_to: HeadPose
+    camera: CameraModel, kinematics: HeadKinematics, head_from: HeadPose, head_to: HeadPose
 ) -> np.ndarray:
     """H = K C_to^T C_from K^-1 (3x3, H[2,2] = 1): a static point's pixel at `head_from` -> its
     pixel at `head_to`. `cv2.warpPerspective(previous, H, size)` lays the previous frame over
     the current one (seed 004 §5, "compensation of image itself")."""
     c_from = kinematics.camera_to_base(head_from.pan_rad, head_from.tilt_rad)
     c_to = kinematics.camera_to_base(head_to.pan_rad, head_to.tilt_rad)
-    H = K @ c_to.T @ c_from @ np.linalg.inv(K)
+    H = camera.K @ c_to.T @ c_from @ camera.K_inv
     return H / H[2, 2]
 
 
@@ -102,12 +103,21 @@ class HeadStep:
         return rotational_flow(self.K, self.omega, u_px, v_px)
 
     def displacement(self, u_px: np.ndarray, v_px: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """How far (px) static points now at pixels (u, v) moved over the interval: the
-        rotational flow at their mid-interval position times dt (second-order accurate)."""
-        fu, fv = self.flow(u_px, v_px)
-        half = 0.5 * self.dt_s
-        fu, fv = self.flow(u_px - fu * half, v_px - fv * half)
-        return fu * self.dt_s, fv * self.dt_s
+        """How far (px) static points now at pixels (u, v) moved over the interval: (u, v)
+        less their pixel in the previous frame, H⁻¹ (u, v) (exact for a pure rotation). u and v
+        broadcast: a window's row of u and column of v give its whole grid."""
+        G = self.H_inverse
+        u = np.asarray(u_px, dtype=np.float64)
+        v = np.asarray(v_px, dtype=np.float64)
+        w = G[2, 0] * u + G[2, 1] * v + G[2, 2]
+        return u - (G[0, 0] * u + G[0, 1] * v + G[0, 2]) / w, v - (
+            G[1, 0] * u + G[1, 1] * v + G[1, 2]
+        ) / w
+
+    @cached_property
+    def H_inverse(self) -> np.ndarray:
+        """Current pixels -> previous ones."""
+        return np.linalg.inv(self.H)
 
     def transport(self, u_px: float, v_px: float) -> tuple[float, float]:
         """Where a static point at (u, v) in the previous frame appears in the current one."""
@@ -134,7 +144,7 @@ class EgoMotion:
         return rotational_flow(self.camera.K, self.angular_velocity(head), u_px, v_px)
 
     def homography(self, head_from: HeadPose, head_to: HeadPose) -> np.ndarray:
-        return rotation_homography(self.camera.K, self.kinematics, head_from, head_to)
+        return rotation_homography(self.camera, self.kinematics, head_from, head_to)
 
     def step(self, head_from: HeadPose, head_to: HeadPose, dt_s: float) -> HeadStep:
         """The rotation between two captures: warp, and mean angular velocity over the interval."""

@@ -59,11 +59,12 @@ CONVERGED_PX = 0.02  # stop refining when d changes by less than this (px per fr
 LINEAR_RANGE_PX = 2.0  # constraints this far from a hypothesis still pull it (px per frame)
 REFINE_RANGE_PX = 1.0  # ... and once it is chosen
 EGO_ERROR = 0.05  # the head's turn between frames is known to ~5 % (encoder step, timing)
+_CLOSING_KERNEL = np.ones((3, 3), np.uint8)
 
 
 @dataclass(frozen=True)
 class Fovea:
-    """The foveal window: origin and side in pixels, and its pixel coordinate grids."""
+    """The foveal window: origin and side in pixels, and its pixel coordinates."""
 
     x0: int
     y0: int
@@ -78,9 +79,11 @@ class Fovea:
     def rect(self) -> tuple[int, int, int, int]:
         return (self.x0, self.y0, self.side, self.side)
 
-    def grids(self) -> tuple[np.ndarray, np.ndarray]:
+    def axes(self) -> tuple[np.ndarray, np.ndarray]:
+        """The pixel coordinates of its columns (1, side) and rows (side, 1): they broadcast
+        to the window's grid."""
         r = np.arange(self.side, dtype=np.float64)
-        return np.meshgrid(self.x0 + r, self.y0 + r)
+        return (self.x0 + r)[None, :], (self.y0 + r)[:, None]
 
 
 @dataclass
@@ -152,8 +155,8 @@ class NormalFlowDetector:
         if target is None:
             self.reset()
             return DetectorOutput.nothing(fovea.rect)
-        u_grid, v_grid = fovea.grids()
-        u, v = float(u_grid[target].mean()), float(v_grid[target].mean())
+        rows, columns = np.nonzero(target)
+        u, v = fovea.x0 + float(columns.mean()), fovea.y0 + float(rows.mean())
         if fit.score < MIN_SCORE:
             # something moves there, but no single velocity explains it: look there again
             # next frame, with no trust in the velocity
@@ -204,7 +207,7 @@ class NormalFlowDetector:
 
     def _regions(self, mask: np.ndarray) -> np.ndarray | None:
         """Seed 000 §2: group foreground pixels into regions; their union, or None."""
-        closed = cv2.morphologyEx(mask.astype(np.uint8), cv2.MORPH_CLOSE, np.ones((3, 3), np.uint8))
+        closed = cv2.morphologyEx(mask.astype(np.uint8), cv2.MORPH_CLOSE, _CLOSING_KERNEL)
         _, labels, stats, _ = cv2.connectedComponentsWithStats(closed, connectivity=8)
         keep = stats[:, cv2.CC_STAT_AREA] >= self.min_area_px
         keep[0] = False  # the background label
@@ -283,7 +286,7 @@ class _Measurement:
         safe = np.where(self.valid, self.gradient, 1.0)
         self.inverse_gradient = 1.0 / safe
         self.nx, self.ny = gx / safe, gy / safe
-        u, v = fovea.grids()
+        u, v = fovea.axes()
         wu, wv = pair.step.displacement(u, v)  # ego-rotation displacement, px per frame
         cu, cv = fovea.centre
         su, sv = pair.step.displacement(np.array(cu), np.array(cv))
@@ -314,21 +317,30 @@ class _Measurement:
     def independent_flow(self, d: np.ndarray) -> np.ndarray:
         """v_ind along v̂ (px per frame) over the window, the previous frame shifted by s + d:
         v = -E_t/|∇E| + v̂·(s + d), then minus v̂·w (seed 000 §2)."""
-        cu, cv = np.array(self.fovea.centre) - self.shift - d - self._previous_origin
-        previous = cv2.getRectSubPix(self._previous, (self.fovea.side,) * 2, (float(cu), float(cv)))
-        e_t = self.current - previous
+        e_t = self.current - self.previous_at(d)
         return -e_t * self.inverse_gradient + self.nx * d[0] + self.ny * d[1] + self.ego_normal
+
+    def previous_at(self, d: np.ndarray) -> np.ndarray:
+        """The previous frame over the window, shifted by s + d (smoothed, float32)."""
+        cu, cv = self.fovea.centre
+        cu = cu - self.shift[0] - d[0] - self._previous_origin[0]
+        cv = cv - self.shift[1] - d[1] - self._previous_origin[1]
+        return cv2.getRectSubPix(self._previous, (self.fovea.side,) * 2, (float(cu), float(cv)))
 
     def constraints(self, pixels: np.ndarray) -> _Constraints:
         return _Constraints(self, pixels)
 
 
 class _Constraints:
-    """The normal-flow constraints v̂·d = v_ind of one region's pixels."""
+    """The normal-flow constraints v̂·d = v_ind of one region's pixels (the window's terms of
+    `independent_flow` taken at those pixels once: a fit then works on the region alone)."""
 
     def __init__(self, measurement: _Measurement, pixels: np.ndarray) -> None:
         self.measurement = measurement
         self.pixels = pixels
+        self.current = measurement.current[pixels]
+        self.inverse_gradient = measurement.inverse_gradient[pixels]
+        self.ego_normal = measurement.ego_normal[pixels]
         self.nx = measurement.nx[pixels].astype(np.float64)
         self.ny = measurement.ny[pixels].astype(np.float64)
         weight = measurement.gradient[pixels].astype(np.float64) ** 2
@@ -343,8 +355,9 @@ class _Constraints:
         keep the constraints within `tolerance_px` of the hypothesis (the linear range; the
         rest belong to something else), and fit v̂·d' = v_ind by least squares weighted by
         |∇E|² (i.e. ∇E·d' = -E_t)."""
-        r = self.measurement.independent_flow(d)[self.pixels]
         nx, ny = self.nx, self.ny
+        e_t = self.current - self.measurement.previous_at(d)[self.pixels]  # `independent_flow`
+        r = -e_t * self.inverse_gradient + nx * d[0] + ny * d[1] + self.ego_normal
         near = (np.abs(r - (nx * d[0] + ny * d[1])) < tolerance_px).astype(np.float64)
         estimate = np.asarray(d, float)
         # normal equations of sum w (nx dx + ny dy - r)^2 over the near constraints
