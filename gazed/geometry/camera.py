@@ -118,9 +118,11 @@ class CameraModel:
         """Camera-frame direction (x right, y down, z forward; z = 1) through pixel(s); shape (..., 3)."""
         u, v = self.undistort(u_px, v_px)
         K = self.K
-        x = (u - K[0, 2]) / K[0, 0]
-        y = (v - K[1, 2]) / K[1, 1]
-        return np.stack([x, y, np.ones_like(x)], axis=-1)
+        ray = np.empty((*np.shape(u), 3))
+        ray[..., 0] = (u - K[0, 2]) / K[0, 0]
+        ray[..., 1] = (v - K[1, 2]) / K[1, 1]
+        ray[..., 2] = 1.0
+        return ray
 
     def ray_with_jacobian(self, u_px: float, v_px: float) -> tuple[np.ndarray, np.ndarray]:
         """`ray` at one pixel (3,) and its derivative d(ray)/d(u, v), 3x2 (the third row is
@@ -131,13 +133,21 @@ class CameraModel:
         cv2.projectPoints, whose derivative by the translation is the derivative by the point)."""
         ray = self.ray(u_px, v_px)
         if not self.has_distortion:
-            derivative = np.diag([1.0 / self.K[0, 0], 1.0 / self.K[1, 1]])
-        else:
-            _, jacobian = _cv2().projectPoints(
-                ray[None, :], np.zeros(3), np.zeros(3), self.K, self.distortion
-            )
-            derivative = np.linalg.inv(jacobian[:, 3:5])
-        return ray, np.vstack([derivative, np.zeros((1, 2))])
+            return ray, self._pinhole_ray_derivative
+        _, jacobian = _cv2().projectPoints(
+            ray[None, :], np.zeros(3), np.zeros(3), self.K, self.distortion
+        )
+        derivative = np.zeros((3, 2))
+        derivative[:2] = np.linalg.inv(jacobian[:, 3:5])
+        return ray, derivative
+
+    @cached_property
+    def _pinhole_ray_derivative(self) -> np.ndarray:
+        """d(ray)/d(u, v) without distortion: diag(1/fx, 1/fy) over a zero row (read-only)."""
+        derivative = np.zeros((3, 2))
+        derivative[0, 0], derivative[1, 1] = 1.0 / self.K[0, 0], 1.0 / self.K[1, 1]
+        derivative.flags.writeable = False
+        return derivative
 
     def pixel(self, ray_camera: np.ndarray) -> np.ndarray:
         """Pixel(s) (u, v) of camera-frame direction(s) in front of the camera; shape (..., 2).

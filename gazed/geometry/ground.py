@@ -138,7 +138,7 @@ class GroundGeometry:
         self, pan_rad: float, tilt_rad: float, u_px: float, v_px: float
     ) -> np.ndarray:
         """d(X, Y)/d(pan, tilt, u, v) of `ground_from_gaze`, 2x4."""
-        return self._jacobian(pan_rad, tilt_rad, *self._camera_ray(u_px, v_px))
+        return self._jacobian(pan_rad, tilt_rad, *self._camera_ray(u_px, v_px))[0]
 
     def measure(self, sample: GazeSample, noise: MeasurementNoise) -> GroundMeasurement:
         """Ground position, velocity and their 4x4 covariance from one image measurement.
@@ -153,15 +153,17 @@ class GroundGeometry:
             [sample.pan_rate_rad_s, sample.tilt_rate_rad_s, sample.u_rate_px_s, sample.v_rate_px_s]
         )
         ray = self._camera_ray(u, v)
-        hit = self.homography.ground_from_direction(self.head.rotation(pan, tilt) @ ray[0])
+        jacobian, direction = self._jacobian(pan, tilt, *ray)
+        hit = self.homography.ground_from_direction(direction)
         position = hit if self.height is None else self.height.target_from_hit(hit)
-        jacobian = self._jacobian(pan, tilt, *ray)
-        reach = float(np.max(np.abs(rates) / INPUT_STEPS))  # steps per unit ε
+        reach = float((np.abs(rates) / INPUT_STEPS).max())  # steps per unit ε
         if reach > 0.0:
             epsilon = 1.0 / reach
             dz = epsilon * rates
             moved = self._camera_ray(u + dz[2], v + dz[3]) if dz[2] or dz[3] else ray
-            velocity_by_z = (self._jacobian(pan + dz[0], tilt + dz[1], *moved) - jacobian) / epsilon
+            velocity_by_z = (
+                self._jacobian(pan + dz[0], tilt + dz[1], *moved)[0] - jacobian
+            ) / epsilon
         else:
             velocity_by_z = 0.0
         f = np.zeros((4, 8))
@@ -203,12 +205,17 @@ class GroundGeometry:
 
     def _jacobian(
         self, pan_rad: float, tilt_rad: float, ray: np.ndarray, ray_by_pixel: np.ndarray
-    ) -> np.ndarray:
-        rotation = self.head.rotation(pan_rad, tilt_rad)
-        d_pan, d_tilt = self.head.rotation_derivatives(pan_rad, tilt_rad)
-        ray_derivatives = np.column_stack([d_pan @ ray, d_tilt @ ray, rotation @ ray_by_pixel])
-        jacobian = self.homography.ground_jacobian(rotation @ ray) @ ray_derivatives
-        return jacobian if self.height is None else self.height.jacobian_scale * jacobian
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """d(X, Y)/d(pan, tilt, u, v) (2x4) and the base-frame ray (3,)."""
+        rotations = self.head.rotation_with_derivatives(pan_rad, tilt_rad)  # R, dR/dpan, dR/dtilt
+        direction = rotations[0] @ ray
+        ray_derivatives = np.empty((3, 4))
+        ray_derivatives[:, :2] = (rotations[1:] @ ray).T
+        ray_derivatives[:, 2:] = rotations[0] @ ray_by_pixel
+        jacobian = self.homography.ground_jacobian(direction) @ ray_derivatives
+        if self.height is not None:
+            jacobian *= self.height.jacobian_scale
+        return jacobian, direction
 
     def _direction_to(self, x_m: float, y_m: float) -> np.ndarray:
         target = np.array([x_m, y_m], dtype=float)

@@ -74,7 +74,7 @@ class GroundHomography:
         Raises HorizonError for a ray at or above the horizon (it never meets the ground)."""
         q = np.asarray(direction, dtype=float) @ self.matrix.T
         lam = q[..., 2]
-        if np.any(lam <= 0):
+        if (lam <= 0).any():
             raise HorizonError(
                 "gaze does not meet the ground: it points at or above the horizon"
                 + ("" if np.ndim(lam) == 0 else f" ({int(np.sum(lam <= 0))} of {lam.size} rays)")

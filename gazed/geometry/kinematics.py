@@ -31,13 +31,11 @@ FLIP_Y = np.diag([1.0, -1.0, 1.0])
 
 
 def rot_x(angle_rad: float) -> np.ndarray:
-    c, s = math.cos(angle_rad), math.sin(angle_rad)
-    return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+    return np.array(_rot_x_rows(math.cos(angle_rad), math.sin(angle_rad)))
 
 
 def rot_y(angle_rad: float) -> np.ndarray:
-    c, s = math.cos(angle_rad), math.sin(angle_rad)
-    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+    return np.array(_rot_y_rows(math.cos(angle_rad), math.sin(angle_rad)))
 
 
 def rot_z(angle_rad: float) -> np.ndarray:
@@ -47,14 +45,29 @@ def rot_z(angle_rad: float) -> np.ndarray:
 
 def _rot_x_derivative(angle_rad: float) -> np.ndarray:
     """d rot_x / d angle."""
-    c, s = math.cos(angle_rad), math.sin(angle_rad)
-    return np.array([[0.0, 0.0, 0.0], [0.0, -s, -c], [0.0, c, -s]])
+    return np.array(_rot_x_derivative_rows(math.cos(angle_rad), math.sin(angle_rad)))
 
 
 def _rot_y_derivative(angle_rad: float) -> np.ndarray:
     """d rot_y / d angle."""
-    c, s = math.cos(angle_rad), math.sin(angle_rad)
-    return np.array([[-s, 0.0, c], [0.0, 0.0, 0.0], [-c, 0.0, -s]])
+    return np.array(_rot_y_derivative_rows(math.cos(angle_rad), math.sin(angle_rad)))
+
+
+# The rotations and their derivatives by the angle, from its cosine c and sine s, as rows.
+def _rot_x_rows(c: float, s: float) -> list[list[float]]:
+    return [[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]]
+
+
+def _rot_y_rows(c: float, s: float) -> list[list[float]]:
+    return [[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]]
+
+
+def _rot_x_derivative_rows(c: float, s: float) -> list[list[float]]:
+    return [[0.0, 0.0, 0.0], [0.0, -s, -c], [0.0, c, -s]]
+
+
+def _rot_y_derivative_rows(c: float, s: float) -> list[list[float]]:
+    return [[-s, 0.0, c], [0.0, 0.0, 0.0], [-c, 0.0, -s]]
 
 
 @dataclass(frozen=True)
@@ -77,15 +90,21 @@ class HeadKinematics:
         self, pan_rad: float, tilt_rad: float
     ) -> tuple[np.ndarray, np.ndarray]:
         """(dR/dpan, dR/dtilt) of `rotation`, each 3x3."""
+        _, d_pan, d_tilt = self.rotation_with_derivatives(pan_rad, tilt_rad)
+        return d_pan, d_tilt
+
+    def rotation_with_derivatives(self, pan_rad: float, tilt_rad: float) -> np.ndarray:
+        """R, dR/dpan and dR/dtilt of `rotation`, stacked (3, 3, 3): one product of the
+        stacked factors (pan-tilt: Ry(p) Rx(-t), Ry'(p) Rx(-t), Ry(p) · -Rx'(-t))."""
+        y = _rot_y_rows(math.cos(pan_rad), math.sin(pan_rad))
+        y_d = _rot_y_derivative_rows(math.cos(pan_rad), math.sin(pan_rad))
+        c, s = math.cos(-tilt_rad), math.sin(-tilt_rad)
+        x = _rot_x_rows(c, s)
+        x_d = _rot_x_derivative_rows(c, s)
+        x_d_tilt = [[-e for e in row] for row in x_d]  # d Rx(-t) / dt = -Rx'(-t)
         if self.kinematics == "pan-tilt":
-            return (
-                _rot_y_derivative(pan_rad) @ rot_x(-tilt_rad),
-                -rot_y(pan_rad) @ _rot_x_derivative(-tilt_rad),
-            )
-        return (
-            rot_x(-tilt_rad) @ _rot_y_derivative(pan_rad),
-            -_rot_x_derivative(-tilt_rad) @ rot_y(pan_rad),
-        )
+            return np.array([y, y_d, y]) @ np.array([x, x, x_d_tilt])
+        return np.array([x, x, x_d_tilt]) @ np.array([y, y_d, y])
 
     def camera_to_base(self, pan_rad: float, tilt_rad: float) -> np.ndarray:
         """Directions in the OpenCV camera frame (y down) -> head base frame."""
