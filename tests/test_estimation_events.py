@@ -17,7 +17,7 @@ def test_tracker_reports_segment_duration_and_mean_rates() -> None:
     tracker = ManeuverTracker(2, ("A", "B"))
     idx = np.array([0, 1])
     for k, (m0, m1) in enumerate([(0, 1), (0, 1), (0, 1), (1, 1), (1, 0)]):
-        tracker.observe(idx, np.full(2, k * 0.5), np.array([m0, m1]), np.full(2, k), np.full(2, -k))
+        tracker.observe(idx, np.full(2, k * 0.5), np.array([m0, m1]), np.full((2, 2), [k, -k]))
     events = tracker.drain()
     assert [(e.track, e.previous_model, e.model) for e in events] == [(0, "A", "B"), (1, "B", "A")]
     first = events[0]
@@ -29,7 +29,7 @@ def test_tracker_reports_segment_duration_and_mean_rates() -> None:
     assert events[1].previous_steps == 4
     assert tracker.drain() == []
     tracker.reset(np.array([0]))
-    tracker.observe(idx, np.full(2, 9.0), np.array([1, 0]), np.zeros(2), np.zeros(2))
+    tracker.observe(idx, np.full(2, 9.0), np.array([1, 0]), np.zeros((2, 2)))
     assert tracker.drain() == []  # a restarted track starts a segment without an event
 
 
@@ -60,6 +60,6 @@ def test_tracker_takes_a_slice_of_tracks() -> None:
     by_slice, by_index = ManeuverTracker(3, ("A", "B")), ManeuverTracker(3, ("A", "B"))
     for k, models in enumerate([(0, 1, 0), (0, 1, 1), (1, 1, 1)]):
         m = np.array(models)
-        by_slice.observe(slice(None), np.full(3, float(k)), m, np.zeros(3), np.full(3, 0.5))
-        by_index.observe(np.arange(3), np.full(3, float(k)), m, np.zeros(3), np.full(3, 0.5))
+        by_slice.observe(slice(None), np.full(3, float(k)), m, np.full((3, 2), [0.0, 0.5]))
+        by_index.observe(np.arange(3), np.full(3, float(k)), m, np.full((3, 2), [0.0, 0.5]))
     assert by_slice.drain() == by_index.drain() != []

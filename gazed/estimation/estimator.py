@@ -562,8 +562,8 @@ class TrackEstimator(ABC):
     def _probabilities(self, idx: slice | np.ndarray) -> np.ndarray:
         """(K, M) model probabilities of running tracks."""
 
-    def _signature(self, idx: slice | np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The most likely model (K,) of the tracks idx and its ṡ (m/s²) and θ̇ (rad/s), for
+    def _signature(self, idx: slice | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The most likely model (K,) of the tracks idx and its (ṡ m/s², θ̇ rad/s) (K, 2), for
         the maneuver events."""
         raise NotImplementedError(f"{type(self).__name__} has one model and no maneuver events")
 

@@ -41,8 +41,7 @@ class ManeuverTracker:
         self.model = np.full(n_tracks, -1)
         self.start_s = np.zeros(n_tracks)
         self.steps = np.zeros(n_tracks, dtype=np.int64)
-        self.sum_s_dot = np.zeros(n_tracks)
-        self.sum_theta_dot = np.zeros(n_tracks)
+        self.sum_rates = np.zeros((n_tracks, 2))  # Σ ṡ, Σ θ̇ over the segment
         self._ended: list[tuple[np.ndarray, ...]] = []
 
     def reset(self, idx: slice | np.ndarray) -> None:
@@ -54,11 +53,10 @@ class ManeuverTracker:
         idx: slice | np.ndarray,
         t_s: np.ndarray,
         model: np.ndarray,
-        s_dot_m_s2: np.ndarray,
-        theta_dot_rad_s: np.ndarray,
+        rates: np.ndarray,
     ) -> None:
         """One step of the tracks idx (a slice or an index array) at t_s with their most
-        likely model."""
+        likely model and its (ṡ m/s², θ̇ rad/s), rates (K, 2)."""
         previous = self.model[idx]
         new = model != previous
         if some(new):
@@ -75,24 +73,21 @@ class ManeuverTracker:
                         t_s[ended],
                         self.start_s[tracks],
                         self.steps[tracks],
-                        self.sum_s_dot[tracks],
-                        self.sum_theta_dot[tracks],
+                        self.sum_rates[tracks],
                     )
                 )
             fresh = idx[new]
             self.model[fresh] = model[new]
             self.start_s[fresh] = t_s[new]
             self.steps[fresh] = 0
-            self.sum_s_dot[fresh] = 0.0
-            self.sum_theta_dot[fresh] = 0.0
+            self.sum_rates[fresh] = 0.0
         self.steps[idx] += 1
-        self.sum_s_dot[idx] += s_dot_m_s2
-        self.sum_theta_dot[idx] += theta_dot_rad_s
+        self.sum_rates[idx] += rates
 
     def drain(self) -> list[ManeuverEvent]:
         """The events since the last call, oldest first."""
         events = []
-        for tracks, model, previous, t_s, start_s, steps, sum_s_dot, sum_theta_dot in self._ended:
+        for tracks, model, previous, t_s, start_s, steps, sum_rates in self._ended:
             for k in range(len(tracks)):
                 n = int(steps[k])
                 events.append(
@@ -104,8 +99,8 @@ class ManeuverTracker:
                         previous_start_s=float(start_s[k]),
                         previous_duration_s=float(t_s[k] - start_s[k]),
                         previous_steps=n,
-                        mean_s_dot_m_s2=float(sum_s_dot[k] / n),
-                        mean_theta_dot_rad_s=float(sum_theta_dot[k] / n),
+                        mean_s_dot_m_s2=float(sum_rates[k, 0] / n),
+                        mean_theta_dot_rad_s=float(sum_rates[k, 1] / n),
                     )
                 )
         self._ended = []

@@ -113,17 +113,18 @@ class ImmEstimator(TrackEstimator):
     def _probabilities(self, idx: slice | np.ndarray) -> np.ndarray:
         return self.imm.mu[idx]
 
-    def _signature(self, idx: slice | np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The most likely model and the ṡ and θ̇ of its own estimate: the motion signature of
+    def _signature(self, idx: slice | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The most likely model and the (ṡ, θ̇) of its own estimate: the motion signature of
         a segment is the rates of the model that explains it (the combined state, §5 step 4,
         dilutes a turn rate by the probability of the models that hold θ̇ at 0)."""
         best = self.imm.mu[idx].argmax(axis=-1)
-        own = self.imm.x[idx][self._track_numbers[: len(best)], best]
-        return best, own[:, ISD], own[:, ITD]
+        rates = self.imm.x[idx, :, ISD:][self._track_numbers[: len(best)], best]
+        return best, rates
 
     def model_rates(self, idx: slice | np.ndarray = slice(None)) -> tuple[np.ndarray, np.ndarray]:
         """(ṡ, θ̇) of each track's most likely model, 2 x (K,)."""
-        return self._signature(idx)[1:]
+        rates = self._signature(idx)[1]
+        return rates[:, 0], rates[:, 1]
 
     def combined_state(self) -> tuple[np.ndarray, np.ndarray]:
         """The IMM output x (N, 6), P (N, 6, 6) (§5 step 4, heading averaged as an angle)."""

@@ -152,8 +152,8 @@ class KinematicEstimator(TrackEstimator):
         p[np.arange(len(chosen)), chosen] = 1.0
         return p
 
-    def _signature(self, idx: slice | np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The selected model, and ṡ = v·a/|v| and θ̇ = (v × a)/|v|² of its state."""
+    def _signature(self, idx: slice | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The selected model, and (ṡ, θ̇) of its state: ṡ = v·a/|v|, θ̇ = (v × a)/|v|²."""
         chosen = self._chosen(idx)
         x = self.x[idx][np.arange(len(chosen)), chosen]
         v = x[:, VELOCITY_INDEX]
@@ -161,4 +161,4 @@ class KinematicEstimator(TrackEstimator):
         speed2 = np.maximum((v * v).sum(axis=-1), 1e-12)
         s_dot = (v * a).sum(axis=-1) / np.sqrt(speed2)
         theta_dot = (v[:, 0] * a[:, 1] - v[:, 1] * a[:, 0]) / speed2
-        return chosen, s_dot, theta_dot
+        return chosen, np.column_stack([s_dot, theta_dot])
