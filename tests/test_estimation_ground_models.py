@@ -9,7 +9,6 @@ import numpy as np
 import pytest
 
 from gazed.estimation.ground_models import (
-    SCALAR_MAX_STATES,
     SERIES_LIMIT,
     GroundModelBank,
     canonicalise,
@@ -17,7 +16,6 @@ from gazed.estimation.ground_models import (
     cs,
     csd,
     measure,
-    wrap_angle,
 )
 
 BANK = GroundModelBank((csd(0.09, 0.01), cs(0.09, 30.0), cd(0.25, 0.01)))
@@ -36,7 +34,7 @@ def numeric_jacobian(model: int, x: np.ndarray, dt: float, eps: float = 1e-6) ->
         e = np.zeros(6)
         e[k] = eps
         d = propagate_one(model, x + e, dt)[0] - propagate_one(model, x - e, dt)[0]
-        d[3] = wrap_angle(d[3])
+        d[3] = math.remainder(d[3], 2 * math.pi)
         J[:, k] = d / (2 * eps)
     return J
 
@@ -155,32 +153,29 @@ def test_negative_speed_becomes_positive_with_heading_turned() -> None:
     assert P[0, 2, 4] == 0.5 and P[0, 2, 3] == -0.25
 
 
-def test_wrap_angle_keeps_the_half_open_interval() -> None:
-    a = np.array([-math.pi, math.pi, 3 * math.pi, -3 * math.pi, math.pi + 1e-12, 7.0, -7.0])
-    w = wrap_angle(a)
-    np.testing.assert_allclose(
-        w,
-        [
-            math.pi,
-            math.pi,
-            math.pi,
-            math.pi,
-            -math.pi + 1e-12,
-            7.0 - 2 * math.pi,
-            2 * math.pi - 7.0,
-        ],
-    )
-    assert w.min() > -math.pi and w.max() <= math.pi
-    out = np.empty(7)
-    assert wrap_angle(a, out=out) is out
+@pytest.mark.parametrize(
+    ("heading", "turn", "expected"),
+    [
+        (-math.pi, 0.0, math.pi),  # -π is π
+        (math.pi, 0.0, math.pi),
+        (math.pi - 0.1, 0.3, -math.pi + 0.2),  # a turn across π
+        (-math.pi + 0.1, -0.3, math.pi - 0.2),
+        (3.0 * math.pi, 0.0, math.pi),
+        (7.0, 0.0, 7.0 - 2 * math.pi),
+    ],
+)
+def test_heading_is_wrapped_to_the_half_open_interval(heading, turn, expected) -> None:
+    """θ' = θ + ωT wrapped to (-π, π] (CS over 1 s at θ̇ = turn)."""
+    theta = propagate_one(CS, np.array([0.0, 0.0, 1.0, heading, 0.0, turn]), 1.0)[0][3]
+    assert theta == pytest.approx(expected, abs=1e-12)
+    assert -math.pi < theta <= math.pi
 
 
 def test_batch_propagation_equals_one_state_at_a_time() -> None:
-    """The bank on (K, M, 6) states with K different intervals gives each state's own result:
-    a batch of more than SCALAR_MAX_STATES states is evaluated on rows of arrays (constants
-    tiled per K, the turning rows' series and closed forms mixed in one call), one track's
-    three per state in floats, and both agree."""
-    K = SCALAR_MAX_STATES // 3 + 2
+    """The bank on (K, M, 6) states with K different intervals gives each state its own
+    model and interval (state i is model i % M over dt[i // M]), the turning rows' series and
+    closed forms side by side."""
+    K = 7
     rng = np.random.default_rng(3)
     x = rng.normal(size=(K, 3, 6))
     x[:2, :, 5] = [[1e-5], [0.0]]  # ω -> 0 rows next to turning ones

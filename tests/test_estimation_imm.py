@@ -35,16 +35,15 @@ class PaddedModels:
         )
         self.names = self.bank.names
 
-    def propagate(self, x, dt):
+    def matrices(self, dt):
         F, Q = self.bank.matrices(dt)
-        Q = Q + 1e-3 * np.eye(6)
-        return (F @ x[..., None])[..., 0], F, Q
+        return F, Q + 1e-3 * np.eye(6)
 
 
 def test_imm_matches_filterpy_imm_estimator() -> None:
     models = PaddedModels()
     dt = 0.1
-    F, Q = models.propagate(np.zeros((1, 3, 6)), np.array([dt]))[1:]
+    F, Q = models.matrices(np.array([dt]))
     H = np.zeros((2, 6))
     H[0, 0] = H[1, 3] = 1.0
     R = np.diag([0.04, 0.09])
@@ -58,13 +57,7 @@ def test_imm_matches_filterpy_imm_estimator() -> None:
         kf.x, kf.P = x0.copy(), P0.copy()
         filters.append(kf)
     reference = IMMEstimator(filters, mu0, J_ASYMMETRIC)
-    ours = ImmFilter.empty(
-        models,
-        J_ASYMMETRIC,
-        lambda x, m: (x @ H.T, np.broadcast_to(H, (*x.shape[:-1], 2, 6))),
-        1,
-        6,
-    )
+    ours = ImmFilter.empty(models, J_ASYMMETRIC, 1, 6, H={2: H})
     ours.x[:], ours.P[:], ours.mu[:] = x0, P0, mu0
     rng = np.random.default_rng(7)
     leading = []

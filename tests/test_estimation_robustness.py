@@ -185,9 +185,9 @@ def test_a_still_target_starts_with_a_positive_semidefinite_covariance() -> None
 def test_a_slow_wandering_target_keeps_the_filter_finite() -> None:
     """Position-only, 0.4 s steps, a walker creeping at a few cm/s (the case of the hotel
     file that produced NaN): covariances stay positive semi-definite and every state finite,
-    in a single track and in a batch whose inverses take the closed forms."""
+    in a single track and in a batch."""
     rng = np.random.default_rng(8)
-    n = 8  # 24 innovation covariances: above LAPACK_MAX_MATRICES, the batch uses closed forms
+    n = 8
     single = build_estimator(EstimatorSection(), mode="imm")
     batch = build_estimator(EstimatorSection(), n_tracks=n, mode="imm")
     position = np.zeros((n, 2))
@@ -203,17 +203,13 @@ def test_a_slow_wandering_target_keeps_the_filter_finite() -> None:
     assert single.health()["accepted"] >= 110
 
 
-def test_blocks_and_closed_forms_give_the_single_track_results(monkeypatch) -> None:
-    """A batch larger than one block (and so large that its 2x2/4x4 inverses take the closed
-    forms) steps every track as a single-track estimator (LAPACK) does."""
-    import gazed.estimation.estimator as estimator_module
-
-    monkeypatch.setattr(estimator_module, "BLOCK_TRACKS", 4)
+def test_a_batch_gives_the_single_track_results() -> None:
+    """A batch steps every track as a single-track estimator does (one vectorised call over
+    the tracks against the single track's own path)."""
     rng = np.random.default_rng(9)
     n, steps = 10, 30
     section = EstimatorSection()
     batch = build_estimator(section, n_tracks=n, mode="imm")
-    assert len(batch._blocks) == 3
     singles = [build_estimator(section, mode="imm") for _ in range(n)]
     heading = rng.uniform(-math.pi, math.pi, n)
     for k in range(steps):

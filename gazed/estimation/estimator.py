@@ -41,11 +41,6 @@ Space = Literal["ground", "gaze"]
 
 EMPTY, PENDING, TRACKING = 0, 1, 2
 
-# A batch step runs over blocks of this many tracks, so that a block's (tracks, models, 6, 6)
-# arrays stay in the cache between the operations of one step (identical results: the tracks
-# are independent); see tests/bench/estimator_speed.py.
-BLOCK_TRACKS = 512
-
 
 class Outcome(IntEnum):
     """What one step did to one track."""
@@ -236,9 +231,6 @@ class TrackEstimator(ABC):
         self._maneuvers = ManeuverTracker(n_tracks, model_names)
         self._track_numbers = np.arange(n_tracks)
         self._all_accepted = np.full(n_tracks, Outcome.ACCEPTED, dtype=np.int64)
-        self._blocks = [
-            slice(lo, min(lo + BLOCK_TRACKS, n_tracks)) for lo in range(0, n_tracks, BLOCK_TRACKS)
-        ]
 
     # ----------------------------------------------------------------- single track (track 0)
 
@@ -398,13 +390,11 @@ class TrackEstimator(ABC):
         return outcome
 
     def _step_all(self, t: np.ndarray, z: np.ndarray, R: np.ndarray, dt: np.ndarray) -> np.ndarray:
-        """`step` when every track is running and has a usable, later measurement: block by
-        block (see BLOCK_TRACKS), each predicted and filtered while its arrays are in cache."""
+        """`step` when every track is running and has a usable, later measurement."""
         outcome = self._all_accepted.copy()
-        accepted = True
-        for block in self._blocks:
-            self._predict(block, dt[block])
-            accepted &= self._filter(block, t, z, R, outcome)
+        every_track = slice(None)
+        self._predict(every_track, dt)
+        accepted = self._filter(every_track, t, z, R, outcome)
         self.t_s[:] = t
         if accepted:  # the common case: one column of counts, every track still running
             self.counts[:, Outcome.ACCEPTED] += 1

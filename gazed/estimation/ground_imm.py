@@ -9,6 +9,7 @@ import math
 
 import numpy as np
 
+from gazed.estimation import kalman
 from gazed.estimation.estimator import TrackEstimator
 from gazed.estimation.ground_models import (
     HEADING_INDEX,
@@ -19,15 +20,9 @@ from gazed.estimation.ground_models import (
     STATE_DIM,
     GroundModel,
     GroundModelBank,
-    canonicalise,
-    measure,
 )
-from gazed.estimation.imm import ImmFilter, Innovation, combine
-from gazed.estimation.masks import some
-
-
-def _measure(x: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray]:
-    return measure(x, with_velocity=m == 4)
+from gazed.estimation.imm import ImmFilter
+from gazed.estimation.kalman import Innovation
 
 
 class ImmEstimator(TrackEstimator):
@@ -46,7 +41,7 @@ class ImmEstimator(TrackEstimator):
     ) -> None:
         bank = GroundModelBank(models)
         super().__init__(bank.names, n_tracks, **track_options)
-        self.imm = ImmFilter.empty(bank, J, _measure, n_tracks, STATE_DIM, HEADING_INDEX)
+        self.imm = ImmFilter.empty(bank, J, n_tracks, STATE_DIM, HEADING_INDEX)
         self.initial_rate_var = np.square(initial_rate_std)
 
     def _initialise(
@@ -94,21 +89,14 @@ class ImmEstimator(TrackEstimator):
         if inside is not None:
             idx = np.arange(self.n_tracks)[idx][inside]
             handle = handle.rows(inside)
-        self.imm.correct(idx, handle)
-        x, P = self.imm.x[idx], self.imm.P[idx]  # views when idx is a slice
-        if canonicalise(x, P) and not isinstance(idx, slice):
-            self.imm.x[idx], self.imm.P[idx] = x, P
+        self.imm.correct(idx, handle)  # a negative speed comes out positive, heading turned
 
     def _forecast(self, idx: slice | np.ndarray, dt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Each model predicted dt ahead without mixing, mapped to [X, Y, s cos θ, s sin θ]
         through its Jacobian, then the μ-weighted mixture moments. At dt = 0 (the state at
         its own time, as the estimator publishes it) the propagation is the identity."""
-        x, P = self.imm.x[idx], self.imm.P[idx]
-        if some(dt):
-            x, F, Q = self.imm.models.propagate(x, dt)
-            P = F @ P @ F.mT + Q
-        g, G = measure(x, with_velocity=True)
-        return combine(self.imm.mu[idx], g, G @ P @ G.mT, None)
+        imm = self.imm
+        return kalman.forecast(imm.x, imm.P, imm.mu, idx, dt, imm.models.parameters)
 
     def _probabilities(self, idx: slice | np.ndarray) -> np.ndarray:
         return self.imm.mu[idx]

@@ -4,7 +4,7 @@ Switching matrix convention (stated here, tested with an asymmetric matrix):
     J[i, j] = P(model j at step k+1 | model i at step k); every row sums to 1.
 The paper's text says "J(ij) is switching from i to j" but prints Σ_j J(ij) p(j), which mixes
 the two conventions (and filterpy's `IMMEstimator` docstring says j -> i while its code does
-i -> j); the code below follows the statement, which is also what filterpy's code computes.
+i -> j); the code follows the statement, which is also what filterpy's code computes.
 
 One cycle, for N tracks and M models (x (N, M, n), P (N, M, n, n), mu (N, M)):
 1. c̄_j = Σ_i J_ij μ_i; ω_ij = J_ij μ_i / c̄_j                     (§5 step 1)
@@ -15,39 +15,28 @@ One cycle, for N tracks and M models (x (N, M, n), P (N, M, n, n), mu (N, M)):
 A predict-only cycle (missing data) stops after step 2's predict with μ = c̄.
 Heading (DESIGN §10): with `angle_index` set, that component is averaged as an angle — each
 model's differences to the mean are wrapped to (-π, π] — in mixing and in combination.
+The arithmetic is the compiled kernel's (`kalman`, `_kalman.c`).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
 
-from gazed.estimation.ground_models import wrap_angle
-from gazed.estimation.kalman import (
-    gaussian_terms,
-    innovation_covariance,
-    joseph_update,
-    predict_covariance,
-)
-from gazed.estimation.masks import every
+from gazed.estimation import _kalman, kalman
+from gazed.estimation.ground_models import GroundModelBank
+from gazed.estimation.kalman import Index, Innovation, angle_code, floats
 
 
-class MotionModels(Protocol):
-    """A bank of M motion models on a common state: x (..., M, n) -> (x', F, Q)."""
+class LinearModels(Protocol):
+    """A bank of M linear models on a common state: F, Q (..., M, n, n) for intervals dt (...)."""
 
     @property
     def names(self) -> tuple[str, ...]: ...
 
-    def propagate(
-        self, x: np.ndarray, dt: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]: ...
-
-
-# (x (..., n), m) -> (h (..., m), H (..., m, n)) for a measurement of dimension m
-MeasurementFunction = Callable[[np.ndarray, int], tuple[np.ndarray, np.ndarray]]
+    def matrices(self, dt: np.ndarray) -> tuple[np.ndarray, np.ndarray]: ...
 
 
 def switching_matrix(stay_probability: float, n_models: int) -> np.ndarray:
@@ -64,92 +53,45 @@ def check_switching_matrix(J: np.ndarray) -> np.ndarray:
         raise ValueError(
             "switching matrix: rows must be probabilities summing to 1 (J[i, j] = i -> j)"
         )
-    return J
-
-
-@dataclass
-class Innovation:
-    """Per track and model: ν (..., M, m), H, R (..., 1, m, m), H P, S⁻¹, and NIS and
-    log-likelihood (..., M)."""
-
-    y: np.ndarray
-    H: np.ndarray
-    R: np.ndarray
-    HP: np.ndarray
-    S_inv: np.ndarray
-    nis: np.ndarray
-    log_likelihood: np.ndarray
-
-    def rows(self, keep: np.ndarray) -> Innovation:
-        """The tracks where `keep` (K,) is True."""
-        return Innovation(*(a[keep] for a in vars(self).values()))
-
-
-def _angle_spread(
-    w: np.ndarray, angle: np.ndarray, reference: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """d = wrap(angle - reference) (..., I) and the weighted mean Σ_i w_i d_i (...)."""
-    d = wrap_angle(angle - reference)
-    return d, (w[..., None, :] @ d[..., :, None])[..., 0, 0]
+    return np.ascontiguousarray(J)
 
 
 def mix(
     mu: np.ndarray, J: np.ndarray, x: np.ndarray, P: np.ndarray, angle_index: int | None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """§5 step 1: returns c̄ (N, M), x0 (N, M, n), P0 (N, M, n, n).
+    """§5 step 1 on its own: c̄ (K, M), x0 (K, M, n), P0 (K, M, n, n) for mu (K, M).
 
     The angle of model j is mixed about its own, x0_j = θ_j + Σ_i ω_ij wrap(θ_i - θ_j), and
     left unwrapped (the motion model that follows wraps it).
     """
-    cbar = mu @ J  # c̄_j = Σ_i μ_i J_ij
-    omega_t = J.T * (mu[..., None, :] / cbar[..., :, None])  # ω_ij stored as [j, i]
-    x0 = omega_t @ x  # x0_j = Σ_i ω_ij x_i
-    D = x[..., None, :, :] - x0[..., :, None, :]  # [j, i] = x_i - x0_j
-    if angle_index is not None:
-        th = x[..., angle_index]
-        d, spread = _angle_spread(omega_t, th[..., None, :], th[..., :, None])  # [j, i]
-        x0[..., angle_index] = th + spread
-        D[..., angle_index] = wrap_angle(d - spread[..., None])
-    n = x.shape[-1]
-    P0 = (omega_t @ P.reshape(*P.shape[:-2], n * n)).reshape(P.shape)
-    P0 += (D.mT * omega_t[..., None, :]) @ D  # Σ_i ω_ij D_ij D_ijᵀ
+    K, M, n = x.shape
+    cbar, x0, P0 = np.empty((K, M)), np.empty((K, M, n)), np.empty((K, M, n, n))
+    _kalman.mix(
+        K, M, n, floats(mu), floats(J), floats(x), floats(P), angle_code(angle_index), cbar, x0, P0
+    )
     return cbar, x0, P0
 
 
 def combine(
     mu: np.ndarray, x: np.ndarray, P: np.ndarray, angle_index: int | None
 ) -> tuple[np.ndarray, np.ndarray]:
-    """§5 step 4: the moment-matched output (x (N, n), P (N, n, n)); the angle is averaged
-    about the most likely model's, so that π-ε and -π+ε combine to π."""
-    xc = (mu[..., None, :] @ x)[..., 0, :]
-    D = x - xc[..., None, :]  # (N, M, n)
-    if angle_index is not None:
-        th = x[..., angle_index]
-        reference = np.take_along_axis(th, np.argmax(mu, axis=-1)[..., None], axis=-1)
-        d, spread = _angle_spread(mu, th, reference)
-        xc[..., angle_index] = wrap_angle(reference[..., 0] + spread)
-        D[..., angle_index] = wrap_angle(d - spread[..., None])
-    n = x.shape[-1]
-    Pc = (mu[..., None, :] @ P.reshape(*P.shape[:-2], n * n)).reshape((*xc.shape, n))
-    Pc += (D.mT * mu[..., None, :]) @ D
+    """§5 step 4: the moment-matched output x (K, n), P (K, n, n); the angle averaged about
+    the most likely model's, so that π-ε and -π+ε combine to π."""
+    K, M, n = x.shape
+    xc, Pc = np.empty((K, n)), np.empty((K, n, n))
+    _kalman.combine(K, M, n, floats(mu), floats(x), floats(P), angle_code(angle_index), xc, Pc)
     return xc, Pc
 
 
 def posterior(prior: np.ndarray, log_likelihood: np.ndarray) -> np.ndarray:
-    """prior · exp(log_likelihood), normalised over the last axis (§5 step 3).
-
-    The likelihoods are scaled by their largest, which cannot underflow unless the most likely
-    model has prior 0 (a switching matrix with zeros); then the sum is taken in logarithms.
-    """
-    w = prior * np.exp(log_likelihood - log_likelihood.max(axis=-1, keepdims=True))
-    total = w.sum(axis=-1, keepdims=True)
-    if not every(total):
-        with np.errstate(divide="ignore"):
-            log_w = np.log(prior) + log_likelihood
-        w = np.exp(log_w - log_w.max(axis=-1, keepdims=True))
-        total = w.sum(axis=-1, keepdims=True)
-    w /= total
-    return w
+    """§5 step 3: prior · exp(ℓ) normalised over the models (K, M), scaled by the largest
+    likelihood; when the most likely model has prior 0 (a switching matrix with zeros) the sum
+    is taken in logarithms, so the probabilities stay finite."""
+    prior = floats(np.atleast_2d(prior))
+    K, M = prior.shape
+    mu = np.empty((K, M))
+    _kalman.posterior(K, M, prior, floats(log_likelihood), mu)
+    return mu
 
 
 @dataclass
@@ -158,69 +100,85 @@ class ImmFilter:
 
     `predict` (mix + model-conditioned predict, μ <- c̄), then `innovate`, then `correct` for the
     tracks that pass the gate. Arrays are public: x (N, M, n), P (N, M, n, n), mu (N, M).
-    `idx` selects tracks: a slice (the fast case: views, written in place) or an index array.
+    The models are ground models (`GroundModelBank`, measured by h of `ground_models`) or
+    linear ones measured by `H` {m: (m, n)}. `idx` selects tracks (see `kalman`).
     """
 
-    models: MotionModels
+    models: GroundModelBank | LinearModels
     J: np.ndarray
-    measure: MeasurementFunction
     x: np.ndarray
     P: np.ndarray
     mu: np.ndarray
     angle_index: int | None = None
+    H: dict[int, np.ndarray] | None = None
 
     @classmethod
     def empty(
         cls,
-        models: MotionModels,
+        models: GroundModelBank | LinearModels,
         J: np.ndarray,
-        measure: MeasurementFunction,
         n_tracks: int,
         state_dim: int,
         angle_index: int | None = None,
+        H: dict[int, np.ndarray] | None = None,
     ) -> ImmFilter:
         M = len(models.names)
         J = check_switching_matrix(J)
         if J.shape != (M, M):
             raise ValueError(f"switching matrix is {J.shape}, expected ({M}, {M})")
+        if (H is None) != isinstance(models, GroundModelBank):
+            raise ValueError("ground models are measured by h(x); linear ones need H")
         return cls(
             models,
             J,
-            measure,
             np.zeros((n_tracks, M, state_dim)),
             np.tile(np.eye(state_dim), (n_tracks, M, 1, 1)),
             np.full((n_tracks, M), 1.0 / M),
             angle_index,
+            None if H is None else {m: floats(h) for m, h in H.items()},
         )
 
-    def predict(self, idx: slice | np.ndarray, dt: np.ndarray) -> None:
-        """Steps 1-2 (predict) for the tracks idx over dt (len(idx),); μ becomes c̄."""
-        cbar, x0, P0 = mix(self.mu[idx], self.J, self.x[idx], self.P[idx], self.angle_index)
-        x1, F, Q = self.models.propagate(x0, dt)
-        self.x[idx] = x1
-        self.P[idx] = predict_covariance(P0, F, Q)
-        self.mu[idx] = cbar
+    @property
+    def _ground(self) -> np.ndarray | None:
+        return self.models.parameters if isinstance(self.models, GroundModelBank) else None
 
-    def innovate(self, idx: slice | np.ndarray, z: np.ndarray, R: np.ndarray) -> Innovation:
-        """ν = z - h(x(k+1|k)), S, NIS and log N(ν; 0, S) per model; z (K, m), R (K, m, m)."""
-        h, H = self.measure(self.x[idx], z.shape[-1])
-        y = z[:, None, :] - h
-        R = R[:, None]  # the same R for every model
-        HP, S = innovation_covariance(self.P[idx], H, R)
-        S_inv, nis, log_likelihood = gaussian_terms(y, S)
-        return Innovation(y, H, R, HP, S_inv, nis, log_likelihood)
+    def predict(self, idx: Index, dt: np.ndarray) -> None:
+        """Steps 1-2 (predict) for the tracks idx over dt (K,); μ becomes c̄."""
+        ground = self._ground
+        F, Q = (None, None) if ground is not None else self.models.matrices(dt)
+        kalman.predict(
+            self.x,
+            self.P,
+            idx,
+            dt,
+            ground=ground,
+            F=F,
+            Q=Q,
+            mu=self.mu,
+            J=self.J,
+            angle_index=self.angle_index,
+        )
 
-    def correct(self, idx: slice | np.ndarray, innovation: Innovation) -> None:
+    def innovate(self, idx: Index, z: np.ndarray, R: np.ndarray) -> Innovation:
+        """ν = z - h(x(k+1|k)), S, the gain, NIS and log N(ν; 0, S) per model; z (K, m),
+        R (K, m, m)."""
+        H = None if self.H is None else self.H[z.shape[-1]]
+        return kalman.innovate(self.x, self.P, idx, z, R, ground=self._ground, H=H)
+
+    def correct(self, idx: Index, innovation: Innovation) -> None:
         """Step 2's update and step 3 for the tracks idx (the rows of `innovation`)."""
-        i = innovation
-        x, P = joseph_update(self.x[idx], self.P[idx], i.y, i.H, i.R, i.HP, i.S_inv)
-        if self.angle_index is not None:
-            heading = x[..., self.angle_index]
-            wrap_angle(heading, out=heading)
-        self.x[idx] = x
-        self.P[idx] = P
-        self.mu[idx] = posterior(self.mu[idx], i.log_likelihood)
+        H = None if self.H is None else self.H[innovation.y.shape[-1]]
+        kalman.correct(
+            self.x,
+            self.P,
+            idx,
+            innovation,
+            ground=self._ground,
+            H=H,
+            mu=self.mu,
+            angle_index=self.angle_index,
+        )
 
-    def combined(self, idx: slice | np.ndarray = slice(None)) -> tuple[np.ndarray, np.ndarray]:
+    def combined(self, idx: Index = slice(None)) -> tuple[np.ndarray, np.ndarray]:
         """Step 4 for the tracks idx."""
         return combine(self.mu[idx], self.x[idx], self.P[idx], self.angle_index)

@@ -1,89 +1,167 @@
-"""Batched Kalman filter algebra: every function takes a leading batch shape `(...)`.
+"""Kalman and IMM steps over a bank of tracks, computed by the compiled `_kalman` kernel.
 
-The equations are the ones of seed 000 §4.1 and seed 003 eqs. (4)-(10); the update uses the
-Joseph form so that P stays symmetric positive (semi-)definite whatever the gain.
-Shapes: x (..., n), P (..., n, n), z and y (..., m), H (..., m, n), R (..., m, m), m = 2 or 4.
-H P is computed once and shared by S and the gain.
+A bank holds N tracks of M models of an n-state filter: x (N, M, n), P (N, M, n, n) and, for
+an IMM, mu (N, M), all C-contiguous float64, updated in place. `idx` selects the tracks a step
+works on: `slice(None)` (all of them, the fast case) or an index array (K,); everything else
+has one row per selected track, in that order.
+
+How the models move and are measured is one of two kinds:
+- ground (`ground`: the (M, 4) parameters of `ground_models.GroundModelBank`): the CSD / CS /
+  CD extended Kalman filters of seed 000 §4.1 on [X, Y, s, θ, ṡ, θ̇], measured by
+  h = (X, Y, s cos θ, s sin θ) or (X, Y), a negative speed made positive after each update;
+- linear (`F`, `Q` (K, M, n, n) for the step's intervals, `H` (m, n)): seed 003 eqs. (4)-(10).
+
+The equations, one comment each, are in `_kalman.c`:
+    predict:  mix (§5 step 1, with J and mu), x' = f(x0), P' = F P0 Fᵀ + Q, μ <- c̄
+    innovate: ν = z - h(x), S = H P Hᵀ + R, K = P Hᵀ S⁻¹, NIS = νᵀ S⁻¹ ν, ℓ = log N(ν; 0, S)
+    correct:  x + K ν, P = (I - K H) P (I - K H)ᵀ + K R Kᵀ (Joseph form), μ ∝ μ exp(ℓ) (§5 step 3)
+    forecast: each ground model ahead without mixing, its [X, Y, Ẋ, Ẏ], moments combined
+(mixing, combination and the posterior on their own are in `imm`.)
+An S that is not positive definite gives NIS = inf and ℓ = -inf (no gate accepts it).
+`angle_index` names a state component that is an angle (the heading): mixed and combined as
+one (DESIGN §10), wrapped to (-π, π] after an update.
 """
 
 from __future__ import annotations
 
-import math
-from functools import cache
+from dataclasses import dataclass
 
 import numpy as np
 
-from gazed.estimation.small_matrices import inverse_and_log_det
+from gazed.estimation import _kalman
 
-LOG_2PI = math.log(2.0 * math.pi)
-
-
-@cache
-def identity(n: int) -> np.ndarray:
-    """I (n, n), shared (read-only)."""
-    eye = np.eye(n)
-    eye.flags.writeable = False
-    return eye
+Index = slice | np.ndarray
+NO_ANGLE = -1
 
 
-def symmetrize(P: np.ndarray) -> np.ndarray:
-    """(P + Pᵀ) / 2 over the last two axes."""
-    P_sym = P + P.mT
-    P_sym *= 0.5
-    return P_sym
+def _selection(idx: Index, n_tracks: int) -> tuple[np.ndarray | None, int]:
+    """The kernel's rows (None: every track) and their number."""
+    if isinstance(idx, slice):
+        if idx == slice(None):
+            return None, n_tracks
+        rows = np.arange(n_tracks)[idx]
+        return rows, len(rows)
+    rows = np.asarray(idx, dtype=np.int64)
+    return rows, len(rows)
 
 
-def predict_covariance(P: np.ndarray, F: np.ndarray, Q: np.ndarray) -> np.ndarray:
-    """P(k+1|k) = F P(k|k) Fᵀ + Q   (seed 000 §4.1, seed 003 eq. 7)."""
-    P_new = F @ P @ F.mT
-    P_new += Q
-    return symmetrize(P_new)
+def angle_code(angle_index: int | None) -> int:
+    """The kernel's angle argument: the index, or -1 for none."""
+    return NO_ANGLE if angle_index is None else angle_index
 
 
-def innovation_covariance(
-    P: np.ndarray, H: np.ndarray, R: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """H P (..., m, n) and S = H P Hᵀ + R   (seed 000 §4.1, seed 003 eq. 9)."""
-    HP = H @ P
-    S = HP @ H.mT
-    S += R
-    return HP, symmetrize(S)
+def floats(a: np.ndarray) -> np.ndarray:
+    """a as C-contiguous float64 (no copy when it is already)."""
+    return np.ascontiguousarray(a, dtype=float)
 
 
-def gaussian_terms(y: np.ndarray, S: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """S⁻¹, NIS = yᵀ S⁻¹ y and log N(y; 0, S) (the likelihood of seed 000 §5 step 3).
+@dataclass
+class Innovation:
+    """Per selected track and model: ν (K, M, m), S (K, M, m, m), the gain K (K, M, n, m),
+    NIS and log-likelihood (K, M); and the measurement covariance R (K, m, m)."""
 
-    Returns (S_inv (..., m, m), nis (...), log_likelihood (...)).
-    """
-    S_inv, log_det = inverse_and_log_det(S)
-    nis = (y[..., None, :] @ S_inv @ y[..., :, None])[..., 0, 0]
-    log_likelihood = nis + log_det
-    log_likelihood += y.shape[-1] * LOG_2PI
-    log_likelihood *= -0.5
-    return S_inv, nis, log_likelihood
+    y: np.ndarray
+    S: np.ndarray
+    K: np.ndarray
+    nis: np.ndarray
+    log_likelihood: np.ndarray
+    R: np.ndarray
+
+    def rows(self, keep: np.ndarray) -> Innovation:
+        """The tracks where `keep` (K,) is True."""
+        return Innovation(*(a[keep] for a in vars(self).values()))
 
 
-def joseph_update(
+def predict(
     x: np.ndarray,
     P: np.ndarray,
-    y: np.ndarray,
-    H: np.ndarray,
-    R: np.ndarray,
-    HP: np.ndarray,
-    S_inv: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray]:
-    """The measurement update for innovation y (H P and S⁻¹ given).
+    idx: Index,
+    dt: np.ndarray,
+    *,
+    ground: np.ndarray | None = None,
+    F: np.ndarray | None = None,
+    Q: np.ndarray | None = None,
+    mu: np.ndarray | None = None,
+    J: np.ndarray | None = None,
+    angle_index: int | None = None,
+) -> None:
+    """The selected tracks over dt (K,) seconds, in place: mixed first when J (M, M) is given
+    (J[i, j] = P(model j next | model i now); mu becomes c̄)."""
+    N, M, n = x.shape
+    rows, K = _selection(idx, N)
+    _kalman.predict(
+        N, M, n, K, x, P, mu, rows, floats(dt), ground, J, F, Q, angle_code(angle_index)
+    )
 
-    K = P Hᵀ S⁻¹                                   (seed 003 eq. 10; the gain W of seed 000 §4.1)
-    x(k+1|k+1) = x(k+1|k) + K y                    (eq. 4)
-    P(k+1|k+1) = (I - K H) P (I - K H)ᵀ + K R Kᵀ   (Joseph form of eq. 8)
-    computed with Kᵀ = S⁻¹ H P and (I - K H)ᵀ = I - Hᵀ Kᵀ, so that every batched product has
-    its transposed operand on the left (see `ground_models.GroundModelBank`).
-    """
-    Kt = S_inv @ HP
-    x_new = x + (y[..., None, :] @ Kt)[..., 0, :]
-    I_KH_t = H.mT @ Kt
-    np.subtract(identity(P.shape[-1]), I_KH_t, out=I_KH_t)
-    P_new = I_KH_t.mT @ P @ I_KH_t
-    P_new += Kt.mT @ R @ Kt
-    return x_new, symmetrize(P_new)
+
+def innovate(
+    x: np.ndarray,
+    P: np.ndarray,
+    idx: Index,
+    z: np.ndarray,
+    R: np.ndarray,
+    *,
+    ground: np.ndarray | None = None,
+    H: np.ndarray | None = None,
+) -> Innovation:
+    """The innovation of every model of the selected tracks for z (K, m), R (K, m, m)."""
+    N, M, n = x.shape
+    rows, K = _selection(idx, N)
+    m = z.shape[-1]
+    z, R = floats(z), floats(R)
+    y = np.empty((K, M, m))
+    S = np.empty((K, M, m, m))
+    gain = np.empty((K, M, n, m))
+    nis = np.empty((K, M))
+    log_likelihood = np.empty((K, M))
+    _kalman.innovate(N, M, n, K, m, x, P, rows, ground, z, R, H, y, S, gain, nis, log_likelihood)
+    return Innovation(y, S, gain, nis, log_likelihood, R)
+
+
+def correct(
+    x: np.ndarray,
+    P: np.ndarray,
+    idx: Index,
+    innovation: Innovation,
+    *,
+    ground: np.ndarray | None = None,
+    H: np.ndarray | None = None,
+    mu: np.ndarray | None = None,
+    angle_index: int | None = None,
+) -> int:
+    """Update the selected tracks (the rows of `innovation`) in place; with mu, their model
+    probabilities too. Returns how many ground states had their speed's sign turned."""
+    N, M, n = x.shape
+    rows, K = _selection(idx, N)
+    i = innovation
+    return _kalman.correct(
+        N,
+        M,
+        n,
+        K,
+        i.y.shape[-1],
+        x,
+        P,
+        mu,
+        rows,
+        ground,
+        i.y,
+        i.K,
+        i.R,
+        H,
+        i.log_likelihood,
+        angle_code(angle_index),
+    )
+
+
+def forecast(
+    x: np.ndarray, P: np.ndarray, mu: np.ndarray, idx: Index, dt: np.ndarray, ground: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """A ground IMM's selected tracks dt (K,) >= 0 ahead, unchanged: the mixture's mean
+    [X, Y, Ẋ, Ẏ] (K, 4) and covariance (K, 4, 4)."""
+    N, M, _ = x.shape
+    rows, K = _selection(idx, N)
+    mean = np.empty((K, 4))
+    cov = np.empty((K, 4, 4))
+    _kalman.forecast(N, M, K, x, P, mu, rows, floats(dt), ground, mean, cov)
+    return mean, cov

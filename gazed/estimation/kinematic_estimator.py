@@ -5,17 +5,11 @@ on the common state [x, ẋ, ẍ, y, ẏ, ÿ] of Table 2, batched over tracks an
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
+from gazed.estimation import kalman
 from gazed.estimation.estimator import Space, TrackEstimator
-from gazed.estimation.kalman import (
-    gaussian_terms,
-    innovation_covariance,
-    joseph_update,
-    predict_covariance,
-)
+from gazed.estimation.kalman import Innovation
 from gazed.estimation.kinematic_models import (
     ACCELERATION_INDEX,
     POSITION_INDEX,
@@ -28,20 +22,6 @@ from gazed.estimation.kinematic_models import (
 from gazed.estimation.selection import InnovationSelector, SelectionReport
 
 OUTPUT_INDEX = POSITION_INDEX + VELOCITY_INDEX  # [x, y, ẋ, ẏ]
-
-
-@dataclass
-class _Innovations:
-    y: np.ndarray  # (K, M, m)
-    R: np.ndarray  # (K, 1, m, m)
-    HP: np.ndarray  # (K, M, m, 6)
-    S: np.ndarray  # (K, M, m, m)
-    S_inv: np.ndarray
-    nis: np.ndarray  # (K, M)
-
-    def rows(self, keep: np.ndarray) -> _Innovations:
-        """The tracks where `keep` (K,) is True."""
-        return _Innovations(*(a[keep] for a in vars(self).values()))
 
 
 class KinematicEstimator(TrackEstimator):
@@ -72,7 +52,7 @@ class KinematicEstimator(TrackEstimator):
             if selection_window is not None
             else None
         )
-        self._H = {m: measurement_matrix(m == 4) for m in (2, 4)}
+        self._H = {m: np.ascontiguousarray(measurement_matrix(m == 4)) for m in (2, 4)}
 
     def selection_report(self, track: int = 0) -> SelectionReport | None:
         """The innovation statistics behind the current choice (innovation mode only)."""
@@ -94,33 +74,26 @@ class KinematicEstimator(TrackEstimator):
     def _predict(self, idx: slice | np.ndarray, dt: np.ndarray) -> None:
         """x(k+1|k) = Ã x(k|k), P(k+1|k) = Ã P Ãᵀ + Q̃   (seed 003 eqs. 6-7)."""
         F, Q = self.bank.matrices(dt)
-        self.x[idx] = (F @ self.x[idx][..., None])[..., 0]
-        self.P[idx] = predict_covariance(self.P[idx], F, Q)
+        kalman.predict(self.x, self.P, idx, dt, F=F, Q=Q)
 
     def _innovate(
         self, idx: slice | np.ndarray, z: np.ndarray, R: np.ndarray
-    ) -> tuple[np.ndarray, _Innovations]:
+    ) -> tuple[np.ndarray, Innovation]:
         """ν = z - H x(k+1|k) and S = H P Hᵀ + R   (seed 003 eqs. 5, 9)."""
-        H = self._H[z.shape[-1]]
-        y = z[:, None, :] - self.x[idx] @ H.T
-        Rm = R[:, None]
-        HP, S = innovation_covariance(self.P[idx], H, Rm)
-        S_inv, nis, _ = gaussian_terms(y, S)
-        return nis.min(axis=-1), _Innovations(y, Rm, HP, S, S_inv, nis)
+        innovation = kalman.innovate(self.x, self.P, idx, z, R, H=self._H[z.shape[-1]])
+        return innovation.nis.min(axis=-1), innovation
 
     def _correct(
-        self, idx: slice | np.ndarray, handle: _Innovations, inside: np.ndarray | None
+        self, idx: slice | np.ndarray, handle: Innovation, inside: np.ndarray | None
     ) -> None:
+        """x(k+1|k+1) = x + K ν, P by the Joseph form of eq. 8; the selector records ν, S."""
         i = handle
         rows = np.arange(self.n_tracks)[idx]
         if inside is not None:
             rows = rows[inside]
             i = i.rows(inside)
             idx = rows
-        H = self._H[i.y.shape[-1]]
-        self.x[idx], self.P[idx] = joseph_update(
-            self.x[idx], self.P[idx], i.y, H, i.R, i.HP, i.S_inv
-        )
+        kalman.correct(self.x, self.P, idx, i, H=self._H[i.y.shape[-1]])
         if self.selector is not None:
             self.selector.record(rows, i.y, i.S, i.nis)
 

@@ -1,29 +1,19 @@
-"""Closed forms for the 2x2 and 4x4 symmetric matrices of the measurement space, batched.
+"""Which measurement covariances a filter can take: finite, symmetric, positive definite.
 
-Innovation covariances S and measurement covariances R are 2x2 (position) or 4x4 (position
-and velocity). `np.linalg` loops over a batch one LAPACK call per matrix (about 1 µs each);
-the closed forms below are a few dozen array operations on the whole stack, which wins from a
-few dozen matrices on (for one track's three models, LAPACK is faster). A 4x4 matrix is split
-into 2x2 blocks, S = [[A, B], [Bᵀ, D]], with the Schur complement C = D - Bᵀ A⁻¹ B:
-
-    S⁻¹ = [[A⁻¹ + E Bᵀ A⁻¹, -E], [-Eᵀ, C⁻¹]],  E = A⁻¹ B C⁻¹,   det S = det A · det C,
-
-and S is positive definite exactly when A and C are (no pivoting is needed for such S).
-The closed forms work on the stack transposed to (m, m, L), so that every operation runs
-along the L matrices (an operation over the two entries of a 2x2 row is mostly overhead).
+Covariances R are 2x2 (position) or 4x4 (position and velocity), checked for a whole batch in
+closed forms along the stack (a dozen array operations, where `np.linalg` would make one LAPACK
+call per matrix). A 4x4 matrix is split into 2x2 blocks, S = [[A, B], [Bᵀ, D]]; it is positive
+definite exactly when A and the Schur complement C = D - Bᵀ A⁻¹ B are. The stack is transposed
+to (m, m, L), so that every operation runs along the L matrices.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-# stacks of at most this many matrices are inverted by LAPACK (`inverse_and_log_det`)
-LAPACK_MAX_MATRICES = 16
-
 # adj([[a, b], [c, d]]) = [[d, -b], [-c, a]]: the matrix reversed on both axes, transposed,
 # times this
 _COFACTOR_SIGN = np.array([[1.0, -1.0], [-1.0, 1.0]])[:, :, None]
-
 
 # flat indices of the entries above the diagonal and of their mirror images, per size
 _UPPER = {m: np.array([i * m + j for i in range(m) for j in range(i + 1, m)]) for m in (2, 4)}
@@ -52,47 +42,6 @@ def _entries_first(S: np.ndarray) -> np.ndarray:
     """(..., m, m) -> contiguous (m, m, L)."""
     m = S.shape[-1]
     return np.ascontiguousarray(S.reshape(-1, m, m).transpose(1, 2, 0))
-
-
-def inverse_and_log_det(S: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """S⁻¹ (..., m, m) and log det S (...) of symmetric positive definite S, m = 2 or 4.
-
-    Up to LAPACK_MAX_MATRICES matrices go to LAPACK (one call each for the inverse and the
-    determinant beats the dozens of array operations below on a handful of matrices); larger
-    stacks use the closed forms. Both are checked against each other in the tests.
-    """
-    if S.size <= LAPACK_MAX_MATRICES * S.shape[-1] ** 2:
-        try:
-            return np.linalg.inv(S), np.linalg.slogdet(S)[1]
-        except np.linalg.LinAlgError:  # singular: inf / NaN from the closed forms, which no
-            with np.errstate(all="ignore"):  # gate accepts
-                return closed_form_inverse_and_log_det(S)
-    return closed_form_inverse_and_log_det(S)
-
-
-def closed_form_inverse_and_log_det(S: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """`inverse_and_log_det` by the 2x2 block formulas of the module docstring."""
-    St = _entries_first(S)
-    if S.shape[-1] == 2:
-        det = _det_2x2(St)
-        S_inv = _adjugate_2x2(St) / det
-    else:
-        A, B, D = St[:2, :2], St[:2, 2:], St[2:, 2:]
-        det_A = _det_2x2(A)
-        A_inv = _adjugate_2x2(A) / det_A
-        A_inv_B = _matmul_2x2(A_inv, B)
-        C = D - _matmul_2x2(_t(B), A_inv_B)
-        det_C = _det_2x2(C)
-        C_inv = _adjugate_2x2(C) / det_C
-        E = _matmul_2x2(A_inv_B, C_inv)
-        S_inv = np.empty(St.shape)
-        S_inv[:2, :2] = A_inv + _matmul_2x2(E, _t(A_inv_B))
-        np.negative(E, out=S_inv[:2, 2:])
-        np.negative(_t(E), out=S_inv[2:, :2])
-        S_inv[2:, 2:] = C_inv
-        det = det_A * det_C
-    S_inv = np.ascontiguousarray(S_inv.transpose(2, 0, 1)).reshape(S.shape)
-    return S_inv, np.log(det).reshape(S.shape[:-2])
 
 
 def positive_definite(S: np.ndarray) -> np.ndarray:

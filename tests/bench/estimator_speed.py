@@ -90,12 +90,10 @@ def linear_imm_pair() -> tuple[IMMEstimator, ImmFilter, np.ndarray]:
     class Models:
         names = bank.names
 
-        def propagate(self, x, dt):
-            return (F @ x[..., None])[..., 0], F, Q
+        def matrices(self, dt):
+            return F[None], Q[None]
 
-    ours = ImmFilter.empty(
-        Models(), J, lambda x, m: (x @ H.T, np.broadcast_to(H, (*x.shape[:-1], 2, 6))), 1, 6
-    )
+    ours = ImmFilter.empty(Models(), J, 1, 6, H={2: H})
     return reference, ours, R
 
 
