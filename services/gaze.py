@@ -40,6 +40,15 @@ class GazeService:
     def __init__(self, rig: Rig, bus: Bus) -> None:
         self.controller = GazeController(rig, Now.read().mono_s)
         self.period_s = 1.0 / rig.gaze.rate_hz
+        # After a prediction, the timer's next tick: a period later, unless a prediction is due
+        # first anyway (a rate at or below the camera's). Then it waits half a frame longer, so
+        # that it fires only when a prediction is missing, not a moment before the next one
+        # (that demand would be stale at once and hold the servo and this process as the
+        # prediction arrives).
+        frame_period_s = rig.camera.frame_period_s
+        self.after_prediction_s = self.period_s + (
+            0.5 * frame_period_s if self.period_s >= frame_period_s else 0.0
+        )
         self.predictions = bus.subscribe(ESTIMATOR_PREDICTION, capacity=16)
         self.detections = bus.subscribe(VISION_DETECTION, capacity=16)
         self.candidates = bus.subscribe(VISION_CANDIDATES, capacity=4)
@@ -69,7 +78,7 @@ class GazeService:
         for prediction in fresh:
             c.on_prediction(prediction)
         if fresh or now.mono_s >= self.next_tick_s:  # a new prediction acts at once
-            self.next_tick_s = now.mono_s + self.period_s
+            self.next_tick_s = now.mono_s + (self.after_prediction_s if fresh else self.period_s)
             decision = c.tick(now.wall_ns, now.mono_s)
             for t in decision.transitions:
                 log.debug("%s -> %s: %s", t.previous, t.state, t.reason)  # gazed run logs them

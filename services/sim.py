@@ -11,13 +11,20 @@ frame encoding,
 distractor, the true camera pose, latency, noise, flicker, blur, the court (ground lines to
 trace), and the emulated head's keys.
 
-Frames are rendered at their capture instants on the camera's clock from the head's true pose
-at that instant (`HeadEmulator.pose_at`) and the targets' states; a capture that falls more
-than a frame behind (an overloaded machine) is skipped and counted, never queued.
+Frames are captured at their instants on the camera's clock: the head's true pose at that
+instant (`HeadEmulator.pose_at`) and the targets' states are taken then, and the truth is
+published then; a capture that falls more than a frame behind (an overloaded machine) is
+skipped and counted, never queued. The pixels are rendered from that snapshot half a frame
+before the frame is due on the bus, not at capture: with the visual latency not a whole number
+of frames, rendering at capture put the simulator's busiest 2 ms on a core while the loop
+worked on the frame published just before. For the same reason the process runs at a lower
+priority (`SIM_NICENESS`): the world is a test harness, and on a real rig the loop has the
+machine to itself.
 """
 
 from __future__ import annotations
 
+import os
 import time
 from collections import deque
 from dataclasses import dataclass
@@ -29,7 +36,7 @@ from gazed.bus import Bus
 from gazed.config import Rig
 from gazed.geometry.camera import CameraModel
 from gazed.geometry.pose import CameraPose
-from gazed.messages import FrameHeader, SimTruth
+from gazed.messages import FrameHeader, HeadPose, SimTruth
 from gazed.sim.head_emulator import HeadEmulator
 from gazed.sim.renderer import Body, Renderer
 from gazed.sim.trajectories import Trajectory, make_trajectory
@@ -37,11 +44,23 @@ from gazed.topics import SIM_FRAME, SIM_TRUTH
 from services.runtime import HealthReport, Now, main
 
 STAGE = "sim"
+SIM_NICENESS = 10  # added to the process's nice value (lower priority than the loop's)
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A captured instant waiting to be rendered: the head's true pose and the bodies then."""
+
+    render_at_s: float
+    t_s: float  # capture, monotonic
+    header: FrameHeader
+    head: HeadPose
+    bodies: tuple[Body, ...]
 
 
 @dataclass(frozen=True)
 class Pending:
-    """A rendered frame waiting out the visual latency."""
+    """A rendered frame waiting out the rest of the visual latency."""
 
     publish_at_s: float
     header: FrameHeader
@@ -95,6 +114,9 @@ class SimService:
         self.t0_s = time.monotonic()
         self.next_capture_s = self.t0_s
         self.seq = 0
+        # a frame is rendered this long before it is due on the bus
+        self.render_lead_s = min(self.latency_s, 0.5 * self.period_s)
+        self.scenes: deque[Scene] = deque()
         self.pending: deque[Pending] = deque()
         self.counts = {"frames": 0, "skipped": 0}
         self.render_ms = 0.0
@@ -107,15 +129,20 @@ class SimService:
         while now.mono_s >= self.next_capture_s:
             self._capture(self.next_capture_s, now)
             self.next_capture_s += self.period_s
+        while self.scenes and self.scenes[0].render_at_s <= time.monotonic():
+            self._render(self.scenes.popleft())
         while self.pending and self.pending[0].publish_at_s <= time.monotonic():
             frame = self.pending.popleft()
             self.frames.put_frame(frame.header.stamped(STAGE), frame.pixels)
             self.counts["frames"] += 1
-        wake = [self.next_capture_s] + ([self.pending[0].publish_at_s] if self.pending else [])
+        wake = [self.next_capture_s]
+        wake += [self.scenes[0].render_at_s] if self.scenes else []
+        wake += [self.pending[0].publish_at_s] if self.pending else []
         return max(0.0, min(wake) - time.monotonic())
 
     def _capture(self, t_s: float, now: Now) -> None:
-        """Render the frame whose light hits the sensor at monotonic `t_s`; publish its truth."""
+        """The scene whose light hits the sensor at monotonic `t_s`, kept for rendering; its
+        truth published at once."""
         world_t_s = t_s - self.t0_s
         t_capture_ns = now.wall_ns - round((now.mono_s - t_s) * 1e9)
         head = self.emulator.pose_at(t_s)
@@ -130,28 +157,15 @@ class SimService:
                     other.xy_m, self.rig.sim.target_height_m, self.rig.sim.target_width_m, texture=1
                 )
             )
-        started = time.perf_counter()
-        pixels = self.renderer.render(
-            self.seq,
-            head.pan_rad,
-            head.tilt_rad,
-            bodies,
-            t_s=world_t_s,
-            pan_rate_rad_s=head.pan_rate_rad_s,
-            tilt_rate_rad_s=head.tilt_rate_rad_s,
-        )
-        encoding = self.rig.sim.frame_encoding
-        if encoding == "gray8":
-            pixels = cv2.cvtColor(pixels, cv2.COLOR_BGR2GRAY)
-        self.render_ms = (time.perf_counter() - started) * 1e3
         header = FrameHeader(
             t_capture_ns=t_capture_ns,
             seq=self.seq,
             width=self.camera.width_px,
             height=self.camera.height_px,
-            encoding=encoding,
+            encoding=self.rig.sim.frame_encoding,
         )
-        self.pending.append(Pending(t_s + self.latency_s, header, pixels))
+        render_at_s = t_s + self.latency_s - self.render_lead_s
+        self.scenes.append(Scene(render_at_s, t_s, header, head, tuple(bodies)))
         self.truth.put(
             SimTruth(
                 t_capture_ns=t_capture_ns,
@@ -163,6 +177,23 @@ class SimService:
             ).stamped(STAGE, t_capture_ns)
         )
         self.seq += 1
+
+    def _render(self, scene: Scene) -> None:
+        """The pixels of a captured scene, queued until the visual latency has passed."""
+        started = time.perf_counter()
+        pixels = self.renderer.render(
+            scene.header.seq,
+            scene.head.pan_rad,
+            scene.head.tilt_rad,
+            list(scene.bodies),
+            t_s=scene.t_s - self.t0_s,
+            pan_rate_rad_s=scene.head.pan_rate_rad_s,
+            tilt_rate_rad_s=scene.head.tilt_rate_rad_s,
+        )
+        if scene.header.encoding == "gray8":
+            pixels = cv2.cvtColor(pixels, cv2.COLOR_BGR2GRAY)
+        self.render_ms = (time.perf_counter() - started) * 1e3
+        self.pending.append(Pending(scene.t_s + self.latency_s, scene.header, pixels))
 
     def health(self) -> HealthReport:
         return HealthReport(
@@ -180,4 +211,5 @@ def build(rig: Rig, bus: Bus) -> SimService:
 
 
 if __name__ == "__main__":
+    os.nice(SIM_NICENESS)
     raise SystemExit(main("sim", build))
