@@ -1,8 +1,13 @@
 """The zenoh bus: sessions from the rig's [bus], typed publish/subscribe, liveliness.
 
 Topology (DESIGN §3): the supervisor opens a router-mode session listening on the rig's loopback
-endpoint; every process and tool connects to it as a client. Multicast and gossip scouting are off
-everywhere, so nothing is announced and nothing listens beyond the configured endpoints.
+endpoint; every tool connects to it as a client, and so does every process of a rig whose bus
+has credentials, a zenoh config or endpoints beyond loopback (the router authenticates and
+filters everything). On a private loopback bus (`[bus] peer_links`, the default) the rig's
+processes are peers instead: each also listens on a loopback port of the system's choosing,
+learns the others' from the router (gossip scouting, on for the router and the peers alone) and
+sends them its messages directly — one hop instead of two through the router. Multicast
+scouting is off everywhere, so nothing is announced beyond the configured endpoints.
 
 Identity (DESIGN §3, README "Security and several hosts"): with `[bus] credentials_path` every
 session authenticates with zenoh's user/password scheme as its own identity: each of the rig's
@@ -90,10 +95,18 @@ def session_config(
     base; `bus.credentials_path` gives the session its user/password as `identity`, and a router
     its dictionary of every identity. Access control is enforced by the router alone."""
     config = _base_config(bus.zenoh_config_path)
-    config.insert_json5("mode", json.dumps("router" if router else "client"))
+    # a rig process on a private loopback bus is a peer: it listens on loopback, learns the
+    # other processes' endpoints from the router (gossip) and sends them its messages directly
+    peer = not router and bus.direct and identity in SERVICE_NAMES
+    mode = "router" if router else "peer" if peer else "client"
+    config.insert_json5("mode", json.dumps(mode))
     config.insert_json5("scouting/multicast/enabled", "false")
-    config.insert_json5("scouting/gossip/enabled", "false")
-    config.insert_json5("listen/endpoints", json.dumps(list(bus.listen) if router else []))
+    config.insert_json5("scouting/gossip/enabled", json.dumps(bus.direct and (router or peer)))
+    listen = list(bus.listen) if router else [bus.peer_listen] if peer else []
+    config.insert_json5("listen/endpoints", json.dumps(listen))
+    if peer:  # like a client, fail to open without the router (a peer would run on alone)
+        config.insert_json5("connect/timeout_ms", "0")
+        config.insert_json5("connect/exit_on_failure", "true")
     config.insert_json5("connect/endpoints", json.dumps([] if router else bus.client_endpoints))
     config.insert_json5("transport/link/tx/lease", str(bus.lease_ms))
     config.insert_json5("adminspace/enabled", "false")

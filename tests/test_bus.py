@@ -155,17 +155,38 @@ def test_client_without_router_is_a_clear_error(tmp_path: Path) -> None:
 
 
 def test_sessions_do_not_scout_and_clients_do_not_listen() -> None:
+    """Nothing scouts by multicast. On a private loopback bus the rig's processes are peers
+    listening on loopback alone (a port of the system's choosing), gossiping through the router;
+    tools are clients that do not listen. With credentials, a zenoh config, peer_links off or
+    an endpoint beyond loopback, every process is a client of the router."""
     bus = BusSection()
     router = session_config(bus, router=True)
-    client = session_config(bus, router=False)
-    for config in (router, client):
+    process = session_config(bus, router=False, identity="estimator")
+    tool = session_config(bus, router=False)
+    for config in (router, process, tool):
         assert json.loads(config.get_json("scouting/multicast/enabled")) is False
-        assert json.loads(config.get_json("scouting/gossip/enabled")) is False
     assert json.loads(router.get_json("mode")) == "router"
     assert json.loads(router.get_json("listen/endpoints")) == ["tcp/127.0.0.1:7447"]
-    assert json.loads(client.get_json("mode")) == "client"
-    assert json.loads(client.get_json("listen/endpoints")) == []
-    assert json.loads(client.get_json("connect/endpoints")) == ["tcp/127.0.0.1:7447"]
+    assert json.loads(router.get_json("scouting/gossip/enabled")) is True
+    assert json.loads(process.get_json("mode")) == "peer"
+    assert json.loads(process.get_json("listen/endpoints")) == ["tcp/127.0.0.1:0"]
+    assert json.loads(process.get_json("connect/endpoints")) == ["tcp/127.0.0.1:7447"]
+    assert json.loads(process.get_json("scouting/gossip/enabled")) is True
+    assert json.loads(tool.get_json("mode")) == "client"
+    assert json.loads(tool.get_json("listen/endpoints")) == []
+    assert json.loads(tool.get_json("connect/endpoints")) == ["tcp/127.0.0.1:7447"]
+    assert json.loads(tool.get_json("scouting/gossip/enabled")) is False
+    for private in (
+        BusSection(peer_links=False),
+        BusSection(listen=["tcp/0.0.0.0:7447"], connect=["tcp/192.168.1.2:7447"]),
+        BusSection(listen=["tcp/192.168.1.2:7447"]),
+    ):
+        assert not private.direct
+        client = session_config(private, router=False, identity="estimator")
+        assert json.loads(client.get_json("mode")) == "client"
+        assert json.loads(client.get_json("listen/endpoints")) == []
+        assert json.loads(client.get_json("scouting/gossip/enabled")) is False
+    assert BusSection(listen=["tcp/[::1]:7447"]).peer_listen == "tcp/[::1]:0"
 
 
 def test_unspecified_listen_address_connects_over_loopback() -> None:

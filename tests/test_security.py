@@ -1,9 +1,11 @@
 """The bus closed to strangers (issue 9 item 5).
 
 - By default every socket of every process (supervisor included) is TCP on loopback: the
-  supervisor's router listens on the rig's loopback endpoint only, the processes connect to it,
-  and no process has a UDP socket at all, so nothing is announced by multicast scouting. The
-  same check flags a default zenoh peer, which listens on every interface and scouts.
+  supervisor's router listens on the rig's loopback endpoint only, each process connects to it
+  and listens on one loopback port for its peers (`[bus] peer_links`; no more open than the
+  router's own unauthenticated loopback endpoint), and no process has a UDP socket at all, so
+  nothing is announced by multicast scouting. The same check flags a default zenoh peer, which
+  listens on every interface and scouts.
 - With `[bus] credentials_path` and the shipped `deploy/zenoh-rig.json5` (TLS, access control;
   a throwaway CA and router certificate made with openssl here) each process authenticates as
   itself; a session without the CA, without credentials, or with a wrong password cannot join;
@@ -96,8 +98,13 @@ def test_every_socket_is_loopback_and_nothing_scouts(tmp_path: Path) -> None:
             )
     finally:
         assert supervisor.stop() == 0
-    # the router alone listens, on the rig's port; processes only connect
-    assert listening == {"supervisor": [port], **{name: [] for name in SERVICE_NAMES}}
+    # the router listens on the rig's port; each process on one loopback port for its peers
+    # (exposed_sockets: nothing beyond loopback), none on the rig's
+    assert listening.pop("supervisor") == [port]
+    assert {name: len(ports) for name, ports in listening.items()} == dict.fromkeys(
+        SERVICE_NAMES, 1
+    )
+    assert port not in {p for ports in listening.values() for p in ports}
 
 
 def test_the_check_flags_a_default_zenoh_peer() -> None:
