@@ -1,11 +1,13 @@
-"""One-way latency on the bus between two processes, through the supervisor's router, as a
-service sees it (sent -> decoded and taken by the receiving loop).
+"""One-way latency on the bus between two processes, as a service sees it (sent -> decoded and
+taken by the receiving loop), through the supervisor's router and over a direct peer link.
 
     python tests/bench/bus_latency.py [--count 2000]
 
 Three processes like a rig: this script holds the router-mode session; a sender and a receiver
-connect to it as clients. Detections are sent at 500 Hz and 640x480 RGB frames at 100 Hz (paced,
-so the figure is latency, not queueing); the sender stamps `t_capture_ns` at send time.
+connect to it, as clients (the sessions of tools: every message through the router) and then as
+the rig's own `vision` and `estimator` (peers on this loopback bus: `[bus] peer_links`).
+Detections are sent at 500 Hz and 640x480 RGB frames at 100 Hz (paced, so the figure is
+latency, not queueing); the sender stamps `t_capture_ns` at send time.
 """
 
 from __future__ import annotations
@@ -34,9 +36,13 @@ def rig_file(directory: Path) -> Path:
     return path
 
 
-def send(rig_path: Path, kind: str, count: int) -> None:
+# the sessions' names: tools are the router's clients, the rig's processes peers of each other
+NAMES = {"router": ("sender", "receiver"), "peer": ("vision", "estimator")}
+
+
+def send(rig_path: Path, kind: str, count: int, links: str) -> None:
     rig = load_rig(rig_path)
-    with Bus(rig, "sender") as bus:
+    with Bus(rig, NAMES[links][0]) as bus:
         publisher = bus.publisher(SIM_FRAME if kind == "frame" else VISION_DETECTION)
         while not publisher.matched():
             time.sleep(0.01)
@@ -75,10 +81,10 @@ def send(rig_path: Path, kind: str, count: int) -> None:
             time.sleep(max(0.0, next_s - time.monotonic()))
 
 
-def receive(rig_path: Path, kind: str, count: int) -> None:
+def receive(rig_path: Path, kind: str, count: int, links: str) -> None:
     rig = load_rig(rig_path)
     latencies_ms: list[float] = []
-    with Bus(rig, "receiver") as bus:
+    with Bus(rig, NAMES[links][1]) as bus:
         subscription = bus.subscribe(SIM_FRAME if kind == "frame" else VISION_DETECTION)
         deadline = time.monotonic() + 120
         while len(latencies_ms) < count and time.monotonic() < deadline:
@@ -89,8 +95,9 @@ def receive(rig_path: Path, kind: str, count: int) -> None:
     print(json.dumps(latencies_ms[:count]))
 
 
-def measure(rig_path: Path, kind: str, count: int) -> dict[str, float]:
+def measure(rig_path: Path, kind: str, count: int, links: str) -> dict[str, float]:
     me = [sys.executable, __file__, "--rig", str(rig_path), "--kind", kind, "--count", str(count)]
+    me += ["--links", links]
     receiver = subprocess.Popen([*me, "--role", "receiver"], stdout=subprocess.PIPE, text=True)
     sender = subprocess.Popen([*me, "--role", "sender"])
     out, _ = receiver.communicate(timeout=300)
@@ -106,17 +113,22 @@ def main() -> int:
     parser.add_argument("--role", choices=["sender", "receiver"])
     parser.add_argument("--kind", choices=["detection", "frame"])
     parser.add_argument("--rig", type=Path)
+    parser.add_argument("--links", choices=list(NAMES), default="router")
     args = parser.parse_args()
     if args.role == "sender":
-        send(args.rig, args.kind, args.count)
+        send(args.rig, args.kind, args.count, args.links)
         return 0
     if args.role == "receiver":
-        receive(args.rig, args.kind, args.count)
+        receive(args.rig, args.kind, args.count, args.links)
         return 0
     with tempfile.TemporaryDirectory() as directory:
         rig_path = rig_file(Path(directory))
         with Bus(load_rig(rig_path), "router", router=True):
-            results = {kind: measure(rig_path, kind, args.count) for kind in ("detection", "frame")}
+            results = {
+                f"{kind} ({links})": measure(rig_path, kind, args.count, links)
+                for links in NAMES
+                for kind in ("detection", "frame")
+            }
     detection_bytes = len(
         Detection(
             t_capture_ns=time.time_ns(),
@@ -128,8 +140,11 @@ def main() -> int:
             head=HeadPose(pan_rad=0.1, tilt_rad=0.2),
         ).to_json()
     )
-    print(f"detection message ({detection_bytes} B JSON): {results['detection']}")
-    print(f"640x480 RGB frame ({640 * 480 * 3} B): {results['frame']}")
+    for links in NAMES:
+        print(
+            f"{links}: detection message ({detection_bytes} B JSON): {results[f'detection ({links})']}"
+        )
+        print(f"{links}: 640x480 RGB frame ({640 * 480 * 3} B): {results[f'frame ({links})']}")
     print(json.dumps(results))
     return 0
 
