@@ -40,6 +40,7 @@ found, and returns to the principal point when it is lost.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import cv2
@@ -133,7 +134,7 @@ class NormalFlowDetector:
         track = self._track[2] if self._track is not None else None
         measurement = _Measurement(pair, fovea, self.min_gradient, track, SMOOTHING_SIGMA_PX)
         # seed 000 §2: background where the ego-compensated normal flow is within the noise
-        v_ind = measurement.independent_flow(np.zeros(2))
+        v_ind = measurement.independent_flow()
         moving = measurement.valid & (np.abs(v_ind) > self.noise_px)
         region = self._regions(moving)
         if region is None:
@@ -155,8 +156,10 @@ class NormalFlowDetector:
         if target is None:
             self.reset()
             return DetectorOutput.nothing(fovea.rect)
-        rows, columns = np.nonzero(target)
-        u, v = fovea.x0 + float(columns.mean()), fovea.y0 + float(rows.mean())
+        # its centroid from the image moments: area m00, (m10, m01) / m00
+        moments = cv2.moments(target.view(np.uint8), binaryImage=True)
+        area = moments["m00"]
+        u, v = fovea.x0 + moments["m10"] / area, fovea.y0 + moments["m01"] / area
         if fit.score < MIN_SCORE:
             # something moves there, but no single velocity explains it: look there again
             # next frame, with no trust in the velocity
@@ -170,7 +173,7 @@ class NormalFlowDetector:
             v_px=v,
             du_px_s=float(fit.d[0] / dt),
             dv_px_s=float(fit.d[1] / dt),
-            area_px=float(np.count_nonzero(target)),
+            area_px=area,
             confidence=fit.score,
             window=fovea.rect,
         )
@@ -187,8 +190,8 @@ class NormalFlowDetector:
         place in the world: the noise, plus the error of the ego-rotation displacement it was
         compensated by, a fraction EGO_ERROR of that displacement (head pose at capture)."""
         cu, cv = fovea.centre
-        moved_px = math.hypot(*np.subtract(step.transport(cu, cv), (cu, cv)))
-        return self.noise_px + EGO_ERROR * moved_px
+        tu, tv = step.transport(cu, cv)
+        return self.noise_px + EGO_ERROR * math.hypot(tu - cu, tv - cv)
 
     def _place(self, step: HeadStep, shape: tuple[int, ...]) -> Fovea:
         """Centre the fovea on the predicted target, or on the principal point."""
@@ -207,13 +210,14 @@ class NormalFlowDetector:
 
     def _regions(self, mask: np.ndarray) -> np.ndarray | None:
         """Seed 000 §2: group foreground pixels into regions; their union, or None."""
-        closed = cv2.morphologyEx(mask.astype(np.uint8), cv2.MORPH_CLOSE, _CLOSING_KERNEL)
-        _, labels, stats, _ = cv2.connectedComponentsWithStats(closed, connectivity=8)
-        keep = stats[:, cv2.CC_STAT_AREA] >= self.min_area_px
+        closed = cv2.morphologyEx(mask.view(np.uint8), cv2.MORPH_CLOSE, _CLOSING_KERNEL)
+        count, labels = cv2.connectedComponents(closed, connectivity=8)
+        # each region's area: its label's pixel count (cheaper than OpenCV's full statistics)
+        keep = np.bincount(labels.ravel(), minlength=count) >= self.min_area_px
         keep[0] = False  # the background label
         if not keep.any():
             return None
-        return keep[labels]
+        return keep.take(labels)
 
     def _fit_velocity(
         self,
@@ -226,32 +230,22 @@ class NormalFlowDetector:
         from each hypothesis; if none explains the region, the same at a coarser scale (a
         wider linear range) gives another start; then the best one refined."""
         constraints = measurement.constraints(region & measurement.valid)
-        fits = [
-            constraints.fit(start, LINEAR_RANGE_PX, self.noise_px)
-            for start in measurement.hypotheses
-        ]
-        best = max(fits, key=lambda f: f.score)
+        best = constraints.fit(measurement.hypotheses, LINEAR_RANGE_PX, self.noise_px)
         if best.score < ACQUIRED_SCORE:
             scale = COARSE_SIGMA_PX / SMOOTHING_SIGMA_PX
             coarse = _Measurement(
                 pair, measurement.fovea, self.min_gradient / scale, track, COARSE_SIGMA_PX
             )
             wide = coarse.constraints(region & coarse.valid)
-            start = max(
-                (
-                    wide.fit(h, LINEAR_RANGE_PX * scale, self.noise_px * scale)
-                    for h in coarse.hypotheses
-                ),
-                key=lambda f: f.score,
-            )
+            start = wide.fit(coarse.hypotheses, LINEAR_RANGE_PX * scale, self.noise_px * scale)
             for _ in range(REFINE_ITERATIONS):
-                start = wide.fit(start.d, REFINE_RANGE_PX * scale, self.noise_px * scale)
-            candidate = constraints.fit(start.d, LINEAR_RANGE_PX, self.noise_px)
+                start = wide.fit(start.d[None], REFINE_RANGE_PX * scale, self.noise_px * scale)
+            candidate = constraints.fit(start.d[None], LINEAR_RANGE_PX, self.noise_px)
             if candidate.score > best.score:
                 best = candidate
         for _ in range(REFINE_ITERATIONS):
-            refined = constraints.fit(best.d, REFINE_RANGE_PX, self.noise_px)
-            moved = float(np.hypot(*(refined.d - best.d)))
+            refined = constraints.fit(best.d[None], REFINE_RANGE_PX, self.noise_px)
+            moved = math.hypot(*(refined.d - best.d))
             best = refined
             if moved < CONVERGED_PX:
                 break
@@ -277,55 +271,61 @@ class _Measurement:
         m, n = self.margin, fovea.side
         cu, cv = fovea.centre
         crop = cv2.getRectSubPix(pair.gray, (n + 2 * m,) * 2, (cu, cv), patchType=cv2.CV_32F)
-        current = cv2.GaussianBlur(crop, (0, 0), sigma_px)
-        gx = cv2.Sobel(current, cv2.CV_32F, 1, 0, ksize=3, scale=0.125)[m:-m, m:-m]
-        gy = cv2.Sobel(current, cv2.CV_32F, 0, 1, ksize=3, scale=0.125)[m:-m, m:-m]
-        self.current = current[m:-m, m:-m]
-        self.gradient = np.hypot(gx, gy)
+        smoothed = cv2.GaussianBlur(crop, (0, 0), sigma_px)
+        self.current = smoothed[m:-m, m:-m]
+        # ∇E over the window: the 3x3 Sobel kernels need it and a one-pixel ring only
+        ring = smoothed[m - 1 : 1 - m, m - 1 : 1 - m]
+        gx = cv2.Sobel(ring, cv2.CV_32F, 1, 0, ksize=3, scale=0.125)[1:-1, 1:-1]
+        gy = cv2.Sobel(ring, cv2.CV_32F, 0, 1, ksize=3, scale=0.125)[1:-1, 1:-1]
+        self.gradient = cv2.magnitude(gx, gy)
         self.valid = self.gradient > min_gradient
         safe = np.where(self.valid, self.gradient, 1.0)
         self.inverse_gradient = 1.0 / safe
-        self.nx, self.ny = gx / safe, gy / safe
-        u, v = fovea.axes()
-        wu, wv = pair.step.displacement(u, v)  # ego-rotation displacement, px per frame
-        cu, cv = fovea.centre
-        su, sv = pair.step.displacement(np.array(cu), np.array(cv))
-        self.shift = np.array([float(su), float(sv)])  # s
+        self.normal = np.stack((gx, gy)) / safe  # v̂, (2, side, side)
+        nx, ny = self.normal
+        su, sv = pair.step.displacement(cu, cv)  # s: the ego-rotation displacement of the centre
+        self.shift = su, sv
+        wu, wv = pair.step.displacement(*fovea.axes())  # w: of each pixel, px per frame
         # v̂·(s - w): the ego flow's normal component, relative to the window's shift
-        self.ego_normal = self.nx * (self.shift[0] - wu) + self.ny * (self.shift[1] - wv)
-        # starting hypotheses for the target's own displacement d (px per frame): still in the
-        # world, still in the image (pursued by the head), moving as in the last frame
-        self.hypotheses = [np.zeros(2), -self.shift]
+        self.ego_normal = nx * (su - wu) + ny * (sv - wv)
+        # starting hypotheses for the target's own displacement d (px per frame, (k, 2)): still
+        # in the world, still in the image (pursued by the head), moving as in the last frame
+        starts = [(0.0, 0.0), (-su, -sv)]
         if track is not None:
-            self.hypotheses.append(np.asarray(track, float))
-        self._previous_region(pair.previous)
+            starts.append(track.tolist())
+        self.hypotheses = np.array(starts)
+        self._previous_region(pair.previous, starts)
 
-    def _previous_region(self, previous: np.ndarray) -> None:
-        """Smooth the part of the previous frame that the shifted windows cover."""
+    def _previous_region(self, previous: np.ndarray, starts: Sequence[Sequence[float]]) -> None:
+        """Smooth the part of the previous frame that the windows shifted by s + d cover, d
+        from `starts`."""
         f, n = self.fovea, self.fovea.side
-        reach = np.array([self.shift + d for d in self.hypotheses])
+        su, sv = self.shift
+        reach_x, reach_y = [su + du for du, _ in starts], [sv + dv for _, dv in starts]
+        high_x, high_y, low_x, low_y = max(reach_x), max(reach_y), min(reach_x), min(reach_y)
         slack = self.margin + 2.0 * LINEAR_RANGE_PX * COARSE_SIGMA_PX / SMOOTHING_SIGMA_PX
         h, w = previous.shape
-        x0 = int(max(0, np.floor(f.x0 - reach[:, 0].max() - slack)))
-        y0 = int(max(0, np.floor(f.y0 - reach[:, 1].max() - slack)))
-        x1 = int(min(w, np.ceil(f.x0 + n - reach[:, 0].min() + slack)))
-        y1 = int(min(h, np.ceil(f.y0 + n - reach[:, 1].min() + slack)))
+        x0 = max(0, math.floor(f.x0 - high_x - slack))
+        y0 = max(0, math.floor(f.y0 - high_y - slack))
+        x1 = min(w, math.ceil(f.x0 + n - low_x + slack))
+        y1 = min(h, math.ceil(f.y0 + n - low_y + slack))
         region = previous[y0:y1, x0:x1].astype(np.float32)
         self._previous = cv2.GaussianBlur(region, (0, 0), self.sigma_px)
-        self._previous_origin = np.array([x0, y0], float)
+        cu, cv = f.centre
+        self._shifted_centre = (cu - su, cv - sv)  # the window's centre less s
+        self._previous_origin = (x0, y0)
 
-    def independent_flow(self, d: np.ndarray) -> np.ndarray:
-        """v_ind along v̂ (px per frame) over the window, the previous frame shifted by s + d:
-        v = -E_t/|∇E| + v̂·(s + d), then minus v̂·w (seed 000 §2)."""
-        e_t = self.current - self.previous_at(d)
-        return -e_t * self.inverse_gradient + self.nx * d[0] + self.ny * d[1] + self.ego_normal
+    def independent_flow(self) -> np.ndarray:
+        """v_ind along v̂ (px per frame) over the window, the previous frame shifted by s:
+        v = -E_t/|∇E| + v̂·s, then minus v̂·w (seed 000 §2)."""
+        minus_e_t = self.previous_at((0.0, 0.0)) - self.current
+        return minus_e_t * self.inverse_gradient + self.ego_normal
 
-    def previous_at(self, d: np.ndarray) -> np.ndarray:
+    def previous_at(self, d: Sequence[float]) -> np.ndarray:
         """The previous frame over the window, shifted by s + d (smoothed, float32)."""
-        cu, cv = self.fovea.centre
-        cu = cu - self.shift[0] - d[0] - self._previous_origin[0]
-        cv = cv - self.shift[1] - d[1] - self._previous_origin[1]
-        return cv2.getRectSubPix(self._previous, (self.fovea.side,) * 2, (float(cu), float(cv)))
+        (cu, cv), (x0, y0) = self._shifted_centre, self._previous_origin
+        centre = (cu - d[0] - x0, cv - d[1] - y0)
+        return cv2.getRectSubPix(self._previous, (self.fovea.side,) * 2, centre)
 
     def constraints(self, pixels: np.ndarray) -> _Constraints:
         return _Constraints(self, pixels)
@@ -337,35 +337,44 @@ class _Constraints:
 
     def __init__(self, measurement: _Measurement, pixels: np.ndarray) -> None:
         self.measurement = measurement
-        self.pixels = pixels
-        self.current = measurement.current[pixels]
-        self.inverse_gradient = measurement.inverse_gradient[pixels]
-        self.ego_normal = measurement.ego_normal[pixels]
-        self.nx = measurement.nx[pixels].astype(np.float64)
-        self.ny = measurement.ny[pixels].astype(np.float64)
-        weight = measurement.gradient[pixels].astype(np.float64) ** 2
-        # the weighted products of the normal equations, for every constraint
-        self.products = np.stack(
-            [weight * self.nx * self.nx, weight * self.nx * self.ny, weight * self.ny * self.ny]
-        )
-        self.wn = np.stack([weight * self.nx, weight * self.ny])
+        self.index = i = np.flatnonzero(pixels)  # into the window's pixels, row-major
+        self.inverse_gradient = measurement.inverse_gradient.take(i).astype(float)
+        # the terms of y (below) that no hypothesis changes: v̂·(s - w) - E/|∇E|
+        current = measurement.current.take(i)
+        self.offset = measurement.ego_normal.take(i) - current * self.inverse_gradient
+        self.normal = measurement.normal.reshape(2, -1).take(i, axis=1).astype(float)  # v̂
+        # the weighted terms of the normal equations, for every constraint: w v̂ and
+        # w (nx², nx ny, ny²), w = |∇E|²
+        self.wn = np.square(measurement.gradient.take(i), dtype=float) * self.normal
+        self.products = self.wn[[0, 0, 1]] * self.normal[[0, 1, 1]]
 
-    def fit(self, d: np.ndarray, tolerance_px: float, noise_px: float) -> _Fit:
-        """One Gauss-Newton step from the hypothesis d: re-sample the previous frame at s + d,
-        keep the constraints within `tolerance_px` of the hypothesis (the linear range; the
-        rest belong to something else), and fit v̂·d' = v_ind by least squares weighted by
-        |∇E|² (i.e. ∇E·d' = -E_t)."""
-        nx, ny = self.nx, self.ny
-        e_t = self.current - self.measurement.previous_at(d)[self.pixels]  # `independent_flow`
-        r = -e_t * self.inverse_gradient + nx * d[0] + ny * d[1] + self.ego_normal
-        near = (np.abs(r - (nx * d[0] + ny * d[1])) < tolerance_px).astype(np.float64)
-        estimate = np.asarray(d, float)
-        # normal equations of sum w (nx dx + ny dy - r)^2 over the near constraints
-        a, b, c = self.products @ near
-        det = a * c - b * b
-        if det > 1e-9 * (a + c) ** 2 and a + c > 0:
-            p, q = self.wn @ (near * r)
-            estimate = np.array([(c * p - b * q) / det, (a * q - b * p) / det])
-        residual = nx * estimate[0] + ny * estimate[1] - r
-        inliers = np.abs(residual) <= noise_px
-        return _Fit(estimate, inliers, float(np.count_nonzero(inliers)) / max(r.size, 1))
+    def fit(self, starts: np.ndarray, tolerance_px: float, noise_px: float) -> _Fit:
+        """One Gauss-Newton step from each hypothesis d (the rows of `starts`, (k, 2)); the
+        estimate that explains the most constraints. Re-sample the previous frame at s + d, keep
+        the constraints within `tolerance_px` of the hypothesis (the linear range; the rest
+        belong to something else), and fit v̂·d' = v_ind by least squares weighted by |∇E|²
+        (i.e. ∇E·d' = -E_t), solved for the step δ = d' - d."""
+        previous = np.empty((len(starts), self.index.size), np.float32)
+        for row, d in zip(previous, starts.tolist(), strict=True):
+            self.measurement.previous_at(d).take(self.index, out=row)
+        # y = v_ind - v̂·d = -E_t/|∇E| + v̂·(s - w), each constraint's distance from d: (k, N)
+        y = previous * self.inverse_gradient + self.offset
+        near = (np.abs(y) < tolerance_px).astype(float)
+        # normal equations of Σ w (v̂·δ - y)² over the near constraints, for all k at once:
+        # [a b; b c] δ = (p, q), with (a, b, c) = Σ w (nx², nx ny, ny²) and (p, q) = Σ w v̂ y
+        abc = near @ self.products.T  # (k, 3)
+        pq = (near * y) @ self.wn.T  # (k, 2)
+        steps = []
+        for (a, b, c), (p, q) in zip(abc.tolist(), pq.tolist(), strict=True):
+            det = a * c - b * b
+            if det > 1e-9 * (a + c) ** 2 and a + c > 0:
+                steps.append(((c * p - b * q) / det, (a * q - b * p) / det))
+            else:  # singular (the aperture problem, or nothing near): d stays
+                steps.append((0.0, 0.0))
+        step = np.array(steps)
+        # the constraints each estimate explains: |v̂·d' - v_ind| = |v̂·δ - y| within the noise
+        inliers = np.abs(step @ self.normal - y) <= noise_px
+        counts = [np.count_nonzero(row) for row in inliers]
+        best = counts.index(max(counts))  # the first of equals: the earlier hypothesis
+        score = counts[best] / max(self.index.size, 1)
+        return _Fit(starts[best] + step[best], inliers[best], score)
