@@ -264,9 +264,6 @@ class ServoService:
             )
             self.commands.put(written.stamped(STAGE, t_ns))
             self._fresh = None
-            # the next poll half a period after a demand, never later than it was due: polls
-            # fall between demands instead of holding the line when the next one comes
-            self._next_poll_s = min(self._next_poll_s, now.mono_s + 0.5 * self.poll_period_s)
         self._next_command_s = now.mono_s + self.command_period_s
 
     def _between_poll_frames(self) -> None:
