@@ -50,6 +50,21 @@ def test_rounded_square_report(capsys) -> None:
     assert report["turn_rate_rel_error_combined"] > report["turn_rate_rel_error"]
 
 
+def test_rounded_square_switches_sooner_on_better_velocity_measurements(capsys) -> None:
+    """The switch delay is set by the measurements' information: the same seed with a quarter
+    of the velocity noise switches sooner (the README's figures)."""
+    delays = []
+    for noise in ("0.2", "0.05"):
+        code, out, _ = run(
+            capsys, "--scenario", "rounded-square", "--json", "--velocity-noise-m-s", noise
+        )
+        assert code == 0
+        report = json.loads(out)
+        assert report["velocity_noise_m_s"] == float(noise)
+        delays.append(report["switch_delay_obs"]["median"])
+    assert delays[1] < delays[0]
+
+
 def test_kelly_report_text(capsys) -> None:
     code, out, _ = run(capsys, "--scenario", "kelly")
     assert code == 0
@@ -121,6 +136,7 @@ def test_bad_arguments(capsys, tmp_path: Path) -> None:
     path = write_tracks(tmp_path / "walkers.txt")
     assert run(capsys, "--data", str(path), "--horizons", "0.4,-1")[0] == 2
     assert run(capsys, "--data", str(path), "--noise-m", "-0.1")[0] == 2
+    assert run(capsys, "--scenario", "rounded-square", "--velocity-noise-m-s", "nan")[0] == 2
     assert run(capsys, "--data", str(tmp_path / "missing.txt"))[0] == 2
 
 

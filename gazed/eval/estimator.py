@@ -33,10 +33,14 @@ TRUE_TURN_RATE_RAD_S = math.radians(45.0)
 
 
 def rounded_square_report(
-    section: EstimatorSection, seed: int, noise_m: float | None
+    section: EstimatorSection,
+    seed: int,
+    noise_m: float | None,
+    velocity_noise_m_s: float | None = None,
 ) -> dict[str, Any]:
     """Table 1 of seed 000 for the IMM: one row per segment of the most likely model."""
-    scenario = rounded_square(seed, **({} if noise_m is None else {"position_noise_m": noise_m}))
+    noises = {"position_noise_m": noise_m, "velocity_noise_m_s": velocity_noise_m_s}
+    scenario = rounded_square(seed, **{k: v for k, v in noises.items() if v is not None})
     estimator = build_estimator(section, mode="imm")
     assert isinstance(estimator, ImmEstimator)
     p_var = scenario.position_noise_m**2
@@ -310,6 +314,13 @@ def estimator_arguments(parser: argparse.ArgumentParser) -> None:
         help="position noise std added to the measurements (m); default: none for --data, "
         "0.05 for rounded-square (velocity 0.2 m/s), 0.01 for kelly",
     )
+    parser.add_argument(
+        "--velocity-noise-m-s",
+        type=float,
+        default=None,
+        help="with --scenario rounded-square: the velocity measurements' noise std (m/s; "
+        "default 0.2)",
+    )
     parser.add_argument("--seed", type=int, default=0, help="seed of the simulated noise")
     parser.add_argument("--rig", type=Path, help="take the [estimator] settings from this rig file")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
@@ -321,14 +332,18 @@ def estimator_command(args: argparse.Namespace) -> int:
     except RigError as exc:
         print(exc, file=sys.stderr)
         return 2
-    if args.noise_m is not None and not (math.isfinite(args.noise_m) and args.noise_m >= 0):
-        print(
-            f"gazed eval estimator: --noise-m must be a finite number >= 0, got {args.noise_m}",
-            file=sys.stderr,
-        )
-        return 2
+    for option, value in (
+        ("--noise-m", args.noise_m),
+        ("--velocity-noise-m-s", args.velocity_noise_m_s),
+    ):
+        if value is not None and not (math.isfinite(value) and value >= 0):
+            print(
+                f"gazed eval estimator: {option} must be a finite number >= 0, got {value}",
+                file=sys.stderr,
+            )
+            return 2
     if args.scenario == "rounded-square":
-        report = rounded_square_report(section, args.seed, args.noise_m)
+        report = rounded_square_report(section, args.seed, args.noise_m, args.velocity_noise_m_s)
     elif args.scenario == "kelly":
         report = kelly_report(section, args.seed, args.noise_m)
     else:
