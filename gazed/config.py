@@ -125,7 +125,7 @@ class BusSection(Section):
             and self.router
             and self.credentials_path is None
             and self.zenoh_config_path is None
-            and all(_loopback(e) for e in self.client_endpoints)
+            and all(_loopback(e) for e in (*self.listen, *self.client_endpoints))
         )
 
     @property

@@ -17,14 +17,16 @@ published then; a capture that falls more than a frame behind (an overloaded mac
 skipped and counted, never queued. The pixels are rendered from that snapshot half a frame
 before the frame is due on the bus, not at capture: with the visual latency not a whole number
 of frames, rendering at capture put the simulator's busiest 2 ms on a core while the loop
-worked on the frame published just before. For the same reason the process runs at a lower
-priority (`SIM_NICENESS`): the world is a test harness, and on a real rig the loop has the
-machine to itself.
+worked on the frame published just before. For the same reason the renderer's thread runs at
+a lower priority (`SIM_NICENESS`): the world is a test harness, and on a real rig the loop has
+the machine to itself. The emulated head's thread keeps the normal priority: it is the head the
+servo talks to, part of the loop.
 """
 
 from __future__ import annotations
 
 import os
+import threading
 import time
 from collections import deque
 from dataclasses import dataclass
@@ -44,7 +46,7 @@ from gazed.topics import SIM_FRAME, SIM_TRUTH
 from services.runtime import HealthReport, Now, main
 
 STAGE = "sim"
-SIM_NICENESS = 10  # added to the process's nice value (lower priority than the loop's)
+SIM_NICENESS = 10  # added to the renderer thread's nice value (lower priority than the loop's)
 
 
 @dataclass(frozen=True)
@@ -207,9 +209,13 @@ class SimService:
 
 
 def build(rig: Rig, bus: Bus) -> SimService:
-    return SimService(rig, bus)
+    service = SimService(rig, bus)
+    # the renderer's thread (this one) yields to the loop; the emulated head answers the servo
+    # from its own thread, started above, which keeps its priority (Linux sets nice per thread)
+    me = threading.get_native_id()
+    os.setpriority(os.PRIO_PROCESS, me, os.getpriority(os.PRIO_PROCESS, me) + SIM_NICENESS)
+    return service
 
 
 if __name__ == "__main__":
-    os.nice(SIM_NICENESS)
     raise SystemExit(main("sim", build))

@@ -154,7 +154,7 @@ def test_client_without_router_is_a_clear_error(tmp_path: Path) -> None:
         pass
 
 
-def test_sessions_do_not_scout_and_clients_do_not_listen() -> None:
+def test_sessions_do_not_scout_and_clients_do_not_listen(tmp_path: Path) -> None:
     """Nothing scouts by multicast. On a private loopback bus the rig's processes are peers
     listening on loopback alone (a port of the system's choosing), gossiping through the router;
     tools are clients that do not listen. With credentials, a zenoh config, peer_links off or
@@ -176,10 +176,17 @@ def test_sessions_do_not_scout_and_clients_do_not_listen() -> None:
     assert json.loads(tool.get_json("listen/endpoints")) == []
     assert json.loads(tool.get_json("connect/endpoints")) == ["tcp/127.0.0.1:7447"]
     assert json.loads(tool.get_json("scouting/gossip/enabled")) is False
+    credentials, zenoh_config = tmp_path / "credentials", tmp_path / "zenoh.json5"
+    credentials.write_text("estimator:secret\n")
+    credentials.chmod(0o600)
+    zenoh_config.write_text("{}\n")
     for private in (
         BusSection(peer_links=False),
-        BusSection(listen=["tcp/0.0.0.0:7447"], connect=["tcp/192.168.1.2:7447"]),
+        BusSection(listen=["tcp/0.0.0.0:7447"]),  # the router open beyond loopback
         BusSection(listen=["tcp/192.168.1.2:7447"]),
+        BusSection(router=False, connect=["tcp/127.0.0.1:7447"]),  # a router elsewhere
+        BusSection(credentials_path=credentials),
+        BusSection(zenoh_config_path=zenoh_config),
     ):
         assert not private.direct
         client = session_config(private, router=False, identity="estimator")

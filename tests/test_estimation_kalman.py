@@ -103,7 +103,7 @@ def test_forecast_is_each_model_ahead_then_the_mixture_moments() -> None:
 
 def test_a_covariance_that_is_not_positive_definite_is_outside_every_gate() -> None:
     """S = H P Hᵀ + R not positive definite (here R = -P): NIS inf, likelihood 0, no gain;
-    nothing raises and the state is not moved by it."""
+    nothing raises, and an update with it does not move the state."""
     x = np.zeros((1, 1, 2))
     P = np.eye(2)[None, None].copy()
     H = np.eye(2)
@@ -111,6 +111,58 @@ def test_a_covariance_that_is_not_positive_definite_is_outside_every_gate() -> N
     assert innovation.nis[0, 0] == math.inf
     assert innovation.log_likelihood[0, 0] == -math.inf
     np.testing.assert_array_equal(innovation.K, 0.0)
+    kalman.correct(x, P, slice(None), innovation, H=H)
+    np.testing.assert_array_equal(x, 0.0)
+    np.testing.assert_array_equal(P[0, 0], np.eye(2))
+
+
+def test_a_model_nobody_can_switch_to_keeps_its_own_state() -> None:
+    """A column of zeros in J: c̄_j = 0, and model j is not mixed (no 0/0)."""
+    J = np.array([[1.0, 0.0], [0.5, 0.5]])  # nobody switches to model 1 ... from model 0
+    mu = np.array([[1.0, 0.0]])  # ... and model 1 has no probability: c̄_1 = 0
+    x = np.array([[[1.0, 2.0], [5.0, 6.0]]])
+    P = np.tile(np.eye(2), (1, 2, 1, 1))
+    cbar, x0, P0 = mix(mu, J, x, P, None)
+    np.testing.assert_array_equal(cbar, [[1.0, 0.0]])
+    np.testing.assert_array_equal(x0[0, 1], [5.0, 6.0])
+    np.testing.assert_array_equal(P0[0, 1], np.eye(2))
+    assert np.isfinite(x0).all() and np.isfinite(P0).all()
+
+
+def test_a_large_batch_runs_without_the_gil_and_equals_its_tracks_one_by_one() -> None:
+    """From 64 rows the kernel releases the GIL; the results are those of each track alone."""
+    rng = np.random.default_rng(6)
+    N = 70
+    x, P, mu = ground_bank(rng, N)
+    J = switching_matrix(0.9, 3)
+    dt = rng.uniform(0.02, 0.2, N)
+    z = rng.normal(size=(N, 4))
+    R = np.tile(np.eye(4) * 0.05, (N, 1, 1))
+    batch = [x.copy(), P.copy(), mu.copy()]
+    kalman.predict(
+        *batch[:2], slice(None), dt, ground=BANK.parameters, mu=batch[2], J=J, angle_index=3
+    )
+    innovation = kalman.innovate(*batch[:2], slice(None), z, R, ground=BANK.parameters)
+    kalman.correct(
+        *batch[:2], slice(None), innovation, ground=BANK.parameters, mu=batch[2], angle_index=3
+    )
+    for k in (0, 33, 69):
+        one = [x[k : k + 1].copy(), P[k : k + 1].copy(), mu[k : k + 1].copy()]
+        kalman.predict(
+            *one[:2],
+            slice(None),
+            dt[k : k + 1],
+            ground=BANK.parameters,
+            mu=one[2],
+            J=J,
+            angle_index=3,
+        )
+        i = kalman.innovate(
+            *one[:2], slice(None), z[k : k + 1], R[k : k + 1], ground=BANK.parameters
+        )
+        kalman.correct(*one[:2], slice(None), i, ground=BANK.parameters, mu=one[2], angle_index=3)
+        for b, o in zip(batch, one, strict=True):
+            np.testing.assert_array_equal(b[k], o[0])
 
 
 def test_a_negative_speed_comes_out_of_the_update_positive() -> None:
@@ -156,6 +208,41 @@ def test_bad_arrays_are_refused_not_read(change, error, match) -> None:
             None,
             -1,
         )
+
+
+@pytest.mark.parametrize("dt", [-0.04, math.nan, math.inf])
+def test_an_interval_that_is_not_finite_and_positive_is_refused(dt: float) -> None:
+    rng = np.random.default_rng(7)
+    x, P, mu = ground_bank(rng, 1)
+    with pytest.raises(ValueError, match="finite dt"):
+        kalman.predict(x, P, slice(None), np.array([dt]), ground=BANK.parameters)
+    with pytest.raises(ValueError, match="finite dt"):
+        kalman.forecast(x, P, mu, slice(None), np.array([dt]), BANK.parameters)
+
+
+@pytest.mark.parametrize("angle", [6, 7, 100, -2])
+def test_an_angle_index_outside_the_state_is_refused(angle: int) -> None:
+    """The kernel would read and write past the state with it."""
+    rng = np.random.default_rng(8)
+    x, P, mu = ground_bank(rng, 1)
+    with pytest.raises(ValueError, match="angle index"):
+        kalman._kalman.predict(
+            1, 3, 6, 1, x, P, mu, None, np.full(1, 0.04), BANK.parameters, None, None, None, angle
+        )
+    with pytest.raises(ValueError, match="angle index"):
+        combine(mu, x, P, angle)
+
+
+def test_sizes_that_would_overflow_are_refused() -> None:
+    with pytest.raises(ValueError, match="out of range"):
+        kalman._kalman.canonicalise(2**60, np.empty(0), np.empty(0))
+
+
+def test_tracks_are_not_selected_by_a_mask() -> None:
+    rng = np.random.default_rng(9)
+    x, P, _ = ground_bank(rng, 2)
+    with pytest.raises(TypeError, match="mask"):
+        kalman.predict(x, P, np.array([True, False]), np.full(1, 0.04), ground=BANK.parameters)
 
 
 def test_rows_outside_the_bank_are_refused() -> None:

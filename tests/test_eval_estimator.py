@@ -137,6 +137,11 @@ def test_bad_arguments(capsys, tmp_path: Path) -> None:
     assert run(capsys, "--data", str(path), "--horizons", "0.4,-1")[0] == 2
     assert run(capsys, "--data", str(path), "--noise-m", "-0.1")[0] == 2
     assert run(capsys, "--scenario", "rounded-square", "--velocity-noise-m-s", "nan")[0] == 2
+    # a scenario without noise would give the filter a singular R
+    assert run(capsys, "--scenario", "rounded-square", "--velocity-noise-m-s", "0")[0] == 2
+    assert run(capsys, "--scenario", "kelly", "--noise-m", "0")[0] == 2
+    code, _, err = run(capsys, "--scenario", "kelly", "--velocity-noise-m-s", "0.1")
+    assert code == 2 and "goes with --scenario rounded-square" in err
     assert run(capsys, "--data", str(tmp_path / "missing.txt"))[0] == 2
 
 

@@ -88,14 +88,14 @@ def test_every_socket_is_loopback_and_nothing_scouts(tmp_path: Path) -> None:
         pids = supervisor.pids()
         assert set(pids) == set(SERVICE_NAMES)
         port = int(supervisor.rig.bus.listen[0].rsplit(":", 1)[1])
-        listening = {}
+        listening, peers = {}, {}
         for name, pid in {"supervisor": supervisor.process.pid, **pids}.items():
             assert exposed_sockets(pid) == [], name
+            connections = psutil.Process(pid).net_connections(kind="inet")
             listening[name] = sorted(
-                c.laddr.port
-                for c in psutil.Process(pid).net_connections(kind="inet")
-                if c.status == psutil.CONN_LISTEN
+                c.laddr.port for c in connections if c.status == psutil.CONN_LISTEN
             )
+            peers[name] = {c.raddr.port for c in connections if c.status == psutil.CONN_ESTABLISHED}
     finally:
         assert supervisor.stop() == 0
     # the router listens on the rig's port; each process on one loopback port for its peers
@@ -105,6 +105,10 @@ def test_every_socket_is_loopback_and_nothing_scouts(tmp_path: Path) -> None:
         SERVICE_NAMES, 1
     )
     assert port not in {p for ports in listening.values() for p in ports}
+    # and they use them: vision's detections go straight to the estimator, its predictions
+    # straight to the gaze (a connection to the other's listening port, one way or the other)
+    for a, b in (("vision", "estimator"), ("estimator", "gaze"), ("gaze", "servo")):
+        assert set(listening[b]) & peers[a] or set(listening[a]) & peers[b], (a, b)
 
 
 def test_the_check_flags_a_default_zenoh_peer() -> None:

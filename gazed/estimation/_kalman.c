@@ -532,11 +532,31 @@ static void *data_of(Buffers *bs, PyObject *obj, const char *name, Py_ssize_t co
     return v->buf;
 }
 
-static int check_sizes(Py_ssize_t N, int M, int n, int m) {
-    if (N < 0 || M < 1 || M > KMAX || n < 1 || n > NMAX || m < 0 || m > MMAX) {
-        PyErr_Format(PyExc_ValueError, "bank sizes out of range: N=%zd M=%d n=%d m=%d", N, M, n, m);
+/* no product of a count of tracks (or states) and the largest per-row size overflows */
+#define MAX_ROWS (PY_SSIZE_T_MAX / (8 * KMAX * NMAX * NMAX * 8))
+
+/* N tracks (or states) and K rows of M models, n states, m measured; the angle's index
+   (-1: none) within the state */
+static int check_sizes(Py_ssize_t N, Py_ssize_t K, int M, int n, int m, int angle) {
+    if (N < 0 || N > MAX_ROWS || K < 0 || K > MAX_ROWS || M < 1 || M > KMAX || n < 1 || n > NMAX || m < 0 ||
+        m > MMAX) {
+        PyErr_Format(PyExc_ValueError, "bank sizes out of range: N=%zd K=%zd M=%d n=%d m=%d", N, K, M, n, m);
         return 0;
     }
+    if (angle < -1 || angle >= n) {
+        PyErr_Format(PyExc_ValueError, "angle index %d outside the %d-state (-1: none)", angle, n);
+        return 0;
+    }
+    return 1;
+}
+
+/* intervals a step can take: finite and >= 0 */
+static int check_intervals(const double *dt, Py_ssize_t K) {
+    for (Py_ssize_t k = 0; k < K; k++)
+        if (!(dt[k] >= 0.0) || !isfinite(dt[k])) {
+            PyErr_Format(PyExc_ValueError, "interval %zd is not a finite dt >= 0", k);
+            return 0;
+        }
     return 1;
 }
 
@@ -575,11 +595,12 @@ static PyObject *py_predict(PyObject *self, PyObject *args) {
     if (!PyArg_ParseTuple(args, "niinOOOOOOOOOi", &N, &M, &n, &K, &x, &P, &mu, &rows, &dt, &ground, &J, &F, &Q,
                           &angle))
         return NULL;
-    if (!check_sizes(N, M, n, 0)) return NULL;
+    if (!check_sizes(N, K, M, n, 0, angle)) return NULL;
     Buffers bs = {.count = 0};
     Bank b = {.N = N, .M = M, .n = n, .angle = angle};
     int ok = bank_of(&bs, &b, x, P, mu, rows, K);
     const double *dt_ = data_of(&bs, dt, "dt", K, 0, 0, 0, &ok);
+    if (ok && !check_intervals(dt_, K)) ok = 0;
     b.ground = data_of(&bs, ground, "ground", M * GROUND_PARAMETERS, 0, 0, 1, &ok);
     b.J = data_of(&bs, J, "J", M * M, 0, 0, 1, &ok);
     const double *F_ = data_of(&bs, F, "F", K * M * n * n, 0, 0, 1, &ok);
@@ -605,7 +626,7 @@ static PyObject *py_innovate(PyObject *self, PyObject *args) {
     if (!PyArg_ParseTuple(args, "niinnOOOOOOOOOOOO", &N, &M, &n, &K, &m, &x, &P, &rows, &ground, &z, &R, &H, &y,
                           &S, &Kg, &nis, &ll))
         return NULL;
-    if (!check_sizes(N, M, n, m)) return NULL;
+    if (!check_sizes(N, K, M, n, m, -1)) return NULL;
     Buffers bs = {.count = 0};
     Bank b = {.N = N, .M = M, .n = n, .angle = -1};
     int ok = bank_of(&bs, &b, x, P, Py_None, rows, K);
@@ -635,7 +656,7 @@ static PyObject *py_correct(PyObject *self, PyObject *args) {
     if (!PyArg_ParseTuple(args, "niinnOOOOOOOOOOi", &N, &M, &n, &K, &m, &x, &P, &mu, &rows, &ground, &y, &Kg, &R,
                           &H, &ll, &angle))
         return NULL;
-    if (!check_sizes(N, M, n, m)) return NULL;
+    if (!check_sizes(N, K, M, n, m, angle)) return NULL;
     Buffers bs = {.count = 0};
     Bank b = {.N = N, .M = M, .n = n, .angle = angle};
     int ok = bank_of(&bs, &b, x, P, mu, rows, K);
@@ -666,11 +687,12 @@ static PyObject *py_forecast(PyObject *self, PyObject *args) {
     PyObject *x, *P, *mu, *rows, *dt, *ground, *mean, *cov;
     if (!PyArg_ParseTuple(args, "ninOOOOOOOO", &N, &M, &K, &x, &P, &mu, &rows, &dt, &ground, &mean, &cov))
         return NULL;
-    if (!check_sizes(N, M, GROUND_DIM, 0)) return NULL;
+    if (!check_sizes(N, K, M, GROUND_DIM, 0, -1)) return NULL;
     Buffers bs = {.count = 0};
     Bank b = {.N = N, .M = M, .n = GROUND_DIM, .angle = -1};
     int ok = bank_of(&bs, &b, x, P, mu, rows, K);
     const double *dt_ = data_of(&bs, dt, "dt", K, 0, 0, 0, &ok);
+    if (ok && !check_intervals(dt_, K)) ok = 0;
     b.ground = data_of(&bs, ground, "ground", M * GROUND_PARAMETERS, 0, 0, 0, &ok);
     double *mean_ = data_of(&bs, mean, "mean", K * MMAX, 1, 0, 0, &ok);
     double *cov_ = data_of(&bs, cov, "cov", K * MMAX * MMAX, 1, 0, 0, &ok);
@@ -690,7 +712,7 @@ static PyObject *py_ground_motion(PyObject *self, PyObject *args) {
     int M;
     PyObject *x, *dt, *ground, *xn, *F, *Q;
     if (!PyArg_ParseTuple(args, "niOOOOOO", &L, &M, &x, &dt, &ground, &xn, &F, &Q)) return NULL;
-    if (!check_sizes(0, M, GROUND_DIM, 0) || L % M) {
+    if (!check_sizes(L, 0, M, GROUND_DIM, 0, -1) || L % M) {
         if (!PyErr_Occurred()) PyErr_SetString(PyExc_ValueError, "states must be whole banks of M");
         return NULL;
     }
@@ -720,6 +742,7 @@ static PyObject *py_ground_measure(PyObject *self, PyObject *args) {
         PyErr_SetString(PyExc_ValueError, "a ground measurement has 2 or 4 components");
         return NULL;
     }
+    if (!check_sizes(L, 0, 1, GROUND_DIM, m, -1)) return NULL;
     Buffers bs = {.count = 0};
     int ok = 1;
     const double *x_ = data_of(&bs, x, "x", L * GROUND_DIM, 0, 0, 0, &ok);
@@ -736,6 +759,7 @@ static PyObject *py_canonicalise(PyObject *self, PyObject *args) {
     Py_ssize_t L;
     PyObject *x, *P;
     if (!PyArg_ParseTuple(args, "nOO", &L, &x, &P)) return NULL;
+    if (!check_sizes(L, 0, 1, GROUND_DIM, 0, -1)) return NULL;
     Buffers bs = {.count = 0};
     int ok = 1;
     double *x_ = data_of(&bs, x, "x", L * GROUND_DIM, 1, 0, 0, &ok);
@@ -754,7 +778,7 @@ static PyObject *py_mix(PyObject *self, PyObject *args) {
     int M, n, angle;
     PyObject *mu, *J, *x, *P, *cbar, *x0, *P0;
     if (!PyArg_ParseTuple(args, "niiOOOOiOOO", &K, &M, &n, &mu, &J, &x, &P, &angle, &cbar, &x0, &P0)) return NULL;
-    if (!check_sizes(K, M, n, 0)) return NULL;
+    if (!check_sizes(K, K, M, n, 0, angle)) return NULL;
     Buffers bs = {.count = 0};
     int ok = 1, nn = n * n;
     const double *mu_ = data_of(&bs, mu, "mu", K * M, 0, 0, 0, &ok);
@@ -778,7 +802,7 @@ static PyObject *py_combine(PyObject *self, PyObject *args) {
     int M, n, angle;
     PyObject *mu, *x, *P, *xc, *Pc;
     if (!PyArg_ParseTuple(args, "niiOOOiOO", &K, &M, &n, &mu, &x, &P, &angle, &xc, &Pc)) return NULL;
-    if (!check_sizes(K, M, n, 0)) return NULL;
+    if (!check_sizes(K, K, M, n, 0, angle)) return NULL;
     Buffers bs = {.count = 0};
     int ok = 1, nn = n * n;
     const double *mu_ = data_of(&bs, mu, "mu", K * M, 0, 0, 0, &ok);
@@ -799,7 +823,7 @@ static PyObject *py_posterior(PyObject *self, PyObject *args) {
     int M;
     PyObject *prior, *ll, *mu;
     if (!PyArg_ParseTuple(args, "niOOO", &K, &M, &prior, &ll, &mu)) return NULL;
-    if (!check_sizes(K, M, 1, 0)) return NULL;
+    if (!check_sizes(K, K, M, 1, 0, -1)) return NULL;
     Buffers bs = {.count = 0};
     int ok = 1;
     const double *p_ = data_of(&bs, prior, "prior", K * M, 0, 0, 0, &ok);
@@ -829,4 +853,15 @@ static PyMethodDef methods[] = {
 static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_kalman", "Compiled Kalman and IMM kernels.", -1,
                                     methods};
 
-PyMODINIT_FUNC PyInit__kalman(void) { return PyModule_Create(&module); }
+PyMODINIT_FUNC PyInit__kalman(void) {
+    PyObject *m = PyModule_Create(&module);
+    if (!m) return NULL;
+    /* the sizes the kernel takes, and where its turn terms switch to their series */
+    if (PyModule_AddIntConstant(m, "MAX_STATES", NMAX) < 0 || PyModule_AddIntConstant(m, "MAX_MEASURED", MMAX) < 0 ||
+        PyModule_AddIntConstant(m, "MAX_MODELS", KMAX) < 0 ||
+        PyModule_AddObject(m, "SERIES_LIMIT", PyFloat_FromDouble(SERIES_LIMIT)) < 0) {
+        Py_DECREF(m);
+        return NULL;
+    }
+    return m;
+}

@@ -34,8 +34,8 @@ IX, IY, IS, ITH, ISD, ITD = range(STATE_DIM)
 HEADING_INDEX = ITH
 
 # Below this |u| = |ωT| the series of A, B and their derivatives replace the closed forms
-# (SERIES_LIMIT of `_kalman.c`, which computes them).
-SERIES_LIMIT = 1e-3
+# (the compiled kernel's, which computes them).
+SERIES_LIMIT: float = _kalman.SERIES_LIMIT
 
 
 @dataclass(frozen=True)
@@ -91,7 +91,8 @@ class GroundModelBank:
         return tuple(m.name for m in self.models)
 
     def propagate(self, x: np.ndarray, dt: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """f(x), its Jacobian ∇f and Q over an interval dt.
+        """f(x), its Jacobian ∇f and Q over an interval dt: the kernel's own motion step (the
+        filters call it inside their fused steps), on its own for the tests and for analysis.
 
         x: (..., M, 6); dt: (...) seconds, >= 0, one per state of the M models.
         Returns x' (..., M, 6), F (..., M, 6, 6), Q (..., M, 6, 6).
@@ -110,7 +111,8 @@ class GroundModelBank:
 
 
 def measure(x: np.ndarray, with_velocity: bool) -> tuple[np.ndarray, np.ndarray]:
-    """h(x) = (X, Y, s cos θ, s sin θ) (errata of §4.1.1) or (X, Y), and its Jacobian ∇h.
+    """h(x) = (X, Y, s cos θ, s sin θ) (errata of §4.1.1) or (X, Y), and its Jacobian ∇h: the
+    kernel's measurement, on its own for the tests and for analysis.
 
     x: (..., 6). Returns h (..., m) and H (..., m, 6), m = 4 or 2.
     """

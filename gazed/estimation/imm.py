@@ -59,7 +59,9 @@ def check_switching_matrix(J: np.ndarray) -> np.ndarray:
 def mix(
     mu: np.ndarray, J: np.ndarray, x: np.ndarray, P: np.ndarray, angle_index: int | None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """§5 step 1 on its own: c̄ (K, M), x0 (K, M, n), P0 (K, M, n, n) for mu (K, M).
+    """§5 step 1 on its own (the kernel's, which `ImmFilter.predict` runs fused with the
+    motion step; here for the tests and for analysis): c̄ (K, M), x0 (K, M, n),
+    P0 (K, M, n, n) for mu (K, M). A model nobody can switch to (c̄_j = 0) keeps its own state.
 
     The angle of model j is mixed about its own, x0_j = θ_j + Σ_i ω_ij wrap(θ_i - θ_j), and
     left unwrapped (the motion model that follows wraps it).
@@ -84,7 +86,8 @@ def combine(
 
 
 def posterior(prior: np.ndarray, log_likelihood: np.ndarray) -> np.ndarray:
-    """§5 step 3: prior · exp(ℓ) normalised over the models (K, M), scaled by the largest
+    """§5 step 3 on its own (fused into `ImmFilter.correct`; here for the tests and for
+    analysis): prior · exp(ℓ) normalised over the models (K, M), scaled by the largest
     likelihood; when the most likely model has prior 0 (a switching matrix with zeros) the sum
     is taken in logarithms, so the probabilities stay finite."""
     prior = floats(np.atleast_2d(prior))
@@ -128,6 +131,16 @@ class ImmFilter:
             raise ValueError(f"switching matrix is {J.shape}, expected ({M}, {M})")
         if (H is None) != isinstance(models, GroundModelBank):
             raise ValueError("ground models are measured by h(x); linear ones need H")
+        if not (1 <= M <= _kalman.MAX_MODELS and 1 <= state_dim <= _kalman.MAX_STATES):
+            raise ValueError(
+                f"{M} models of {state_dim} states: the kernel takes 1 to {_kalman.MAX_MODELS} "
+                f"models of 1 to {_kalman.MAX_STATES} states"
+            )
+        if angle_index is not None and not 0 <= angle_index < state_dim:
+            raise ValueError(f"angle index {angle_index} outside the {state_dim}-state")
+        for m, matrix in (H or {}).items():
+            if not (1 <= m <= _kalman.MAX_MEASURED and np.shape(matrix) == (m, state_dim)):
+                raise ValueError(f"H for {m} measured: expected ({m}, {state_dim}) with m <= 4")
         return cls(
             models,
             J,

@@ -41,18 +41,25 @@ def _selection(idx: Index, n_tracks: int) -> tuple[np.ndarray | None, int]:
             return None, n_tracks
         rows = np.arange(n_tracks)[idx]
         return rows, len(rows)
+    if np.asarray(idx).dtype == bool:
+        raise TypeError("select tracks by a slice or by their indices, not by a mask")
     rows = np.asarray(idx, dtype=np.int64)
     return rows, len(rows)
 
 
 def angle_code(angle_index: int | None) -> int:
-    """The kernel's angle argument: the index, or -1 for none."""
-    return NO_ANGLE if angle_index is None else angle_index
+    """The kernel's angle argument: the index (>= 0; the kernel checks it is a state's), or -1
+    for none."""
+    if angle_index is None:
+        return NO_ANGLE
+    if angle_index < 0:
+        raise ValueError(f"angle index {angle_index}: expected a state's index >= 0, or None")
+    return angle_index
 
 
-def floats(a: np.ndarray) -> np.ndarray:
-    """a as C-contiguous float64 (no copy when it is already)."""
-    return np.ascontiguousarray(a, dtype=float)
+def floats(a: np.ndarray | None) -> np.ndarray | None:
+    """a as C-contiguous float64 (no copy when it is already); None stays None."""
+    return None if a is None else np.ascontiguousarray(a, dtype=float)
 
 
 @dataclass
@@ -90,7 +97,20 @@ def predict(
     N, M, n = x.shape
     rows, K = _selection(idx, N)
     _kalman.predict(
-        N, M, n, K, x, P, mu, rows, floats(dt), ground, J, F, Q, angle_code(angle_index)
+        N,
+        M,
+        n,
+        K,
+        x,
+        P,
+        mu,
+        rows,
+        floats(dt),
+        floats(ground),
+        floats(J),
+        floats(F),
+        floats(Q),
+        angle_code(angle_index),
     )
 
 
@@ -114,7 +134,9 @@ def innovate(
     gain = np.empty((K, M, n, m))
     nis = np.empty((K, M))
     log_likelihood = np.empty((K, M))
-    _kalman.innovate(N, M, n, K, m, x, P, rows, ground, z, R, H, y, S, gain, nis, log_likelihood)
+    _kalman.innovate(
+        N, M, n, K, m, x, P, rows, floats(ground), z, R, floats(H), y, S, gain, nis, log_likelihood
+    )
     return Innovation(y, S, gain, nis, log_likelihood, R)
 
 
@@ -144,11 +166,11 @@ def correct(
         P,
         mu,
         rows,
-        ground,
+        floats(ground),
         i.y,
         i.K,
         i.R,
-        H,
+        floats(H),
         i.log_likelihood,
         angle_code(angle_index),
     )
@@ -158,10 +180,11 @@ def forecast(
     x: np.ndarray, P: np.ndarray, mu: np.ndarray, idx: Index, dt: np.ndarray, ground: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
     """A ground IMM's selected tracks dt (K,) >= 0 ahead, unchanged: the mixture's mean
-    [X, Y, Ẋ, Ẏ] (K, 4) and covariance (K, 4, 4)."""
+    [X, Y, Ẋ, Ẏ] (K, 4) and covariance (K, 4, 4). A dt that is negative or not finite is a
+    ValueError (as in `predict`)."""
     N, M, _ = x.shape
     rows, K = _selection(idx, N)
     mean = np.empty((K, 4))
     cov = np.empty((K, 4, 4))
-    _kalman.forecast(N, M, K, x, P, mu, rows, floats(dt), ground, mean, cov)
+    _kalman.forecast(N, M, K, x, P, mu, rows, floats(dt), floats(ground), mean, cov)
     return mean, cov

@@ -326,22 +326,30 @@ def estimator_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", action="store_true", help="print one JSON object")
 
 
+def _refuse(message: str) -> int:
+    print(f"gazed eval estimator: {message}", file=sys.stderr)
+    return 2
+
+
 def estimator_command(args: argparse.Namespace) -> int:
     try:
         section = load_rig(args.rig).estimator if args.rig else EstimatorSection()
     except RigError as exc:
         print(exc, file=sys.stderr)
         return 2
-    for option, value in (
-        ("--noise-m", args.noise_m),
-        ("--velocity-noise-m-s", args.velocity_noise_m_s),
+    # a scenario's measurements need some noise (their covariance is the filter's R); the noise
+    # added to recorded tracks may be none
+    for option, value, zero_ok in (
+        ("--noise-m", args.noise_m, args.data is not None),
+        ("--velocity-noise-m-s", args.velocity_noise_m_s, False),
     ):
-        if value is not None and not (math.isfinite(value) and value >= 0):
-            print(
-                f"gazed eval estimator: {option} must be a finite number >= 0, got {value}",
-                file=sys.stderr,
-            )
-            return 2
+        if value is not None and not (
+            math.isfinite(value) and (value > 0 or (zero_ok and value == 0))
+        ):
+            least = ">= 0" if zero_ok else "> 0"
+            return _refuse(f"{option} must be a finite number {least}, got {value}")
+    if args.velocity_noise_m_s is not None and args.scenario != "rounded-square":
+        return _refuse("--velocity-noise-m-s goes with --scenario rounded-square")
     if args.scenario == "rounded-square":
         report = rounded_square_report(section, args.seed, args.noise_m, args.velocity_noise_m_s)
     elif args.scenario == "kelly":
