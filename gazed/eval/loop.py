@@ -167,6 +167,21 @@ def running(rig_path: Path) -> Iterator[tuple[Rig, subprocess.Popen[bytes], Path
             supervisor.wait()
 
 
+@contextlib.contextmanager
+def observed(
+    rig_path: Path, name: str, timeout_s: float = START_TIMEOUT_S
+) -> Iterator[tuple[Rig, Bus]]:
+    """`running(rig_path)` with a bus session called `name` on its bus, opened once the router
+    listens (within timeout_s) and closed on the way out (the benches that watch a rig)."""
+    with running(rig_path) as (rig, supervisor, log_path):
+        bus = Bus(rig, name)
+        open_observer(bus, supervisor, log_path, timeout_s)
+        try:
+            yield rig, bus
+        finally:
+            bus.close()
+
+
 def _exit_on_sigterm(signum: int, _frame: object) -> None:
     raise SystemExit(128 + signum)
 

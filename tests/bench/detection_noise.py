@@ -19,9 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
-from gazed.bus import Bus
 from gazed.estimation.observation import ground_measurement
-from gazed.eval.loop import START_TIMEOUT_S, open_observer, private_rig, running
+from gazed.eval.loop import observed, private_rig
 from gazed.geometry.ground import GroundGeometry, MeasurementNoise
 from gazed.topics import SIM_TRUTH, VISION_DETECTION
 
@@ -37,20 +36,15 @@ def main() -> None:
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as directory:
         rig_path = private_rig(args.rig, Path(directory), args.scenario, None, None, None, None)
-        with running(rig_path) as (rig, supervisor, log_path):
-            bus = Bus(rig, "observer")
-            open_observer(bus, supervisor, log_path, START_TIMEOUT_S)
-            try:
-                detections = bus.subscribe(VISION_DETECTION, capacity=100000)
-                truths = bus.subscribe(SIM_TRUTH, capacity=100000)
-                end_s = time.monotonic() + SETTLE_S + args.seconds
-                seen, truth = [], {}
-                while time.monotonic() < end_s:
-                    bus.wait(0.5)
-                    seen += detections.take()
-                    truth.update((t.t_capture_ns, t) for t in truths.take())
-            finally:
-                bus.close()
+        with observed(rig_path, "observer") as (rig, bus):
+            detections = bus.subscribe(VISION_DETECTION, capacity=100000)
+            truths = bus.subscribe(SIM_TRUTH, capacity=100000)
+            end_s = time.monotonic() + SETTLE_S + args.seconds
+            seen, truth = [], {}
+            while time.monotonic() < end_s:
+                bus.wait(0.5)
+                seen += detections.take()
+                truth.update((t.t_capture_ns, t) for t in truths.take())
     geometry = GroundGeometry.from_rig(rig)
     section = rig.estimator
     noise = MeasurementNoise.from_head(

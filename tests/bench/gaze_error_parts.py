@@ -25,9 +25,8 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(REPO))
 
-from gazed.bus import Bus  # noqa: E402
 from gazed.config import Rig  # noqa: E402
-from gazed.eval.loop import START_TIMEOUT_S, open_observer, private_rig, running  # noqa: E402
+from gazed.eval.loop import START_TIMEOUT_S, observed, private_rig  # noqa: E402
 from gazed.geometry.camera import CameraModel  # noqa: E402
 from gazed.geometry.kinematics import HeadKinematics  # noqa: E402
 from gazed.geometry.pose import CameraPose  # noqa: E402
@@ -55,28 +54,23 @@ def record(
 ) -> tuple[Rig, dict[str, list[Any]]]:
     with tempfile.TemporaryDirectory(prefix="gazed-parts-") as directory:
         rig_path = private_rig(rig_file, Path(directory), scenario, None, None, seed, None)
-        with running(rig_path) as (rig, supervisor, log_path):
-            bus = Bus(rig, "bench")
-            open_observer(bus, supervisor, log_path)
-            try:
-                subscriptions = {k: bus.subscribe(t, capacity=100_000) for k, t in TOPICS.items()}
-                states = bus.subscribe(GAZE_STATE, capacity=1000)
-                deadline_s = time.monotonic() + START_TIMEOUT_S
-                while not any(s.state == "pursuit" for s in states.take()):
-                    if time.monotonic() > deadline_s:
-                        raise SystemExit(f"no pursuit within {START_TIMEOUT_S:g} s")
-                    bus.wait(0.1)
-                time.sleep(SETTLE_S)  # a bench, not a test
-                for subscription in subscriptions.values():
-                    subscription.take()
-                recorded: dict[str, list] = {k: [] for k in TOPICS}
-                end_s = time.monotonic() + seconds
-                while time.monotonic() < end_s:
-                    bus.wait(0.5)
-                    for k, subscription in subscriptions.items():
-                        recorded[k].extend(subscription.take())
-            finally:
-                bus.close()
+        with observed(rig_path, "bench") as (rig, bus):
+            subscriptions = {k: bus.subscribe(t, capacity=100_000) for k, t in TOPICS.items()}
+            states = bus.subscribe(GAZE_STATE, capacity=1000)
+            deadline_s = time.monotonic() + START_TIMEOUT_S
+            while not any(s.state == "pursuit" for s in states.take()):
+                if time.monotonic() > deadline_s:
+                    raise SystemExit(f"no pursuit within {START_TIMEOUT_S:g} s")
+                bus.wait(0.1)
+            time.sleep(SETTLE_S)  # a bench, not a test
+            for subscription in subscriptions.values():
+                subscription.take()
+            recorded: dict[str, list] = {k: [] for k in TOPICS}
+            end_s = time.monotonic() + seconds
+            while time.monotonic() < end_s:
+                bus.wait(0.5)
+                for k, subscription in subscriptions.items():
+                    recorded[k].extend(subscription.take())
     return rig, recorded
 
 

@@ -26,8 +26,7 @@ from typing import Any
 REPO = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(REPO))
 
-from gazed.bus import Bus  # noqa: E402
-from gazed.eval.loop import open_observer, private_rig, running  # noqa: E402
+from gazed.eval.loop import observed, private_rig  # noqa: E402
 from gazed.eval.loop_metrics import gaze_errors_rad  # noqa: E402
 from gazed.geometry.pose import CameraPose  # noqa: E402
 from gazed.messages import GazeState, SimTruth, SupervisorStatus  # noqa: E402
@@ -47,35 +46,30 @@ def vision_pid(statuses: list[SupervisorStatus]) -> int | None:
 def one_seed(rig_file: Path, scenario: str, seed: int, seconds: float) -> dict[str, Any]:
     with tempfile.TemporaryDirectory(prefix="gazed-kill-") as directory:
         rig_path = private_rig(rig_file, Path(directory), scenario, None, None, seed, None)
-        with running(rig_path) as (rig, supervisor, log_path):
-            bus = Bus(rig, "bench")
-            open_observer(bus, supervisor, log_path, START_TIMEOUT_S)
-            try:
-                truth_sub = bus.subscribe(SIM_TRUTH, capacity=100_000)
-                state_sub = bus.subscribe(GAZE_STATE, capacity=1000)
-                status_sub = bus.subscribe(SUPERVISOR_STATUS, capacity=100)
-                truth: list[SimTruth] = []
-                states: list[GazeState] = []
-                statuses: list[SupervisorStatus] = []
+        with observed(rig_path, "bench", START_TIMEOUT_S) as (rig, bus):
+            truth_sub = bus.subscribe(SIM_TRUTH, capacity=100_000)
+            state_sub = bus.subscribe(GAZE_STATE, capacity=1000)
+            status_sub = bus.subscribe(SUPERVISOR_STATUS, capacity=100)
+            truth: list[SimTruth] = []
+            states: list[GazeState] = []
+            statuses: list[SupervisorStatus] = []
 
-                def pump() -> None:
-                    bus.wait(0.05)
-                    truth.extend(truth_sub.take())
-                    states.extend(state_sub.take())
-                    statuses.extend(status_sub.take())
+            def pump() -> None:
+                bus.wait(0.05)
+                truth.extend(truth_sub.take())
+                states.extend(state_sub.take())
+                statuses.extend(status_sub.take())
 
-                deadline_s = time.monotonic() + START_TIMEOUT_S
-                while not any(s.state == "pursuit" for s in states) or vision_pid(statuses) is None:
-                    if time.monotonic() > deadline_s:
-                        raise SystemExit(f"seed {seed}: no pursuit within {START_TIMEOUT_S:g} s")
-                    pump()
-                killed_ns = time.time_ns()
-                os.kill(vision_pid(statuses), signal.SIGKILL)  # type: ignore[arg-type]
-                end_s = time.monotonic() + seconds
-                while time.monotonic() < end_s:
-                    pump()
-            finally:
-                bus.close()
+            deadline_s = time.monotonic() + START_TIMEOUT_S
+            while not any(s.state == "pursuit" for s in states) or vision_pid(statuses) is None:
+                if time.monotonic() > deadline_s:
+                    raise SystemExit(f"seed {seed}: no pursuit within {START_TIMEOUT_S:g} s")
+                pump()
+            killed_ns = time.time_ns()
+            os.kill(vision_pid(statuses), signal.SIGKILL)  # type: ignore[arg-type]
+            end_s = time.monotonic() + seconds
+            while time.monotonic() < end_s:
+                pump()
     after = [t for t in truth if t.t_capture_ns > killed_ns]
     if not after:
         raise SystemExit(f"seed {seed}: no truth frames after the kill")
