@@ -111,7 +111,7 @@ class BusSection(Section):
     peer_links: bool = Field(
         True,
         description="The rig's own processes also link to each other directly, as zenoh peers "
-        "on loopback (one hop instead of two through the router; about 0.2 ms less per message). "
+        "on loopback (one hop instead of two through the router). "
         "Only where the bus is the supervisor's router on loopback with neither credentials nor "
         "a zenoh config: elsewhere the router's authentication and access control see every "
         "message, and the processes stay its clients.",
