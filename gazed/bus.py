@@ -19,7 +19,10 @@ clients leave to the router.
 
 Subscriptions decode and validate each sample as it arrives (in zenoh's receive thread, so no
 hidden queue builds up behind a slow process) into a bounded deque; frame topics keep only the
-newest frame. A payload that fails validation is dropped and counted, never raised.
+newest frame. A payload that fails validation is dropped and counted, never raised. A sample
+then wakes the process's loop (`wait`), or, on an `immediate` subscription, asks the process to
+run its step in the receive thread right away (`run_immediately`; the loop is woken if it
+cannot).
 """
 
 from __future__ import annotations
@@ -188,8 +191,9 @@ class Subscription(Generic[M]):
     older ones are dropped and counted); frame topics keep only the newest.
     """
 
-    def __init__(self, bus: Bus, topic: Topic, capacity: int) -> None:
+    def __init__(self, bus: Bus, topic: Topic, capacity: int, immediate: bool = False) -> None:
         self.topic = topic
+        self.immediate = immediate
         self._bus = bus
         self._items: deque[Any] = deque(maxlen=1 if topic.frames else capacity)
         self._subscriber = bus.session.declare_subscriber(
@@ -206,7 +210,8 @@ class Subscription(Generic[M]):
             self._bus.stats.count("replaced" if self.topic.frames else "dropped")
         self._items.append(item)
         self._bus.stats.receive(self.topic.suffix)
-        self._bus.notify()
+        if not (self.immediate and self._bus.step_now()):
+            self._bus.notify()
 
     def take(self) -> list[Any]:
         items = []
@@ -317,6 +322,7 @@ class Bus:
         # deadlock the very thread that waits on it)
         self._wake_read, self._wake_write = -1, -1
         self._closables: list[Any] = []
+        self._step_now: Callable[[], bool] | None = None
         self.started_monotonic_s = time.monotonic()
 
     def __enter__(self) -> Bus:
@@ -363,8 +369,12 @@ class Bus:
         self._closables.append(publisher)
         return publisher
 
-    def subscribe(self, topic: Topic, *, capacity: int = 256) -> Subscription[Any]:
-        subscription: Subscription[Any] = Subscription(self, topic, capacity)
+    def subscribe(
+        self, topic: Topic, *, capacity: int = 256, immediate: bool = False
+    ) -> Subscription[Any]:
+        """Messages of `topic` as they arrive (see `Subscription`); with `immediate`, each
+        sample also asks for the process's step at once (`run_immediately`)."""
+        subscription: Subscription[Any] = Subscription(self, topic, capacity, immediate)
         self._closables.append(subscription)
         return subscription
 
@@ -405,6 +415,15 @@ class Bus:
                 history=True,
             )
         )
+
+    def run_immediately(self, step_now: Callable[[], bool]) -> None:
+        """Have a sample of an `immediate` subscription call `step_now()` in the receive
+        thread; it returns False when it could not step (one is running), and the sample then
+        wakes `wait()` instead. Without it, every sample just wakes `wait()`."""
+        self._step_now = step_now
+
+    def step_now(self) -> bool:
+        return self._step_now is not None and self._step_now()
 
     def notify(self) -> None:
         """Wake `wait()`; safe from any thread and from a signal handler."""

@@ -72,7 +72,7 @@ class EstimatorService:
         self.noise = MeasurementNoise.from_head(
             rig.head, section.pixel_noise_px, section.pixel_rate_noise_px_s
         )
-        self.detections = bus.subscribe(VISION_DETECTION, capacity=64)
+        self.detections = bus.subscribe(VISION_DETECTION, capacity=64, immediate=True)
         self.commands = bus.subscribe(SERVO_COMMAND, capacity=256)
         self.servo_status = bus.subscribe(SERVO_STATUS, capacity=4)
         self.states = bus.publisher(ESTIMATOR_STATE)

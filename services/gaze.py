@@ -49,7 +49,7 @@ class GazeService:
         self.after_prediction_s = self.period_s + (
             0.5 * frame_period_s if self.period_s >= frame_period_s else 0.0
         )
-        self.predictions = bus.subscribe(ESTIMATOR_PREDICTION, capacity=16)
+        self.predictions = bus.subscribe(ESTIMATOR_PREDICTION, capacity=16, immediate=True)
         self.detections = bus.subscribe(VISION_DETECTION, capacity=16)
         self.candidates = bus.subscribe(VISION_CANDIDATES, capacity=4)
         self.odometry = bus.subscribe(SERVO_ODOMETRY, capacity=16)

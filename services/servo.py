@@ -84,7 +84,7 @@ class ServoService:
         self.limiter = DemandLimiter(rig.head, inset_rad)
         self.setpoints = SetpointGenerator(rig.head, time.monotonic(), inset_rad)
         self.response_lag = ResponseLag()
-        self.demands = bus.subscribe(GAZE_DEMAND, capacity=64)
+        self.demands = bus.subscribe(GAZE_DEMAND, capacity=64, immediate=True)
         self.odometry = bus.publisher(SERVO_ODOMETRY)
         self.status = bus.publisher(SERVO_STATUS)
         self.commands = bus.publisher(SERVO_COMMAND)

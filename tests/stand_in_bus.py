@@ -40,7 +40,7 @@ class StandInBus:
         self.inboxes: dict[str, Inbox] = {}
         self.outboxes: dict[str, Outbox] = {}
 
-    def subscribe(self, topic: Any, capacity: int = 0) -> Inbox:
+    def subscribe(self, topic: Any, capacity: int = 0, immediate: bool = False) -> Inbox:
         return self.inboxes.setdefault(topic.suffix, Inbox())
 
     def publisher(self, topic: Any) -> Outbox:

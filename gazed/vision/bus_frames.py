@@ -34,7 +34,7 @@ class BusFrameSource(FrameSource):
 
     def connect(self) -> None:
         if self._subscription is None:
-            self._subscription = self._bus.subscribe(SIM_FRAME)
+            self._subscription = self._bus.subscribe(SIM_FRAME, immediate=True)
 
     def disconnect(self) -> None:
         subscription, self._subscription = self._subscription, None
