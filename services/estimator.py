@@ -254,8 +254,7 @@ class EstimatorService:
         else:
             x, y = predicted.position.tolist()
             vx, vy = predicted.velocity.tolist()
-            pan, tilt = self.geometry.gaze_from_ground(x, y)
-            pan_rate, tilt_rate = self.geometry.gaze_rates_from_ground(x, y, vx, vy)
+            pan, tilt, pan_rate, tilt_rate = self.geometry.gaze_motion_from_ground(x, y, vx, vy)
             ground, velocity = (x, y), (vx, vy)
             cov = tuple(map(tuple, predicted.covariance[:2, :2].tolist()))
         return Prediction(

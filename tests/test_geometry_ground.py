@@ -136,6 +136,8 @@ def test_jacobians_match_finite_differences(rig, camera: CameraModel) -> None:
             assert np.abs(numeric - analytic).max() <= 1e-6 * np.abs(analytic).max()
             rates = geometry.gaze_rates_from_ground(x, y, 1.2, -0.7)
             assert rates == pytest.approx(analytic @ [1.2, -0.7], rel=1e-12)
+            motion = geometry.gaze_motion_from_ground(x, y, 1.2, -0.7)
+            assert motion == (*geometry.gaze_from_ground(x, y), *rates)
 
 
 @pytest.mark.parametrize("camera", CAMERAS, ids=CAMERA_IDS)

@@ -14,6 +14,7 @@ Estimator and gaze — one object per rig, `ground.GroundGeometry`:
     geometry.ground_jacobian(pan, tilt, u, v)                        # 2x4 d(X, Y)/d(pan, tilt, u, v)
     pan, tilt = geometry.gaze_from_ground(x, y)                      # centre a ground point
     pan_rate, tilt_rate = geometry.gaze_rates_from_ground(x, y, x_rate, y_rate)
+    pan, tilt, pan_rate, tilt_rate = geometry.gaze_motion_from_ground(x, y, x_rate, y_rate)  # both
     geometry.gaze_jacobian(x, y)                                     # 2x2 d(pan, tilt)/d(X, Y)
     geometry.pixel_from_ground(x, y, pan, tilt)                      # where it appears now
 

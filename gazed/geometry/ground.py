@@ -138,7 +138,8 @@ class GroundGeometry:
         self, pan_rad: float, tilt_rad: float, u_px: float, v_px: float
     ) -> np.ndarray:
         """d(X, Y)/d(pan, tilt, u, v) of `ground_from_gaze`, 2x4."""
-        return self._jacobian(pan_rad, tilt_rad, *self._camera_ray(u_px, v_px))[0]
+        rotations = self.head.rotation_with_derivatives(pan_rad, tilt_rad)
+        return self._jacobian(rotations, *self._camera_ray(u_px, v_px))[0]
 
     def measure(self, sample: GazeSample, noise: MeasurementNoise) -> GroundMeasurement:
         """Ground position, velocity and their 4x4 covariance from one image measurement.
@@ -153,7 +154,8 @@ class GroundGeometry:
             [sample.pan_rate_rad_s, sample.tilt_rate_rad_s, sample.u_rate_px_s, sample.v_rate_px_s]
         )
         ray = self._camera_ray(u, v)
-        jacobian, direction = self._jacobian(pan, tilt, *ray)
+        rotations = self.head.rotation_with_derivatives(pan, tilt)
+        jacobian, direction = self._jacobian(rotations, *ray)
         hit = self.homography.ground_from_direction(direction)
         position = hit if self.height is None else self.height.target_from_hit(hit)
         reach = float((np.abs(rates) / INPUT_STEPS).max())  # steps per unit ε
@@ -161,9 +163,13 @@ class GroundGeometry:
             epsilon = 1.0 / reach
             dz = epsilon * rates
             moved = self._camera_ray(u + dz[2], v + dz[3]) if dz[2] or dz[3] else ray
-            velocity_by_z = (
-                self._jacobian(pan + dz[0], tilt + dz[1], *moved)[0] - jacobian
-            ) / epsilon
+            # the estimator's samples carry no head rates (they drop out: observation.py)
+            turned = (
+                self.head.rotation_with_derivatives(pan + dz[0], tilt + dz[1])
+                if dz[0] or dz[1]
+                else rotations
+            )
+            velocity_by_z = (self._jacobian(turned, *moved)[0] - jacobian) / epsilon
         else:
             velocity_by_z = 0.0
         f = np.zeros((4, 8))
@@ -179,16 +185,28 @@ class GroundGeometry:
 
     def gaze_jacobian(self, x_m: float, y_m: float) -> np.ndarray:
         """d(pan, tilt)/d(X, Y) of `gaze_from_ground`, 2x2."""
-        direction = self._direction_to(x_m, y_m)
-        jacobian = self.head.direction_angles_jacobian(direction) @ self.homography.inverse[:, :2]
-        return jacobian if self.height is None else jacobian / self.height.jacobian_scale
+        return self._gaze_jacobian_at(self._direction_to(x_m, y_m))
 
     def gaze_rates_from_ground(
         self, x_m: float, y_m: float, x_rate_m_s: float, y_rate_m_s: float
     ) -> tuple[float, float]:
         """Joint rates (pan', tilt') that keep a target moving at (X', Y') centred."""
-        pan_rate, tilt_rate = self.gaze_jacobian(x_m, y_m) @ np.array([x_rate_m_s, y_rate_m_s])
-        return float(pan_rate), float(tilt_rate)
+        _, _, pan_rate, tilt_rate = self.gaze_motion_from_ground(x_m, y_m, x_rate_m_s, y_rate_m_s)
+        return pan_rate, tilt_rate
+
+    def gaze_motion_from_ground(
+        self, x_m: float, y_m: float, x_rate_m_s: float, y_rate_m_s: float
+    ) -> tuple[float, float, float, float]:
+        """(pan, tilt, pan', tilt'): `gaze_from_ground` and `gaze_rates_from_ground` from one
+        ray to the ground point."""
+        direction = self._direction_to(x_m, y_m)
+        pan, tilt = self.head.angles_from_direction(direction)
+        rates = self._gaze_jacobian_at(direction) @ np.array([x_rate_m_s, y_rate_m_s])
+        return float(pan), float(tilt), float(rates[0]), float(rates[1])
+
+    def _gaze_jacobian_at(self, direction: np.ndarray) -> np.ndarray:
+        jacobian = self.head.direction_angles_jacobian(direction) @ self.homography.inverse[:, :2]
+        return jacobian if self.height is None else jacobian / self.height.jacobian_scale
 
     def pixel_from_ground(
         self, x_m: float, y_m: float, pan_rad: float, tilt_rad: float
@@ -204,10 +222,10 @@ class GroundGeometry:
         return FLIP_Y @ ray, FLIP_Y @ ray_by_pixel
 
     def _jacobian(
-        self, pan_rad: float, tilt_rad: float, ray: np.ndarray, ray_by_pixel: np.ndarray
+        self, rotations: np.ndarray, ray: np.ndarray, ray_by_pixel: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
-        """d(X, Y)/d(pan, tilt, u, v) (2x4) and the base-frame ray (3,)."""
-        rotations = self.head.rotation_with_derivatives(pan_rad, tilt_rad)  # R, dR/dpan, dR/dtilt
+        """d(X, Y)/d(pan, tilt, u, v) (2x4) and the base-frame ray (3,), the head's rotation
+        given as R, dR/dpan, dR/dtilt (`rotation_with_derivatives`)."""
         direction = rotations[0] @ ray
         ray_derivatives = np.empty((3, 4))
         ray_derivatives[:, :2] = (rotations[1:] @ ray).T
