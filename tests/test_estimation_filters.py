@@ -140,3 +140,28 @@ def test_image_cv_follows_gaze_angles() -> None:
     p = estimator.predict(4.0 + 0.2)
     np.testing.assert_allclose(p.velocity, rates, atol=0.025)
     np.testing.assert_allclose(p.position, [0.1, -0.3] + rates * 4.2, atol=0.01)
+
+
+@pytest.mark.parametrize("mode", ["imm", "innovation", "alphabeta", "cv", "ca", "image-cv"])
+def test_one_tracks_prediction_is_its_forecast(mode: str) -> None:
+    """`predict` (track 0's shortcut) gives exactly what `forecast` gives for the track, from
+    its first measurement on, and refuses a time before the state as `forecast` does."""
+    rng = np.random.default_rng(3)
+    estimator = build_estimator(SECTION, mode=mode)
+    assert estimator.predict(0.0) is None
+    for k in range(30):
+        t = k * 0.04
+        position = np.array([1.0, 0.5]) * t + rng.normal(0, 0.05, 2)
+        velocity = np.array([1.0, 0.5]) + rng.normal(0, 0.1, 2)
+        estimator.update(
+            Measurement.ground(t, position, np.eye(2) * 0.0025, velocity, np.eye(2) * 0.01)
+        )
+        for ahead_s in (0.0, 0.19):
+            predicted = estimator.predict(t + ahead_s)
+            forecast = estimator.forecast(np.array([t + ahead_s]))
+            assert predicted is not None
+            assert np.array_equal(predicted.position, forecast.position[0])
+            assert np.array_equal(predicted.velocity, forecast.velocity[0])
+            assert np.array_equal(predicted.covariance, forecast.covariance[0])
+    with pytest.raises(ValueError):
+        estimator.predict(t - 0.01)

@@ -260,6 +260,10 @@ class TrackEstimator(ABC):
 
     def predict(self, t_s: float) -> PredictedState | None:
         """Track 0 predicted to t_s (>= its state time), or None if there is no track."""
+        dt = t_s - float(self.t_s[0])
+        if self.n_tracks == 1 and self.status[0] == TRACKING and 0.0 <= dt < math.inf:
+            mean, covariance = self._forecast(slice(None), np.array([dt]))  # `forecast`'s usual
+            return PredictedState(float(t_s), mean[0, :2], mean[0, 2:], covariance[0])
         f = self.forecast(np.array([t_s]))
         if not f.valid[0]:
             return None
