@@ -80,9 +80,10 @@ def rotation_homography(
 
 
 def apply_homography(H: np.ndarray, u_px: float, v_px: float) -> tuple[float, float]:
-    """Where pixel (u, v) goes under H."""
-    x, y, w = H @ np.array([u_px, v_px, 1.0])
-    return float(x / w), float(y / w)
+    """Where pixel (u, v) goes under H (in floats: a 3x3 product is not worth NumPy's calls)."""
+    (h00, h01, h02), (h10, h11, h12), (h20, h21, h22) = H.tolist()
+    w = h20 * u_px + h21 * v_px + h22
+    return (h00 * u_px + h01 * v_px + h02) / w, (h10 * u_px + h11 * v_px + h12) / w
 
 
 @dataclass(frozen=True)
@@ -117,6 +118,33 @@ class HeadStep:
             u_px - ((g00 * u_px + g02) + g01 * v_px) / w,
             v_px - ((g10 * u_px + g12) + g11 * v_px) / w,
         )
+
+    def shift_less_displacement(
+        self, shift_px: tuple[float, float], origin_px: tuple[int, int], offsets_px: np.ndarray
+    ) -> np.ndarray:
+        """s - w (px, the shape of `offsets_px`): a displacement s = `shift_px` less the
+        displacement w of the static points now at pixels `origin_px` + `offsets_px` (offsets
+        (..., 2) float64, u then v; a window's grid). w = x - H⁻¹x, so s - w = H⁻¹x - x + s:
+        one perspective transform of the offsets, origin and s folded into the matrix
+        T(s - origin) H⁻¹ T(origin), less the offsets."""
+        (g00, g01, g02), (g10, g11, g12), (g20, g21, g22) = self.H_inverse.tolist()
+        x0, y0 = origin_px
+        # H⁻¹ T(origin): the origin moves into the last column; T(s - origin) adds (a, b)
+        # times the last row to the first two
+        c0 = g00 * x0 + g01 * y0 + g02
+        c1 = g10 * x0 + g11 * y0 + g12
+        c2 = g20 * x0 + g21 * y0 + g22
+        a, b = shift_px[0] - x0, shift_px[1] - y0
+        folded = np.array(
+            [
+                [g00 + a * g20, g01 + a * g21, c0 + a * c2],
+                [g10 + b * g20, g11 + b * g21, c1 + b * c2],
+                [g20, g21, c2],
+            ]
+        )
+        moved = cv2.perspectiveTransform(offsets_px, folded)
+        moved -= offsets_px
+        return moved
 
     @cached_property
     def H_inverse(self) -> np.ndarray:
@@ -154,18 +182,16 @@ class EgoMotion:
         """The rotation between two captures: warp, and mean angular velocity over the interval."""
         if dt_s <= 0:
             raise ValueError(f"captures must be in time order (dt = {dt_s} s)")
-        mid = HeadPose(
-            pan_rad=0.5 * (head_from.pan_rad + head_to.pan_rad),
-            tilt_rad=0.5 * (head_from.tilt_rad + head_to.tilt_rad),
-            pan_rate_rad_s=(head_to.pan_rad - head_from.pan_rad) / dt_s,
-            tilt_rate_rad_s=(head_to.tilt_rad - head_from.tilt_rad) / dt_s,
+        # ω at the mid-interval pose with the mean rates (straight from the angles: no HeadPose
+        # to validate, once per frame)
+        omega = camera_angular_velocity(
+            self.kinematics,
+            0.5 * (head_from.pan_rad + head_to.pan_rad),
+            0.5 * (head_from.tilt_rad + head_to.tilt_rad),
+            (head_to.pan_rad - head_from.pan_rad) / dt_s,
+            (head_to.tilt_rad - head_from.tilt_rad) / dt_s,
         )
-        return HeadStep(
-            self.homography(head_from, head_to),
-            self.angular_velocity(mid),
-            dt_s,
-            self.camera.K,
-        )
+        return HeadStep(self.homography(head_from, head_to), omega, dt_s, self.camera.K)
 
     def still_step(self, dt_s: float) -> HeadStep:
         """A step for a head known (or assumed) to be still: identity warp, no flow."""

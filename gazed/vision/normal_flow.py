@@ -65,7 +65,7 @@ _CLOSING_KERNEL = np.ones((3, 3), np.uint8)
 
 @dataclass(frozen=True)
 class Fovea:
-    """The foveal window: origin and side in pixels, and its pixel coordinates."""
+    """The foveal window: origin and side in pixels."""
 
     x0: int
     y0: int
@@ -80,11 +80,15 @@ class Fovea:
     def rect(self) -> tuple[int, int, int, int]:
         return (self.x0, self.y0, self.side, self.side)
 
-    def axes(self) -> tuple[np.ndarray, np.ndarray]:
-        """The pixel coordinates of its columns (1, side) and rows (side, 1): they broadcast
-        to the window's grid."""
-        r = np.arange(self.side, dtype=np.float64)
-        return (self.x0 + r)[None, :], (self.y0 + r)[:, None]
+
+def window_offsets_px(side: int) -> np.ndarray:
+    """Each pixel's (column, row) offset from a window's origin, (side, side, 2) float64: the
+    same for every placement of a window of that side."""
+    r = np.arange(side, dtype=np.float64)
+    offsets = np.empty((side, side, 2))
+    offsets[..., 0] = r[None, :]
+    offsets[..., 1] = r[:, None]
+    return offsets
 
 
 @dataclass
@@ -121,6 +125,7 @@ class NormalFlowDetector:
         self.noise_px = noise_px
         self.min_gradient = min_gradient
         self.min_area_px = min_area_px
+        self._offsets_px = window_offsets_px(self.side)
         self._track: tuple[float, float, np.ndarray] | None = None  # u, v, d (px/frame)
 
     def reset(self) -> None:
@@ -132,7 +137,9 @@ class NormalFlowDetector:
             return DetectorOutput.nothing()
         fovea = self._place(pair.step, pair.gray.shape)
         track = self._track[2] if self._track is not None else None
-        measurement = _Measurement(pair, fovea, self.min_gradient, track, SMOOTHING_SIGMA_PX)
+        measurement = _Measurement(
+            pair, fovea, self._offsets_px, self.min_gradient, track, SMOOTHING_SIGMA_PX
+        )
         # seed 000 §2: background where the ego-compensated normal flow is within the noise
         v_ind = measurement.independent_flow()
         moving = measurement.valid & (np.abs(v_ind) > self.noise_px)
@@ -234,7 +241,12 @@ class NormalFlowDetector:
         if best.score < ACQUIRED_SCORE:
             scale = COARSE_SIGMA_PX / SMOOTHING_SIGMA_PX
             coarse = _Measurement(
-                pair, measurement.fovea, self.min_gradient / scale, track, COARSE_SIGMA_PX
+                pair,
+                measurement.fovea,
+                self._offsets_px,
+                self.min_gradient / scale,
+                track,
+                COARSE_SIGMA_PX,
             )
             wide = coarse.constraints(region & coarse.valid)
             start = wide.fit(coarse.hypotheses, LINEAR_RANGE_PX * scale, self.noise_px * scale)
@@ -260,6 +272,7 @@ class _Measurement:
         self,
         pair: FramePair,
         fovea: Fovea,
+        offsets_px: np.ndarray,
         min_gradient: float,
         track: np.ndarray | None,
         sigma_px: float,
@@ -273,21 +286,31 @@ class _Measurement:
         crop = cv2.getRectSubPix(pair.gray, (n + 2 * m,) * 2, (cu, cv), patchType=cv2.CV_32F)
         smoothed = cv2.GaussianBlur(crop, (0, 0), sigma_px)
         self.current = smoothed[m:-m, m:-m]
-        # ∇E over the window: the 3x3 Sobel kernels need it and a one-pixel ring only
+        # ∇E over the window: the 3x3 Sobel kernels need it and a one-pixel ring only; both
+        # components written into one array, so that v̂ is one division
         ring = smoothed[m - 1 : 1 - m, m - 1 : 1 - m]
-        gx = cv2.Sobel(ring, cv2.CV_32F, 1, 0, ksize=3, scale=0.125)[1:-1, 1:-1]
-        gy = cv2.Sobel(ring, cv2.CV_32F, 0, 1, ksize=3, scale=0.125)[1:-1, 1:-1]
-        self.gradient = cv2.magnitude(gx, gy)
+        ring_gradient = np.empty((2, n + 2, n + 2), np.float32)
+        cv2.Sobel(ring, cv2.CV_32F, 1, 0, ring_gradient[0], ksize=3, scale=0.125)
+        cv2.Sobel(ring, cv2.CV_32F, 0, 1, ring_gradient[1], ksize=3, scale=0.125)
+        gradient_xy = ring_gradient[:, 1:-1, 1:-1]
+        # the per-pixel terms the constraints gather, in one array so that one `take` gathers
+        # them all: v̂ (x, y), 1/|∇E| (1 where the gradient is too weak), |∇E|
+        self.terms = np.empty((4, n, n), np.float32)
+        self.normal = self.terms[:2]  # v̂, (2, side, side)
+        self.inverse_gradient = self.terms[2]
+        self.gradient = self.terms[3]
+        cv2.magnitude(gradient_xy[0], gradient_xy[1], self.gradient)
         self.valid = self.gradient > min_gradient
         safe = np.where(self.valid, self.gradient, 1.0)
-        self.inverse_gradient = 1.0 / safe
-        self.normal = np.stack((gx, gy)) / safe  # v̂, (2, side, side)
-        nx, ny = self.normal
+        np.divide(1.0, safe, out=self.inverse_gradient)
+        np.divide(gradient_xy, safe, out=self.normal)
         su, sv = pair.step.displacement(cu, cv)  # s: the ego-rotation displacement of the centre
         self.shift = su, sv
-        wu, wv = pair.step.displacement(*fovea.axes())  # w: of each pixel, px per frame
-        # v̂·(s - w): the ego flow's normal component, relative to the window's shift
-        self.ego_normal = nx * (su - wu) + ny * (sv - wv)
+        # v̂·(s - w), w the ego-rotation displacement of each pixel (px per frame): the ego
+        # flow's normal component, relative to the window's shift
+        relative = pair.step.shift_less_displacement((su, sv), (fovea.x0, fovea.y0), offsets_px)
+        nx, ny = self.normal
+        self.ego_normal = nx * relative[..., 0] + ny * relative[..., 1]
         # starting hypotheses for the target's own displacement d (px per frame, (k, 2)): still
         # in the world, still in the image (pursued by the head), moving as in the last frame
         starts = [(0.0, 0.0), (-su, -sv)]
@@ -337,15 +360,16 @@ class _Constraints:
 
     def __init__(self, measurement: _Measurement, pixels: np.ndarray) -> None:
         self.measurement = measurement
-        self.index = i = np.flatnonzero(pixels)  # into the window's pixels, row-major
-        self.inverse_gradient = measurement.inverse_gradient.take(i).astype(float)
+        self.index = i = pixels.ravel().nonzero()[0]  # into the window's pixels, row-major
+        terms = measurement.terms.reshape(4, -1).take(i, axis=1).astype(float)
+        # v̂, 1/|∇E| and |∇E| at the constraints, float64
+        self.normal, self.inverse_gradient, gradient = terms[:2], terms[2], terms[3]
         # the terms of y (below) that no hypothesis changes: v̂·(s - w) - E/|∇E|
         current = measurement.current.take(i)
         self.offset = measurement.ego_normal.take(i) - current * self.inverse_gradient
-        self.normal = measurement.normal.reshape(2, -1).take(i, axis=1).astype(float)  # v̂
         # the weighted terms of the normal equations, for every constraint: w v̂ and
         # w (nx², nx ny, ny²), w = |∇E|²
-        self.wn = np.square(measurement.gradient.take(i), dtype=float) * self.normal
+        self.wn = np.square(gradient) * self.normal
         self.products = self.wn[[0, 0, 1]] * self.normal[[0, 1, 1]]
 
     def fit(self, starts: np.ndarray, tolerance_px: float, noise_px: float) -> _Fit:
