@@ -1,6 +1,6 @@
 """Milliseconds per frame of each detector at 320x240 and 640x480, on one core.
 
-    python tests/bench/vision_speed.py [--frames N]
+    python tests/bench/vision_speed.py [--frames N] [--gap-ms MS] [--detector NAME ...]
 
 Synthetic sequences (gazed.vision.synthetic): for `flow` and `pyramid` the head pursues a
 textured target while turning at up to ~60°/s (ego-motion compensation on); for `background`
@@ -8,7 +8,9 @@ the head is still and a walker crosses the view. Frames are rendered beforehand.
 is one pipeline step — grey conversion, ego-motion, the detector (for `pyramid` including the
 motion-energy pyramid) — with the candidates off, then with them on (they add the whole-frame
 motion energy and its regions). OpenCV is limited to one thread. Prints median and p99 of the
-thread's CPU time and of the wall time.
+thread's CPU time and of the wall time. `--gap-ms 40` sleeps that long before each frame, as
+the live loop runs vision once per frame period at 25 Hz: the caches are then cold, and a frame
+costs more than back to back.
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ from gazed.vision.synthetic import SyntheticScene, pursuing_head, still_head
 
 RATE_HZ = 25.0
 SEQUENCE = 60  # frames rendered per configuration, replayed until enough are timed
+DETECTORS = ("flow", "pyramid", "background")
 
 
 pursuit = pursuing_head(-0.8, 0.4, math.radians(37.0), math.radians(-20.0))
@@ -58,7 +61,12 @@ def frames(detector: str, width: int, height: int) -> tuple[CameraModel, list]:
 
 
 def one_pass(
-    camera: CameraModel, sequence: list, detector: str, candidates: bool, times: dict
+    camera: CameraModel,
+    sequence: list,
+    detector: str,
+    candidates: bool,
+    times: dict,
+    gap_s: float = 0.0,
 ) -> None:
     """One pass over a sequence with a fresh pipeline: per-frame CPU time of this thread and
     wall time (ms) of a step — grey conversion + detector (+ motion energy for `pyramid`)
@@ -67,6 +75,8 @@ def one_pass(
         camera, HeadKinematics(), VisionSection(candidates=candidates), detector
     )
     for i, (image, truth) in enumerate(sequence):
+        if gap_s:
+            time.sleep(gap_s)
         cpu0, wall0 = time.thread_time(), time.perf_counter()
         gray = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
         pipeline.process(gray, round(truth.t_s * 1e9), truth.head)
@@ -84,11 +94,21 @@ def cell(values: list[float]) -> str:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--frames", type=int, default=405, help="timed frames per configuration")
+    parser.add_argument(
+        "--gap-ms", type=float, default=0.0, help="sleep before each frame (cold caches)"
+    )
+    parser.add_argument(
+        "--detector",
+        action="append",
+        choices=DETECTORS,
+        help="time only this detector (repeat for several; default all)",
+    )
     args = parser.parse_args()
+    detectors = args.detector or list(DETECTORS)
     cv2.setNumThreads(1)
     configs = [
         (detector, width, height, candidates)
-        for detector in ("flow", "pyramid", "background")
+        for detector in detectors
         for width, height in ((320, 240), (640, 480))
         for candidates in (False, True)
     ]
@@ -101,13 +121,16 @@ def main() -> None:
         for config in configs:
             detector, width, height, candidates = config
             camera, sequence = sequences[(detector, width, height)]
-            one_pass(camera, sequence, detector, candidates, times[config])
-    print(f"vision speed, one core, {rounds * (SEQUENCE - 15)} timed frames each; ms per frame,")
+            one_pass(camera, sequence, detector, candidates, times[config], args.gap_ms / 1e3)
+    gap = f", {args.gap_ms:g} ms asleep before each" if args.gap_ms else ""
+    print(
+        f"vision speed, one core, {rounds * (SEQUENCE - 15)} timed frames each{gap}; ms per frame,"
+    )
     print("median / p99. cpu: this thread's CPU time (what one core spends); wall: elapsed,")
     print("including any wait for the CPU on a shared machine")
     header = f"{'detector':<11}{'size':>9}   {'detector cpu':>13} {'detector wall':>13}"
     print(header + f"   {'+candidates cpu':>15} {'+candidates wall':>16}")
-    for detector in ("flow", "pyramid", "background"):
+    for detector in detectors:
         for width, height in ((320, 240), (640, 480)):
             alone = times[(detector, width, height, False)]
             both = times[(detector, width, height, True)]
