@@ -1,13 +1,15 @@
 """One-way latency on the bus between two processes, as a service sees it (sent -> decoded and
 taken by the receiving loop), through the supervisor's router and over a direct peer link.
 
-    python tests/bench/bus_latency.py [--count 2000]
+    python tests/bench/bus_latency.py [--count 2000] [--detection-rate-hz 500]
 
 Three processes like a rig: this script holds the router-mode session; a sender and a receiver
 connect to it, as clients (the sessions of tools: every message through the router) and then as
 the rig's own `vision` and `estimator` (peers on this loopback bus: `[bus] peer_links`).
 Detections are sent at 500 Hz and 640x480 RGB frames at 100 Hz (paced, so the figure is
-latency, not queueing); the sender stamps `t_capture_ns` at send time.
+latency, not queueing); the sender stamps `t_capture_ns` at send time. At the camera's rate
+(`--detection-rate-hz 25`) every process sleeps between messages, as in the loop, and each
+message costs more: the sessions' threads wake cold.
 """
 
 from __future__ import annotations
@@ -40,14 +42,14 @@ def rig_file(directory: Path) -> Path:
 NAMES = {"router": ("sender", "receiver"), "peer": ("vision", "estimator")}
 
 
-def send(rig_path: Path, kind: str, count: int, links: str) -> None:
+def send(rig_path: Path, kind: str, count: int, links: str, detection_rate_hz: float) -> None:
     rig = load_rig(rig_path)
     with Bus(rig, NAMES[links][0]) as bus:
         publisher = bus.publisher(SIM_FRAME if kind == "frame" else VISION_DETECTION)
         while not publisher.matched():
             time.sleep(0.01)
         time.sleep(0.5)
-        period_s = 0.01 if kind == "frame" else 0.002
+        period_s = 0.01 if kind == "frame" else 1.0 / detection_rate_hz
         image = np.random.default_rng(0).integers(0, 256, (480, 640, 3), dtype=np.uint8)
         head = HeadPose(pan_rad=0.1, tilt_rad=-0.2, pan_rate_rad_s=0.01, tilt_rate_rad_s=0.02)
         next_s = time.monotonic()
@@ -95,9 +97,11 @@ def receive(rig_path: Path, kind: str, count: int, links: str) -> None:
     print(json.dumps(latencies_ms[:count]))
 
 
-def measure(rig_path: Path, kind: str, count: int, links: str) -> dict[str, float]:
+def measure(
+    rig_path: Path, kind: str, count: int, links: str, detection_rate_hz: float
+) -> dict[str, float]:
     me = [sys.executable, __file__, "--rig", str(rig_path), "--kind", kind, "--count", str(count)]
-    me += ["--links", links]
+    me += ["--links", links, "--detection-rate-hz", str(detection_rate_hz)]
     receiver = subprocess.Popen([*me, "--role", "receiver"], stdout=subprocess.PIPE, text=True)
     sender = subprocess.Popen([*me, "--role", "sender"])
     out, _ = receiver.communicate(timeout=300)
@@ -114,9 +118,10 @@ def main() -> int:
     parser.add_argument("--kind", choices=["detection", "frame"])
     parser.add_argument("--rig", type=Path)
     parser.add_argument("--links", choices=list(NAMES), default="router")
+    parser.add_argument("--detection-rate-hz", type=float, default=500.0)
     args = parser.parse_args()
     if args.role == "sender":
-        send(args.rig, args.kind, args.count, args.links)
+        send(args.rig, args.kind, args.count, args.links, args.detection_rate_hz)
         return 0
     if args.role == "receiver":
         receive(args.rig, args.kind, args.count, args.links)
@@ -125,7 +130,9 @@ def main() -> int:
         rig_path = rig_file(Path(directory))
         with Bus(load_rig(rig_path), "router", router=True):
             results = {
-                f"{kind} ({links})": measure(rig_path, kind, args.count, links)
+                f"{kind} ({links})": measure(
+                    rig_path, kind, args.count, links, args.detection_rate_hz
+                )
                 for links in NAMES
                 for kind in ("detection", "frame")
             }
@@ -142,7 +149,8 @@ def main() -> int:
     )
     for links in NAMES:
         print(
-            f"{links}: detection message ({detection_bytes} B JSON): {results[f'detection ({links})']}"
+            f"{links}: detection message ({detection_bytes} B JSON, "
+            f"{args.detection_rate_hz:g} Hz): {results[f'detection ({links})']}"
         )
         print(f"{links}: 640x480 RGB frame ({640 * 480 * 3} B): {results[f'frame ({links})']}")
     print(json.dumps(results))
