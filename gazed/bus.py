@@ -323,6 +323,7 @@ class Bus:
         self._wake_read, self._wake_write = -1, -1
         self._closables: list[Any] = []
         self._step_now: Callable[[], bool] | None = None
+        self.wakeups = 0  # `notify()` calls: news for the loop (`reschedule()` is not)
         self.started_monotonic_s = time.monotonic()
 
     def __enter__(self) -> Bus:
@@ -426,7 +427,13 @@ class Bus:
         return self._step_now is not None and self._step_now()
 
     def notify(self) -> None:
-        """Wake `wait()`; safe from any thread and from a signal handler."""
+        """Wake `wait()` with news (counted in `wakeups`); safe from any thread and from a
+        signal handler."""
+        self.wakeups += 1
+        self.reschedule()
+
+    def reschedule(self) -> None:
+        """Wake `wait()` without news: its caller's deadline moved earlier."""
         with contextlib.suppress(
             OSError
         ):  # full: a wake-up is pending anyway; closed: no one waits

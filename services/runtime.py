@@ -48,14 +48,19 @@ log = logging.getLogger("gazed.service")
 
 @dataclass(frozen=True)
 class Now:
-    """The instant a step runs: wall clock for stamps, monotonic for deadlines and intervals."""
+    """The instant a step runs: wall clock for stamps, monotonic for deadlines and intervals.
+
+    `immediate`: the step runs in the bus's receive thread, for a sample of an `immediate`
+    subscription (`ServiceLoop`); it should answer that sample and leave slow work (the servo's
+    serial polls) to the loop's own steps, which come at the deadline it returns."""
 
     wall_ns: int
     mono_s: float
+    immediate: bool = False
 
     @classmethod
-    def read(cls) -> Now:
-        return cls(time.time_ns(), time.monotonic())
+    def read(cls, immediate: bool = False) -> Now:
+        return cls(time.time_ns(), time.monotonic(), immediate)
 
 
 @dataclass
@@ -171,6 +176,7 @@ class ServiceLoop:
         self._bus.declare_alive()
         next_health_s = time.monotonic()
         try:
+            stepped_after = -1  # the bus's wake-up count when the loop last stepped
             while not self.stop.is_set():
                 wake_s = min(self._due_s, next_health_s)
                 self._bus.wait(max(0.0, wake_s - time.monotonic()))
@@ -178,7 +184,11 @@ class ServiceLoop:
                     break
                 with self._lock:
                     now = Now.read()
-                    self._step(now)
+                    # step on news (a sample, a frame, a signal) or when due; a wake-up that
+                    # only moved the deadline earlier (`_step_now`) waits for it
+                    if self._bus.wakeups != stepped_after or now.mono_s >= self._due_s:
+                        stepped_after = self._bus.wakeups
+                        self._step(now)
                     if now.mono_s >= next_health_s:
                         next_health_s = now.mono_s + HEALTH_PERIOD_S
                         self.reporter.publish(self.service.health(), now)
@@ -196,9 +206,9 @@ class ServiceLoop:
             if self._closed or self.stop.is_set():
                 return False
             planned_s = self._due_s  # the main thread may sleep until then
-            self._step(Now.read())
+            self._step(Now.read(immediate=True))
             if self._due_s < planned_s or self._failed:
-                self._bus.notify()
+                self._bus.reschedule()
             return True
         finally:
             self._lock.release()

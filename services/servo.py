@@ -127,15 +127,19 @@ class ServoService:
 
     def step(self, now: Now) -> float:
         try:
+            # a step for a demand, in the bus's receive thread, writes it and nothing slow: the
+            # polls and reconnects (serial exchanges) stay in the loop's own steps, so a demand
+            # arriving meanwhile is still taken between a poll's frames
             if not self.driver.is_connected:
                 self._take_demands(now, executable=False)
-                if now.mono_s >= self._next_connect_s:
+                if now.mono_s >= self._next_connect_s and not now.immediate:
                     self._connect(now)
             if self.driver.is_connected:
                 self._take_demands(now, executable=True)
                 self._check_hold(now)
                 self._command(now)
-                self._poll(now)
+                if not now.immediate:
+                    self._poll(now)
                 self._measure_line(now)
         except LinkError as exc:
             self._link_lost(now, exc)

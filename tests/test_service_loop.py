@@ -1,10 +1,13 @@
 """The process loop: a sample of an `immediate` subscription runs the step at once in the bus's
 receive thread; otherwise (or while a step runs) it wakes the loop's thread. Steps never overlap,
-nothing is lost either way, and failures count the same on both paths."""
+nothing is lost either way, a step that moves its deadline earlier gets it (not sooner), and
+failures count the same on both paths."""
 
 from __future__ import annotations
 
+import itertools
 import threading
+import time
 from pathlib import Path
 
 import pytest
@@ -14,7 +17,16 @@ from gazed.bus import Bus
 from gazed.config import load_rig
 from gazed.messages import Detection
 from gazed.topics import VISION_DETECTION
-from services.runtime import MAX_CONSECUTIVE_STEP_FAILURES, HealthReport, Now, ServiceLoop, StopFlag
+from services.runtime import (
+    MAX_CONSECUTIVE_STEP_FAILURES,
+    STEP_RETRY_S,
+    HealthReport,
+    Now,
+    ServiceLoop,
+    StopFlag,
+)
+
+IDLE_S = 60.0  # nothing to do until something arrives
 
 
 def detection(seq: int) -> Detection:
@@ -24,16 +36,18 @@ def detection(seq: int) -> Detection:
 
 
 class Recorder:
-    """Takes detections; records which thread took each, and whether two steps overlapped."""
+    """Takes detections and records every step: its thread, whether it ran as `immediate`, when,
+    and what it took; whether two steps overlapped."""
 
-    def __init__(self, bus: Bus, immediate: bool, fail: bool = False) -> None:
+    def __init__(self, bus: Bus, immediate: bool) -> None:
         self.detections = bus.subscribe(VISION_DETECTION, immediate=immediate)
-        self.fail = fail  # every step from the first sample on raises
-        self.taken: list[tuple[int, int]] = []  # (seq, thread id)
+        self.steps: list[tuple[int, bool, float, list[int]]] = []  # thread, immediate, mono, seqs
+        self.next_wait_s = IDLE_S  # what an immediate step asks for
+        self.fail = False  # every step from the first sample on raises
         self.inside = 0
         self.overlapped = False
-        self.hold = threading.Event()  # set: the next step in the loop's thread blocks
-        self.held = threading.Event()
+        self.hold = threading.Event()  # set: the next step in the loop's thread blocks ...
+        self.held = threading.Event()  # ... after its take, until `release`
         self.release = threading.Event()
         self.loop_thread: int | None = None
         self.closed = False
@@ -42,17 +56,21 @@ class Recorder:
         self.inside += 1
         self.overlapped |= self.inside > 1
         try:
+            seqs = [d.seq for d in self.detections.take()]
+            self.steps.append((threading.get_ident(), now.immediate, now.mono_s, seqs))
             if threading.get_ident() == self.loop_thread and self.hold.is_set():
                 self.hold.clear()
                 self.held.set()
                 assert self.release.wait(10.0)
-            for d in self.detections.take():
-                self.taken.append((d.seq, threading.get_ident()))
-            if self.fail and self.taken:
+            if self.fail and self.taken():
                 raise RuntimeError("broken since the first sample")
-            return 60.0  # nothing to do until something arrives
+            return self.next_wait_s if now.immediate else IDLE_S
         finally:
             self.inside -= 1
+
+    def taken(self) -> list[tuple[int, int]]:
+        """(seq, thread) of every detection taken."""
+        return [(seq, thread) for thread, _, _, seqs in self.steps for seq in seqs]
 
     def health(self) -> HealthReport:
         return HealthReport()
@@ -62,8 +80,7 @@ class Recorder:
 
 
 def running(bus: Bus, service: Recorder) -> tuple[ServiceLoop, threading.Thread, list[int]]:
-    stop = StopFlag()
-    loop = ServiceLoop("vision", bus, service, stop)
+    loop = ServiceLoop("vision", bus, service, StopFlag())
     result: list[int] = []
 
     def body() -> None:
@@ -72,7 +89,7 @@ def running(bus: Bus, service: Recorder) -> tuple[ServiceLoop, threading.Thread,
 
     thread = threading.Thread(target=body, daemon=True)
     thread.start()
-    poll_until(lambda: service.loop_thread is not None, 5.0)
+    poll_until(lambda: service.steps, 5.0)  # the first step, at once
     return loop, thread, result
 
 
@@ -83,11 +100,13 @@ def stopped(bus: Bus, loop: ServiceLoop, thread: threading.Thread) -> None:
     assert not thread.is_alive()
 
 
+@pytest.fixture
+def rig(tmp_path: Path):
+    return load_rig(write_rig(tmp_path))
+
+
 @pytest.mark.parametrize("immediate", [True, False])
-def test_an_immediate_sample_is_stepped_in_the_receive_thread(
-    tmp_path: Path, immediate: bool
-) -> None:
-    rig = load_rig(write_rig(tmp_path))
+def test_an_immediate_sample_is_stepped_in_the_receive_thread(rig, immediate: bool) -> None:
     with Bus(rig, "test", router=True) as bus, Bus(rig, "sender") as sender:
         service = Recorder(bus, immediate)
         loop, thread, _ = running(bus, service)
@@ -95,44 +114,83 @@ def test_an_immediate_sample_is_stepped_in_the_receive_thread(
         poll_until(publisher.matched, 5.0)
         for seq in range(5):
             publisher.put(detection(seq))
-            poll_until(lambda seq=seq: len(service.taken) > seq, 5.0)
+            poll_until(lambda seq=seq: len(service.taken()) > seq, 5.0)
         stopped(bus, loop, thread)
-    assert [seq for seq, _ in service.taken] == list(range(5))
-    in_loop_thread = [tid == service.loop_thread for _, tid in service.taken]
-    assert in_loop_thread == [not immediate] * 5
+    assert [seq for seq, _ in service.taken()] == list(range(5))
+    took = [
+        (thread != service.loop_thread, flag) for thread, flag, _, seqs in service.steps if seqs
+    ]
+    assert took == [(immediate, immediate)] * 5  # in the receive thread, and told so
     assert not service.overlapped
     assert service.closed
 
 
-def test_a_sample_during_a_step_wakes_the_loop_and_is_not_lost(tmp_path: Path) -> None:
-    rig = load_rig(write_rig(tmp_path))
+def test_a_sample_during_a_step_wakes_the_loop_and_is_not_lost(rig) -> None:
     with Bus(rig, "test", router=True) as bus, Bus(rig, "sender") as sender:
         service = Recorder(bus, immediate=True)
         loop, thread, _ = running(bus, service)
         publisher = sender.publisher(VISION_DETECTION)
         poll_until(publisher.matched, 5.0)
         service.hold.set()
-        bus.notify()  # the loop's thread steps, and blocks inside the step
+        bus.notify()  # the loop's thread steps, takes nothing and blocks
         assert service.held.wait(5.0)
-        publisher.put(detection(0))  # arrives while that step runs
+        publisher.put(detection(0))  # arrives while that step runs: it cannot step now
         poll_until(lambda: bus.stats.snapshot()[1].get("vision/detection"), 5.0)
         service.release.set()
-        poll_until(lambda: service.taken, 5.0)
+        poll_until(service.taken, 5.0)  # the loop steps again for it, long before IDLE_S
         stopped(bus, loop, thread)
-    assert service.taken == [(0, service.loop_thread)]
+    assert service.taken() == [(0, service.loop_thread)]
     assert not service.overlapped
 
 
-def test_failing_immediate_steps_count_and_stop_the_loop(tmp_path: Path) -> None:
-    rig = load_rig(write_rig(tmp_path))
+def test_an_earlier_deadline_from_an_immediate_step_is_kept(rig) -> None:
+    """The step for a sample asks to run again in 0.3 s (the loop slept for IDLE_S): the loop
+    wakes for it then, not at once and not at IDLE_S."""
     with Bus(rig, "test", router=True) as bus, Bus(rig, "sender") as sender:
-        service = Recorder(bus, immediate=True, fail=True)
+        service = Recorder(bus, immediate=True)
+        service.next_wait_s = 0.3
+        loop, thread, _ = running(bus, service)
+        publisher = sender.publisher(VISION_DETECTION)
+        poll_until(publisher.matched, 5.0)
+        publisher.put(detection(0))
+        poll_until(lambda: len(service.steps) >= 3, 5.0)
+        stopped(bus, loop, thread)
+    (_, first_immediate, _, _), (_, immediate, sample_s, _), (_, later, due_s, _) = service.steps[
+        :3
+    ]
+    assert (first_immediate, immediate, later) == (False, True, False)
+    assert 0.3 <= due_s - sample_s < 0.6
+
+
+def test_failing_immediate_steps_count_and_stop_the_loop(rig) -> None:
+    with Bus(rig, "test", router=True) as bus, Bus(rig, "sender") as sender:
+        service = Recorder(bus, immediate=True)
+        service.fail = True
         loop, thread, result = running(bus, service)
         publisher = sender.publisher(VISION_DETECTION)
         poll_until(publisher.matched, 5.0)
-        publisher.put(detection(0))  # stepped in the receive thread; the loop retries after it
-        thread.join(10.0)
-    assert service.taken[0][1] != service.loop_thread
+        publisher.put(detection(0))  # fails in the receive thread; the loop retries it
+        thread.join(MAX_CONSECUTIVE_STEP_FAILURES * STEP_RETRY_S + 10.0)
+    failing = service.steps[1:]
+    assert failing[0][1] and not any(flag for _, flag, _, _ in failing[1:])
+    assert len(failing) == loop.reporter.step_errors == MAX_CONSECUTIVE_STEP_FAILURES
+    gaps_s = [b[2] - a[2] for a, b in itertools.pairwise(failing)]
+    assert min(gaps_s) >= 0.9 * STEP_RETRY_S  # each retry after its pause, none doubled
     assert result == [1]  # the supervisor restarts a process that exits so
-    assert loop.reporter.step_errors == MAX_CONSECUTIVE_STEP_FAILURES
     assert service.closed
+
+
+def test_steps_stop_at_close(rig) -> None:
+    """After the loop closes the service, a sample no longer steps it."""
+    with Bus(rig, "test", router=True) as bus, Bus(rig, "sender") as sender:
+        service = Recorder(bus, immediate=True)
+        loop, thread, result = running(bus, service)
+        publisher = sender.publisher(VISION_DETECTION)
+        poll_until(publisher.matched, 5.0)
+        stopped(bus, loop, thread)
+        steps = len(service.steps)
+        publisher.put(detection(0))
+        poll_until(lambda: bus.stats.snapshot()[1].get("vision/detection"), 5.0)
+        time.sleep(0.1)  # a step would have run inline by now
+    assert service.closed and result == [0]
+    assert len(service.steps) == steps
