@@ -98,9 +98,7 @@ def session_config(
     base; `bus.credentials_path` gives the session its user/password as `identity`, and a router
     its dictionary of every identity. Access control is enforced by the router alone."""
     config = _base_config(bus.zenoh_config_path)
-    # a rig process on a private loopback bus is a peer: it listens on loopback, learns the
-    # other processes' endpoints from the router (gossip) and sends them its messages directly
-    peer = not router and bus.direct and identity in SERVICE_NAMES
+    peer = is_peer(bus, router=router, identity=identity)
     mode = "router" if router else "peer" if peer else "client"
     config.insert_json5("mode", json.dumps(mode))
     config.insert_json5("scouting/multicast/enabled", "false")
@@ -123,6 +121,13 @@ def session_config(
     if not router:
         config.insert_json5("access_control/enabled", "false")
     return config
+
+
+def is_peer(bus: BusSection, *, router: bool, identity: str) -> bool:
+    """A rig process on a private loopback bus is a peer: it listens on loopback, learns the
+    other processes' endpoints from the router (gossip) and sends them its messages directly;
+    everything else is the router or its client."""
+    return not router and bus.direct and identity in SERVICE_NAMES
 
 
 def _base_config(path: Path | None) -> zenoh.Config:
@@ -416,6 +421,11 @@ class Bus:
                 history=True,
             )
         )
+
+    @property
+    def peer(self) -> bool:
+        """True when this session links directly to the rig's other processes (`is_peer`)."""
+        return is_peer(self.rig.bus, router=self.router, identity=identity_of(self.process))
 
     def run_immediately(self, step_now: Callable[[], bool]) -> None:
         """Have a sample of an `immediate` subscription call `step_now()` in the receive

@@ -155,8 +155,9 @@ class ServiceLoop:
     signal, the time the service asked for, health), and — for a sample of a subscription made
     with `immediate=True`, the input the process exists to answer — at once in the bus's
     receive thread, unless a step is running already (then the sample wakes the main thread
-    as any other). The wake-up costs a thread switch, about 0.1 ms a hop on the sim rig's 2
-    cores, once per hop of the loop's processing latency."""
+    as any other). Only a peer on the rig's private bus steps immediately (`Bus.peer`). The
+    wake-up costs a thread switch, about 0.1 ms a hop on the sim rig's 2 cores, once per hop
+    of the loop's processing latency."""
 
     def __init__(self, name: str, bus: Bus, service: Service, stop: StopFlag) -> None:
         self.service = service
@@ -172,7 +173,11 @@ class ServiceLoop:
     def run(self) -> int:
         """Step until stopped (0), or until the step failed MAX_CONSECUTIVE_STEP_FAILURES times
         in a row (1); close the service either way."""
-        self._bus.run_immediately(self._step_now)
+        if self._bus.peer:
+            # with its own link to each process, a step holds up only its sender's link; a
+            # client's one link to the router carries everything, and blocking it in a step
+            # (a slow frame, a put that waits) would hold up the router for everyone
+            self._bus.run_immediately(self._step_now)
         self._bus.declare_alive()
         next_health_s = time.monotonic()
         try:

@@ -1,5 +1,6 @@
 """The process loop: a sample of an `immediate` subscription runs the step at once in the bus's
-receive thread; otherwise (or while a step runs) it wakes the loop's thread. Steps never overlap,
+receive thread (on the rig's peer links); otherwise (or while a step runs) it wakes the loop's
+thread. Steps never overlap,
 nothing is lost either way, a step that moves its deadline earlier gets it (not sooner), and
 failures count the same on both paths."""
 
@@ -105,9 +106,17 @@ def rig(tmp_path: Path):
     return load_rig(write_rig(tmp_path))
 
 
-@pytest.mark.parametrize("immediate", [True, False])
-def test_an_immediate_sample_is_stepped_in_the_receive_thread(rig, immediate: bool) -> None:
-    with Bus(rig, "test", router=True) as bus, Bus(rig, "sender") as sender:
+@pytest.mark.parametrize(
+    ("process", "immediate", "stepped_at_once"),
+    [("vision", True, True), ("vision", False, False), ("a-tool", True, False)],
+)
+def test_an_immediate_sample_is_stepped_in_the_receive_thread(
+    rig, process: str, immediate: bool, stepped_at_once: bool
+) -> None:
+    """On the rig's peer links an immediate sample steps at once; a client of the router
+    (here a tool's session) always wakes its loop instead."""
+    with Bus(rig, "router", router=True), Bus(rig, process) as bus, Bus(rig, "tool") as sender:
+        assert bus.peer == (process == "vision")
         service = Recorder(bus, immediate)
         loop, thread, _ = running(bus, service)
         publisher = sender.publisher(VISION_DETECTION)
@@ -120,13 +129,13 @@ def test_an_immediate_sample_is_stepped_in_the_receive_thread(rig, immediate: bo
     took = [
         (thread != service.loop_thread, flag) for thread, flag, _, seqs in service.steps if seqs
     ]
-    assert took == [(immediate, immediate)] * 5  # in the receive thread, and told so
+    assert took == [(stepped_at_once, stepped_at_once)] * 5  # in the receive thread, told so
     assert not service.overlapped
     assert service.closed
 
 
 def test_a_sample_during_a_step_wakes_the_loop_and_is_not_lost(rig) -> None:
-    with Bus(rig, "test", router=True) as bus, Bus(rig, "sender") as sender:
+    with Bus(rig, "router", router=True), Bus(rig, "vision") as bus, Bus(rig, "tool") as sender:
         service = Recorder(bus, immediate=True)
         loop, thread, _ = running(bus, service)
         publisher = sender.publisher(VISION_DETECTION)
@@ -146,7 +155,7 @@ def test_a_sample_during_a_step_wakes_the_loop_and_is_not_lost(rig) -> None:
 def test_an_earlier_deadline_from_an_immediate_step_is_kept(rig) -> None:
     """The step for a sample asks to run again in 0.3 s (the loop slept for IDLE_S): the loop
     wakes for it then, not at once and not at IDLE_S."""
-    with Bus(rig, "test", router=True) as bus, Bus(rig, "sender") as sender:
+    with Bus(rig, "router", router=True), Bus(rig, "vision") as bus, Bus(rig, "tool") as sender:
         service = Recorder(bus, immediate=True)
         service.next_wait_s = 0.3
         loop, thread, _ = running(bus, service)
@@ -163,7 +172,7 @@ def test_an_earlier_deadline_from_an_immediate_step_is_kept(rig) -> None:
 
 
 def test_failing_immediate_steps_count_and_stop_the_loop(rig) -> None:
-    with Bus(rig, "test", router=True) as bus, Bus(rig, "sender") as sender:
+    with Bus(rig, "router", router=True), Bus(rig, "vision") as bus, Bus(rig, "tool") as sender:
         service = Recorder(bus, immediate=True)
         service.fail = True
         loop, thread, result = running(bus, service)
@@ -182,7 +191,7 @@ def test_failing_immediate_steps_count_and_stop_the_loop(rig) -> None:
 
 def test_steps_stop_at_close(rig) -> None:
     """After the loop closes the service, a sample no longer steps it."""
-    with Bus(rig, "test", router=True) as bus, Bus(rig, "sender") as sender:
+    with Bus(rig, "router", router=True), Bus(rig, "vision") as bus, Bus(rig, "tool") as sender:
         service = Recorder(bus, immediate=True)
         loop, thread, result = running(bus, service)
         publisher = sender.publisher(VISION_DETECTION)
