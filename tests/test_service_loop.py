@@ -9,12 +9,15 @@ from __future__ import annotations
 import itertools
 import threading
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
 from conftest import poll_until, write_rig
 
-from gazed.bus import Bus
+from gazed.bus import Bus, Publisher
 from gazed.config import load_rig
 from gazed.messages import Detection
 from gazed.topics import VISION_DETECTION
@@ -94,6 +97,32 @@ def running(bus: Bus, service: Recorder) -> tuple[ServiceLoop, threading.Thread,
     return loop, thread, result
 
 
+@dataclass
+class Running:
+    bus: Bus  # the service's session
+    service: Recorder
+    loop: ServiceLoop
+    thread: threading.Thread  # the loop's
+    result: list[int]  # the loop's exit code, once it returns
+    publisher: Publisher[Detection]  # another session's, matched
+
+
+@contextmanager
+def running_on_a_rig(
+    rig, process: str = "vision", immediate: bool = True, **settings: object
+) -> Iterator[Running]:
+    """A router, `process`'s session running a Recorder's loop, and a tool's publisher of
+    detections; `settings` set on the Recorder before its loop starts."""
+    with Bus(rig, "router", router=True), Bus(rig, process) as bus, Bus(rig, "tool") as sender:
+        service = Recorder(bus, immediate)
+        for name, value in settings.items():
+            setattr(service, name, value)
+        loop, thread, result = running(bus, service)
+        publisher = sender.publisher(VISION_DETECTION)
+        poll_until(publisher.matched, 5.0)
+        yield Running(bus, service, loop, thread, result, publisher)
+
+
 def stopped(bus: Bus, loop: ServiceLoop, thread: threading.Thread) -> None:
     loop.stop.set()
     bus.notify()
@@ -115,16 +144,13 @@ def test_an_immediate_sample_is_stepped_in_the_receive_thread(
 ) -> None:
     """On the rig's peer links an immediate sample steps at once; a client of the router
     (here a tool's session) always wakes its loop instead."""
-    with Bus(rig, "router", router=True), Bus(rig, process) as bus, Bus(rig, "tool") as sender:
-        assert bus.peer == (process == "vision")
-        service = Recorder(bus, immediate)
-        loop, thread, _ = running(bus, service)
-        publisher = sender.publisher(VISION_DETECTION)
-        poll_until(publisher.matched, 5.0)
+    with running_on_a_rig(rig, process, immediate) as r:
+        assert r.bus.peer == (process == "vision")
+        service = r.service
         for seq in range(5):
-            publisher.put(detection(seq))
+            r.publisher.put(detection(seq))
             poll_until(lambda seq=seq: len(service.taken()) > seq, 5.0)
-        stopped(bus, loop, thread)
+        stopped(r.bus, r.loop, r.thread)
     assert [seq for seq, _ in service.taken()] == list(range(5))
     took = [
         (thread != service.loop_thread, flag) for thread, flag, _, seqs in service.steps if seqs
@@ -135,19 +161,16 @@ def test_an_immediate_sample_is_stepped_in_the_receive_thread(
 
 
 def test_a_sample_during_a_step_wakes_the_loop_and_is_not_lost(rig) -> None:
-    with Bus(rig, "router", router=True), Bus(rig, "vision") as bus, Bus(rig, "tool") as sender:
-        service = Recorder(bus, immediate=True)
-        loop, thread, _ = running(bus, service)
-        publisher = sender.publisher(VISION_DETECTION)
-        poll_until(publisher.matched, 5.0)
+    with running_on_a_rig(rig) as r:
+        service = r.service
         service.hold.set()
-        bus.notify()  # the loop's thread steps, takes nothing and blocks
+        r.bus.notify()  # the loop's thread steps, takes nothing and blocks
         assert service.held.wait(5.0)
-        publisher.put(detection(0))  # arrives while that step runs: it cannot step now
-        poll_until(lambda: bus.stats.snapshot()[1].get("vision/detection"), 5.0)
+        r.publisher.put(detection(0))  # arrives while that step runs: it cannot step now
+        poll_until(lambda: r.bus.stats.snapshot()[1].get("vision/detection"), 5.0)
         service.release.set()
         poll_until(service.taken, 5.0)  # the loop steps again for it, long before IDLE_S
-        stopped(bus, loop, thread)
+        stopped(r.bus, r.loop, r.thread)
     assert service.taken() == [(0, service.loop_thread)]
     assert not service.overlapped
 
@@ -155,15 +178,11 @@ def test_a_sample_during_a_step_wakes_the_loop_and_is_not_lost(rig) -> None:
 def test_an_earlier_deadline_from_an_immediate_step_is_kept(rig) -> None:
     """The step for a sample asks to run again in 0.3 s (the loop slept for IDLE_S): the loop
     wakes for it then, not at once and not at IDLE_S."""
-    with Bus(rig, "router", router=True), Bus(rig, "vision") as bus, Bus(rig, "tool") as sender:
-        service = Recorder(bus, immediate=True)
-        service.next_wait_s = 0.3
-        loop, thread, _ = running(bus, service)
-        publisher = sender.publisher(VISION_DETECTION)
-        poll_until(publisher.matched, 5.0)
-        publisher.put(detection(0))
+    with running_on_a_rig(rig, next_wait_s=0.3) as r:
+        service = r.service
+        r.publisher.put(detection(0))
         poll_until(lambda: len(service.steps) >= 3, 5.0)
-        stopped(bus, loop, thread)
+        stopped(r.bus, r.loop, r.thread)
     (_, first_immediate, _, _), (_, immediate, sample_s, _), (_, later, due_s, _) = service.steps[
         :3
     ]
@@ -172,14 +191,10 @@ def test_an_earlier_deadline_from_an_immediate_step_is_kept(rig) -> None:
 
 
 def test_failing_immediate_steps_count_and_stop_the_loop(rig) -> None:
-    with Bus(rig, "router", router=True), Bus(rig, "vision") as bus, Bus(rig, "tool") as sender:
-        service = Recorder(bus, immediate=True)
-        service.fail = True
-        loop, thread, result = running(bus, service)
-        publisher = sender.publisher(VISION_DETECTION)
-        poll_until(publisher.matched, 5.0)
-        publisher.put(detection(0))  # fails in the receive thread; the loop retries it
-        thread.join(MAX_CONSECUTIVE_STEP_FAILURES * STEP_RETRY_S + 10.0)
+    with running_on_a_rig(rig, fail=True) as r:
+        service, loop, result = r.service, r.loop, r.result
+        r.publisher.put(detection(0))  # fails in the receive thread; the loop retries it
+        r.thread.join(MAX_CONSECUTIVE_STEP_FAILURES * STEP_RETRY_S + 10.0)
     failing = service.steps[1:]
     assert failing[0][1] and not any(flag for _, flag, _, _ in failing[1:])
     assert len(failing) == loop.reporter.step_errors == MAX_CONSECUTIVE_STEP_FAILURES
@@ -191,15 +206,12 @@ def test_failing_immediate_steps_count_and_stop_the_loop(rig) -> None:
 
 def test_steps_stop_at_close(rig) -> None:
     """After the loop closes the service, a sample no longer steps it."""
-    with Bus(rig, "router", router=True), Bus(rig, "vision") as bus, Bus(rig, "tool") as sender:
-        service = Recorder(bus, immediate=True)
-        loop, thread, result = running(bus, service)
-        publisher = sender.publisher(VISION_DETECTION)
-        poll_until(publisher.matched, 5.0)
-        stopped(bus, loop, thread)
+    with running_on_a_rig(rig) as r:
+        service, result = r.service, r.result
+        stopped(r.bus, r.loop, r.thread)
         steps = len(service.steps)
-        publisher.put(detection(0))
-        poll_until(lambda: bus.stats.snapshot()[1].get("vision/detection"), 5.0)
+        r.publisher.put(detection(0))
+        poll_until(lambda: r.bus.stats.snapshot()[1].get("vision/detection"), 5.0)
         time.sleep(0.1)  # a step would have run inline by now
     assert service.closed and result == [0]
     assert len(service.steps) == steps
