@@ -24,8 +24,10 @@ from gazed.config import VisionSection
 from gazed.geometry.camera import CameraModel
 from gazed.geometry.kinematics import HeadKinematics
 from gazed.messages import HeadPose
-from gazed.vision.candidates import VELOCITY_POINTS
-from gazed.vision.detector import DetectorOutput
+from gazed.vision.candidates import VELOCITY_POINTS, CandidateFinder
+from gazed.vision.detector import DetectorOutput, FramePair
+from gazed.vision.ego_motion import HeadStep
+from gazed.vision.motion_energy import UNITS_PER_GREY
 from gazed.vision.pipeline import VisionPipeline, VisionResult
 from gazed.vision.synthetic import (
     SceneTruth,
@@ -346,6 +348,28 @@ def test_a_candidates_velocity_is_fitted_over_its_recent_frames(still_head_walke
     assert len(relative) >= 40
     assert np.median(relative) <= 0.15
     assert np.percentile(relative, 90) <= 0.3
+
+
+def test_a_flicker_beside_a_mover_does_not_take_its_track() -> None:
+    """Regions take the previous frame's tracks nearest pair first: a one-frame flicker just
+    above a moving region (first in the labels' raster order, and within reach of the mover's
+    last centroid) starts a track of its own and leaves the mover its velocity."""
+    finder = CandidateFinder(level=0, energy_threshold=1.0, min_area_px=4.0, max_count=8)
+    still = HeadStep(np.eye(3), np.zeros(3), 1.0 / RATE_HZ, CAMERA.K)
+    found = []
+    for k in range(VELOCITY_POINTS + 1):
+        energy = np.zeros((240, 320), np.int16)
+        left = 100 + 8 * k  # 8 px a frame
+        energy[120:130, left : left + 10] = 50 * UNITS_PER_GREY
+        if k == VELOCITY_POINTS:  # 19 px from the mover's last centroid: within its reach, 20
+            energy[106:109, left - 12 : left - 9] = 50 * UNITS_PER_GREY
+        gray = np.zeros((240, 320), np.uint8)
+        found = finder.find(FramePair(gray, k / RATE_HZ, gray, still, True, [energy]))
+    mover = max(found, key=lambda r: r.area_px)
+    flicker = min(found, key=lambda r: r.area_px)
+    assert len(found) == 2
+    assert mover.du_px_s == pytest.approx(8 * RATE_HZ) and mover.dv_px_s == pytest.approx(0.0)
+    assert flicker.speed_px_s == 0.0
 
 
 def test_candidates_are_silent_under_pure_rotation(rotation_only: Frames) -> None:

@@ -87,7 +87,7 @@ class CandidateFinder:
             found.append((u, v, area, float(sums[i] * scale * scale) / UNITS_PER_GREY))
         for history, _ in self._previous:
             history.transport(pair.step)
-        histories = [self._track(u, v, pair.t_s) for u, v, _, _ in found]
+        histories = self._tracks([(u, v) for u, v, _, _ in found], pair.t_s)
         self._previous = [
             (history, max(np.sqrt(a), 2.0 * scale))
             for history, (_, _, a, _) in zip(histories, found, strict=True)
@@ -107,16 +107,29 @@ class CandidateFinder:
         regions.sort(key=lambda r: r.score, reverse=True)
         return regions[: self.max_count]
 
-    def _track(self, u: float, v: float, t_s: float) -> PositionHistory:
-        """The recent centroids of the nearest previous region within twice its radius (taken:
-        one region continues one track), with (u, v) added; a new track when none is that near."""
-        best, best_distance = None, np.inf
-        for k, (history, radius) in enumerate(self._previous):
-            last = history.last()
-            assert last is not None
-            distance = float(np.hypot(u - last[1], v - last[2]))
-            if distance <= 2.0 * radius and distance < best_distance:
-                best, best_distance = k, distance
-        history = PositionHistory(VELOCITY_POINTS) if best is None else self._previous.pop(best)[0]
-        history.add(t_s, u, v)
-        return history
+    def _tracks(self, centroids: list[tuple[float, float]], t_s: float) -> list[PositionHistory]:
+        """Each region's recent centroids, its own added: the previous regions' tracks, nearest
+        pair first, a track going to the region within twice its radius (one each); a new track
+        for a region none is that near. A centroid further than that radius from where its
+        track predicts it (two regions merged, one split) starts the track afresh."""
+        matched: dict[int, PositionHistory] = {}
+        if self._previous and centroids:
+            ends = np.array([history.last()[1:] for history, _ in self._previous])
+            radii = np.array([radius for _, radius in self._previous])
+            offsets = np.array(centroids)[:, None, :] - ends[None, :, :]
+            distance = np.hypot(offsets[..., 0], offsets[..., 1])
+            taken = np.zeros(len(self._previous), bool)
+            for k in np.argsort(distance, axis=None):
+                i, j = divmod(int(k), len(self._previous))
+                if i in matched or taken[j] or distance[i, j] > 2.0 * radii[j]:
+                    continue
+                history, radius = self._previous[j]
+                history.add(t_s, *centroids[i], gate_px=radius)
+                matched[i], taken[j] = history, True
+        tracks = []
+        for i, (u, v) in enumerate(centroids):
+            if i not in matched:
+                matched[i] = PositionHistory(VELOCITY_POINTS)
+                matched[i].add(t_s, u, v)
+            tracks.append(matched[i])
+        return tracks

@@ -5,8 +5,8 @@
 
 Each run starts the rig's loop in the simulator (`gazed eval loop`'s private copy), records
 `vision/candidates`, `gaze/state` and `sim/truth` until the first saccade, and prints, for the
-best candidate of the last frame before it, its position and angular rate against the target's
-(degrees, in joint angles). The saccade aims at where the candidate says the target will be
+best candidate of the newest frame published before the gaze decided, its position and angular
+rate against the target's at that frame's capture (degrees, in joint angles). The saccade aims at where the candidate says the target will be
 after the visual latency and the move, so a rate error counts about half a second over.
 """
 
@@ -49,15 +49,19 @@ def first_saccade(rig_file: Path, scenario: str, seed: int | None) -> str:
                     recorded[k].extend(subscription.take())
             bus.wait(0.2)  # the truth of the last frames before it
             recorded["truth"].extend(subscriptions["truth"].take())
-    saccade_ns = next(s.t_capture_ns for s in recorded["states"] if s.state == "saccade")
-    seen = [
+    saccade = next(s for s in recorded["states"] if s.state == "saccade")
+    if saccade.reason != "motion candidate":
+        return f"the first saccade was drawn by a {saccade.reason}"
+    # the gaze aimed with the newest candidates it had: published before it decided (its
+    # state's time), a visual latency after their capture
+    sent = [
         c
         for c in recorded["candidates"]
-        if c.candidates and c.head is not None and c.t_capture_ns <= saccade_ns
+        if c.candidates and c.head is not None and dict(c.stamps)["vision"] <= saccade.t_capture_ns
     ]
-    if not seen:
-        return "the saccade had no candidate before it (a detection drew it)"
-    last = max(seen, key=lambda c: c.t_capture_ns)
+    if not sent:
+        return "no candidates were published before the saccade"
+    last = max(sent, key=lambda c: c.t_capture_ns)
     best = max(last.candidates, key=lambda k: k.score)
     truth = Truth(rig, recorded["truth"])
     camera = CameraModel.from_section(rig.camera)
