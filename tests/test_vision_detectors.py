@@ -350,6 +350,25 @@ def test_a_candidates_velocity_is_fitted_over_its_recent_frames(still_head_walke
     assert np.percentile(relative, 90) <= 0.3
 
 
+def test_a_candidates_track_moves_with_the_turning_head(pursuit: Frames) -> None:
+    """The head pursues at up to 60°/s: a track's older centroids are moved by its rotation,
+    so the fitted velocity is the target's own (independent) image velocity, not the flow
+    of the head's turning (hundreds of px/s)."""
+    relative = []
+    for k, (result, truth) in enumerate(run(pursuit, "flow")):
+        if k < VELOCITY_POINTS or not result.candidates or not truth.target_visible:
+            continue
+        nearest = min(
+            result.candidates,
+            key=lambda c, t=truth: math.hypot(c.u_px - t.u_px, c.v_px - t.v_px),
+        )
+        miss = math.hypot(nearest.du_px_s - truth.du_px_s, nearest.dv_px_s - truth.dv_px_s)
+        relative.append(miss / math.hypot(truth.du_px_s, truth.dv_px_s))
+    assert len(relative) >= 28  # of 36 frames, the first VELOCITY_POINTS left out
+    assert np.median(relative) <= 0.1
+    assert max(relative) <= 0.2
+
+
 def test_a_flicker_beside_a_mover_does_not_take_its_track() -> None:
     """Regions take the previous frame's tracks nearest pair first: a one-frame flicker just
     above a moving region (first in the labels' raster order, and within reach of the mover's
