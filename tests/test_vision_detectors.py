@@ -330,13 +330,11 @@ def test_candidates_rank_two_movers(still_head_walker: Frames) -> None:
     assert np.median(speeds) == pytest.approx(expected, rel=0.25)
 
 
-def test_a_candidates_velocity_is_fitted_over_its_recent_frames(still_head_walker: Frames) -> None:
-    """A saccade is aimed with the candidate's velocity over the visual latency and the move,
-    so its error counts many times over. A coarse level's centroid wobbles by a pixel or two:
-    fitted over the region's last `VELOCITY_POINTS` frames the velocity is off by about a
-    tenth (median; 0.29, and up to 0.68, from the last two frames alone)."""
+def candidate_velocity_errors(frames: Frames) -> list[float]:
+    """Per frame from the `VELOCITY_POINTS`th on where the target is in view and there are
+    candidates: the velocity error of the candidate nearest the target, relative to its speed."""
     relative = []
-    for k, (result, truth) in enumerate(run(still_head_walker, "flow")):
+    for k, (result, truth) in enumerate(run(frames, "flow")):
         if k < VELOCITY_POINTS or not result.candidates or not truth.target_visible:
             continue
         nearest = min(
@@ -345,6 +343,15 @@ def test_a_candidates_velocity_is_fitted_over_its_recent_frames(still_head_walke
         )
         miss = math.hypot(nearest.du_px_s - truth.du_px_s, nearest.dv_px_s - truth.dv_px_s)
         relative.append(miss / math.hypot(truth.du_px_s, truth.dv_px_s))
+    return relative
+
+
+def test_a_candidates_velocity_is_fitted_over_its_recent_frames(still_head_walker: Frames) -> None:
+    """A saccade is aimed with the candidate's velocity over the visual latency and the move,
+    so its error counts many times over. A coarse level's centroid wobbles by a pixel or two:
+    fitted over the region's last `VELOCITY_POINTS` frames the velocity is off by about a
+    tenth (median; 0.29, and up to 0.68, from the last two frames alone)."""
+    relative = candidate_velocity_errors(still_head_walker)
     assert len(relative) >= 40
     assert np.median(relative) <= 0.15
     assert np.percentile(relative, 90) <= 0.3
@@ -354,16 +361,7 @@ def test_a_candidates_track_moves_with_the_turning_head(pursuit: Frames) -> None
     """The head pursues at up to 60°/s: a track's older centroids are moved by its rotation,
     so the fitted velocity is the target's own (independent) image velocity, not the flow
     of the head's turning (hundreds of px/s)."""
-    relative = []
-    for k, (result, truth) in enumerate(run(pursuit, "flow")):
-        if k < VELOCITY_POINTS or not result.candidates or not truth.target_visible:
-            continue
-        nearest = min(
-            result.candidates,
-            key=lambda c, t=truth: math.hypot(c.u_px - t.u_px, c.v_px - t.v_px),
-        )
-        miss = math.hypot(nearest.du_px_s - truth.du_px_s, nearest.dv_px_s - truth.dv_px_s)
-        relative.append(miss / math.hypot(truth.du_px_s, truth.dv_px_s))
+    relative = candidate_velocity_errors(pursuit)
     assert len(relative) >= 28  # of 36 frames, the first VELOCITY_POINTS left out
     assert np.median(relative) <= 0.1
     assert max(relative) <= 0.2
