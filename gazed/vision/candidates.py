@@ -9,8 +9,9 @@ velocity: each region is matched to the nearest region of the previous frame (th
 regions moved by the head's rotation) and inherits its recent centroids, whose least-squares
 slope over up to `VELOCITY_POINTS` frames is the velocity (`PositionHistory`). A coarse level's
 centroid wobbles by a pixel or two from frame to frame: from the last two frames alone, the sim
-rig's target at 4.7°/s came out at 1.9-13.4°/s, and a saccade, aimed with it over the visual
-latency and the move (about 0.45 s), missed by that error times 0.45 s.
+rig's target at 4.5-4.8°/s came out at 1.6-11.6°/s at its first saccades
+(`tests/bench/saccade_aim.py`), and a saccade, aimed with it over the visual latency and the
+move (about 0.45 s), missed by that error times 0.45 s.
 
 The interest value is hand-coded, as in the paper: each region's share of the frame's total
 energy, area and speed, averaged — `score = (e/Σe + a/Σa + s/Σs) / 3` over the terms with a
@@ -119,9 +120,10 @@ class CandidateFinder:
             offsets = np.array(centroids)[:, None, :] - ends[None, :, :]
             distance = np.hypot(offsets[..., 0], offsets[..., 1])
             taken = np.zeros(len(self._previous), bool)
-            for k in np.argsort(distance, axis=None):
+            near = np.flatnonzero(distance <= 2.0 * radii[None, :])  # the pairs within reach
+            for k in near[np.argsort(distance.ravel()[near], kind="stable")]:
                 i, j = divmod(int(k), len(self._previous))
-                if i in matched or taken[j] or distance[i, j] > 2.0 * radii[j]:
+                if i in matched or taken[j]:
                     continue
                 history, radius = self._previous[j]
                 history.add(t_s, *centroids[i], gate_px=radius)
