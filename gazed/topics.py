@@ -1,4 +1,4 @@
-"""Every key on the bus in one place: its payload model, who publishes it and who reads it.
+"""Every key on the bus in one place: its payload model, and which process publishes and reads it.
 
 Keys are `gazed/<rig>/<suffix>`; liveliness tokens are `gazed/<rig>/alive/<process>`; every
 process also publishes `gazed/<rig>/<process>/health`.
@@ -33,46 +33,55 @@ PREFIX = "gazed"
 
 @dataclass(frozen=True)
 class Topic:
-    """One key: `suffix` below `gazed/<rig>/`, the model of its payload, its publisher and readers.
+    """One key: `suffix` below `gazed/<rig>/` and the model of its payload.
 
     `frames` topics carry raw pixels in the payload and the model (a `FrameHeader`) in the
-    attachment; their subscribers keep only the newest sample.
+    attachment; their subscribers keep only the newest sample. Who publishes and reads a topic is
+    declared once, in `PROCESSES` and `TOOLS` below.
     """
 
     suffix: str
     model: type[Message]
-    publisher: str
-    readers: tuple[str, ...]
+    summary: str
     frames: bool = False
 
     def key(self, rig: str) -> str:
         return f"{PREFIX}/{rig}/{self.suffix}"
 
 
-SIM_FRAME = Topic("sim/frame", FrameHeader, "sim", ("vision",), frames=True)
-SIM_TRUTH = Topic("sim/truth", SimTruth, "sim", ("gazed eval",))
-VISION_DETECTION = Topic("vision/detection", Detection, "vision", ("estimator", "gaze"))
-VISION_CANDIDATES = Topic("vision/candidates", Candidates, "vision", ("gaze",))
-ESTIMATOR_STATE = Topic("estimator/state", EstimatorState, "estimator", ("gazed tail",))
-ESTIMATOR_PREDICTION = Topic("estimator/prediction", Prediction, "estimator", ("gaze",))
-ESTIMATOR_EVENT = Topic("estimator/event", ManeuverEvent, "estimator", ("gazed tail",))
-GAZE_DEMAND = Topic("gaze/demand", GazeDemand, "gaze", ("servo",))
-GAZE_STATE = Topic("gaze/state", GazeState, "gaze", ("vision", "gazed run"))
-GAZE_COMMAND = Topic("gaze/command", GazeCommand, "gazed calibrate trace", ("gaze",))
-GAZE_TRACE = Topic("gaze/trace", TraceResult, "gaze", ("gazed calibrate trace",))
-VISION_EDGE = Topic("vision/edge", EdgeObservation, "vision", ("gaze",))
-SERVO_ODOMETRY = Topic("servo/odometry", Odometry, "servo", ("vision", "gaze"))
-SERVO_STATUS = Topic("servo/status", ServoStatus, "servo", ("gazed status", "estimator"))
+SIM_FRAME = Topic("sim/frame", FrameHeader, "rendered camera frames", frames=True)
+SIM_TRUTH = Topic("sim/truth", SimTruth, "the simulated target and head at each capture")
+VISION_DETECTION = Topic(
+    "vision/detection", Detection, "the target's pixel and image velocity, every frame"
+)
+VISION_CANDIDATES = Topic("vision/candidates", Candidates, "peripheral movers, saccade targets")
+VISION_EDGE = Topic("vision/edge", EdgeObservation, "the edge under the fovea while tracing")
+ESTIMATOR_STATE = Topic(
+    "estimator/state", EstimatorState, "the filter's state, covariance and model probabilities"
+)
+ESTIMATOR_PREDICTION = Topic(
+    "estimator/prediction", Prediction, "gaze angles and rates when the next demand acts"
+)
+ESTIMATOR_EVENT = Topic("estimator/event", ManeuverEvent, "the most likely motion model changed")
+GAZE_DEMAND = Topic("gaze/demand", GazeDemand, "joint angles and rates for the head")
+GAZE_STATE = Topic("gaze/state", GazeState, "each state transition with its reason")
+GAZE_COMMAND = Topic("gaze/command", GazeCommand, "requests to the controller (trace a line)")
+GAZE_TRACE = Topic("gaze/trace", TraceResult, "the samples of a traced ground line")
+SERVO_ODOMETRY = Topic("servo/odometry", Odometry, "the head's angles and rates when read")
+SERVO_STATUS = Topic("servo/status", ServoStatus, "link state, holding, errors, response lag")
 # Each demand as written to the head (limited), its stamps ending ("servo", t) at the moment its
 # bytes were written: the end of the loop for `gazed latency` and `gazed eval loop`.
-SERVO_COMMAND = Topic("servo/command", GazeDemand, "servo", ("gazed latency", "estimator"))
-SUPERVISOR_STATUS = Topic("supervisor/status", SupervisorStatus, "supervisor", ("gazed status",))
+SERVO_COMMAND = Topic("servo/command", GazeDemand, "each demand as written, stamped at the write")
+SUPERVISOR_STATUS = Topic(
+    "supervisor/status", SupervisorStatus, "every process's state and restarts"
+)
 
 TOPICS: tuple[Topic, ...] = (
     SIM_FRAME,
     SIM_TRUTH,
     VISION_DETECTION,
     VISION_CANDIDATES,
+    VISION_EDGE,
     ESTIMATOR_STATE,
     ESTIMATOR_PREDICTION,
     ESTIMATOR_EVENT,
@@ -80,7 +89,6 @@ TOPICS: tuple[Topic, ...] = (
     GAZE_STATE,
     GAZE_COMMAND,
     GAZE_TRACE,
-    VISION_EDGE,
     SERVO_ODOMETRY,
     SERVO_STATUS,
     SERVO_COMMAND,
@@ -88,19 +96,123 @@ TOPICS: tuple[Topic, ...] = (
 )
 
 
+@dataclass(frozen=True)
+class Process:
+    """A participant on the bus: the topics it reads and publishes and, for the rig's processes,
+    the rig sections it reads besides `[rig]` and `[bus]` (a SIGHUP that changes one of them
+    restarts it). This is the one declaration of the contract: the services subscribe and
+    publish from it, the docs' table is generated from it, and tests check both against it."""
+
+    name: str
+    summary: str
+    reads: tuple[Topic, ...]
+    publishes: tuple[Topic, ...]
+    sections: tuple[str, ...] = ()
+
+
+# The rig's processes, started by the supervisor as `python -m services.<name>`, in start order.
+PROCESSES: tuple[Process, ...] = (
+    Process(
+        "sim",
+        "the simulated world: target, head emulator on a pty, camera renderer",
+        reads=(),
+        publishes=(SIM_FRAME, SIM_TRUTH),
+        sections=("camera", "head", "servo", "sim", "calibration"),
+    ),
+    Process(
+        "servo",
+        "the link to the head: limits, set-points, odometry, park",
+        reads=(GAZE_DEMAND,),
+        publishes=(SERVO_ODOMETRY, SERVO_STATUS, SERVO_COMMAND),
+        sections=("head", "servo"),
+    ),
+    Process(
+        "vision",
+        "the camera and the detector",
+        reads=(SIM_FRAME, SERVO_ODOMETRY, GAZE_STATE),
+        publishes=(VISION_DETECTION, VISION_CANDIDATES, VISION_EDGE),
+        sections=("camera", "head", "vision"),
+    ),
+    Process(
+        "estimator",
+        "ground-plane geometry, the motion filters, prediction over the latency",
+        reads=(VISION_DETECTION, SERVO_COMMAND, SERVO_STATUS),
+        publishes=(ESTIMATOR_STATE, ESTIMATOR_PREDICTION, ESTIMATOR_EVENT),
+        sections=("camera", "head", "calibration", "estimator"),
+    ),
+    Process(
+        "gaze",
+        "the saccade/pursuit state machine",
+        reads=(
+            ESTIMATOR_PREDICTION,
+            VISION_DETECTION,
+            VISION_CANDIDATES,
+            SERVO_ODOMETRY,
+            GAZE_COMMAND,
+            VISION_EDGE,
+        ),
+        publishes=(GAZE_DEMAND, GAZE_STATE, GAZE_TRACE),
+        sections=("camera", "head", "calibration", "gaze"),
+    ),
+)
+
+# The supervisor and the command-line tools that take part in the contract. `gazed tail`,
+# `gazed status` and `gazed latency` read any key (`gazed/<rig>/**`) and are not listed.
+TOOLS: tuple[Process, ...] = (
+    Process(
+        "gazed run",
+        "the supervisor: starts and watches the processes; its console line",
+        reads=(GAZE_STATE, ESTIMATOR_STATE, SERVO_COMMAND),
+        publishes=(SUPERVISOR_STATUS,),
+    ),
+    Process(
+        "gazed calibrate trace",
+        "traces ground lines with the running rig",
+        reads=(GAZE_TRACE,),
+        publishes=(GAZE_COMMAND,),
+    ),
+    Process(
+        "gazed eval loop",
+        "scores the running loop against the simulator's truth",
+        reads=(
+            SIM_TRUTH,
+            GAZE_STATE,
+            SERVO_COMMAND,
+            ESTIMATOR_STATE,
+            SERVO_STATUS,
+            SUPERVISOR_STATUS,
+        ),
+        publishes=(),
+    ),
+)
+
+SERVICE_NAMES: tuple[str, ...] = tuple(p.name for p in PROCESSES)
+
+
+def process(name: str) -> Process:
+    """The declaration of one of the rig's processes."""
+    for candidate in PROCESSES:
+        if candidate.name == name:
+            return candidate
+    raise KeyError(f"no process named {name!r}")
+
+
+def publishers_of(topic: Topic) -> tuple[str, ...]:
+    return tuple(p.name for p in (*PROCESSES, *TOOLS) if topic in p.publishes)
+
+
+def readers_of(topic: Topic) -> tuple[str, ...]:
+    return tuple(p.name for p in (*PROCESSES, *TOOLS) if topic in p.reads)
+
+
 def health(process: str) -> Topic:
     """`<process>/health`, published by every process about once a second."""
-    return Topic(f"{process}/health", Health, process, ("gazed status",))
+    return Topic(f"{process}/health", Health, "counters, receive rates and stage times")
 
 
 def alive_key(rig: str, process: str = "*") -> str:
     """Liveliness token of a process (`*` for all of a rig's)."""
     return f"{PREFIX}/{rig}/alive/{process}"
-
-
-def rig_keys(rig: str = "*") -> str:
-    """Every key of a rig (`*` for every rig on the bus)."""
-    return f"{PREFIX}/{rig}/**"
 
 
 def split_key(key: str) -> tuple[str, str] | None:

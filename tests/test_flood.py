@@ -41,9 +41,18 @@ from gazed.eval.loop import private_rig
 from gazed.eval.loop_metrics import gaze_errors_rad
 from gazed.geometry.pose import CameraPose
 from gazed.messages import FrameHeader, GazeDemand, GazeState, Health, Message, SimTruth
-from gazed.topics import GAZE_DEMAND, GAZE_STATE, SERVO_COMMAND, SIM_TRUTH, TOPICS, Topic, health
+from gazed.topics import (
+    GAZE_DEMAND,
+    GAZE_STATE,
+    PROCESSES,
+    SERVO_COMMAND,
+    SIM_TRUTH,
+    TOPICS,
+    Topic,
+    health,
+)
 
-READ_BY_PROCESSES = {t.suffix for t in TOPICS if any(r in SERVICE_NAMES for r in t.readers)}
+READ_BY_PROCESSES = {t.suffix for p in PROCESSES for t in p.reads}
 PER_READ_KEY = 1000  # with ~10 keys the processes read: > 10 000 messages where it matters
 PER_OTHER_KEY = 100
 FLOOD_S = 10.0  # spread over this long, so it is a flood and not one burst

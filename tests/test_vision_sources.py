@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 from conftest import poll_until
 
+from gazed.backoff import Backoff
 from gazed.config import VisionSection
 from gazed.geometry.camera import CameraModel
 from gazed.geometry.kinematics import HeadKinematics
@@ -20,7 +21,7 @@ from gazed.messages import ARRIVAL_STAGE
 from gazed.vision.frames import CapturedFrame, FrameError, gray_frame
 from gazed.vision.opencv_camera import OpenCvCamera, capture_target
 from gazed.vision.pipeline import VisionPipeline
-from gazed.vision.source import Backoff, SourceNotConnectedError
+from gazed.vision.source import SourceNotConnectedError
 
 
 def clip(

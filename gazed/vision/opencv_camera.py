@@ -20,9 +20,10 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from gazed.backoff import Backoff
 from gazed.messages import ARRIVAL_STAGE
 from gazed.vision.frames import CapturedFrame
-from gazed.vision.source import Backoff, FrameSource, LinkState, SourceStatus
+from gazed.vision.source import FrameSource, LinkState, SourceStatus
 
 FIRST_REOPEN_S = 0.5
 JOIN_TIMEOUT_S = 2.0
