@@ -1,0 +1,101 @@
+"""Which detection belongs to which track: global nearest neighbour on the tracks' predictions.
+
+Each track predicts its measurement `ẑ` with innovation covariance `S = H P Hᵀ + R` at the
+detections' capture time. A detection `z` is a candidate for a track when its Mahalanobis
+distance `d² = (z - ẑ)ᵀ S⁻¹ (z - ẑ)` lies inside the gate, the χ² quantile of the measurement's
+dimension at `gate_probability` (Bar-Shalom, Willett & Tian, "Tracking and Data Fusion", 2011,
+§2.3). Among the candidates, all tracks and detections are assigned jointly: the assignment
+that minimises the summed cost (Munkres' problem, solved by SciPy's `linear_sum_assignment`),
+so where people cross, pass or walk together one track cannot take another's detection because
+it is a little nearer to it.
+
+The cost of a pair is its negative log-likelihood, doubled and without constants:
+`d² + ln det S` for the position (a track whose prediction is uncertain does not win merely by
+its wide gate), plus `h² / σ²` where both carry an appearance descriptor: `h² = 1 - BC` is the
+squared Hellinger distance between their normalised colour histograms (BC, the Bhattacharyya
+coefficient, is 1 for the same colours), and `σ²` the track's own spread of it, measured over
+the detections it has taken — so a person whose colours vary from frame to frame (changing
+light, a turning body) is compared more loosely than one whose colours hold. Where positions are
+ambiguous the appearance decides; where they are not it barely matters.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+from scipy.stats import chi2
+
+UNASSIGNABLE = 1e12  # the cost of a pair outside the gate
+
+
+@dataclass(frozen=True)
+class Assignment:
+    """Pairs (track row, detection index) and what is left on each side."""
+
+    pairs: tuple[tuple[int, int], ...]
+    lone_tracks: tuple[int, ...]
+    lone_detections: tuple[int, ...]
+    costs: np.ndarray  # (T, D): each pair's cost, inf outside the gate
+
+
+def gate_threshold(probability: float, dimension: int) -> float:
+    """The d² inside which a measurement of `dimension` falls with `probability`."""
+    return float(chi2.ppf(probability, dimension))
+
+
+def hellinger_squared(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """`1 - Σ √(a b)` over the last axis of two sets of normalised histograms, every pair:
+    (A, B), from 0 (the same) to 1 (nothing in common)."""
+    coefficient = (np.sqrt(a)[:, None, :] * np.sqrt(b)[None, :, :]).sum(axis=-1)
+    return np.clip(1.0 - coefficient, 0.0, 1.0)
+
+
+def pair_costs(
+    predicted: np.ndarray,
+    S: np.ndarray,
+    measured: np.ndarray,
+    gate_d2: float,
+    track_appearance: np.ndarray | None = None,
+    detection_appearance: np.ndarray | None = None,
+    appearance_variance: np.ndarray | None = None,
+) -> np.ndarray:
+    """(T, D) costs: `d² + ln det S (+ h² / σ²)`, inf where `d²` is outside the gate.
+
+    predicted (T, m), S (T, m, m), measured (D, m); appearances (T, B) and (D, B), rows summing
+    to 1 (a row of NaN for a track or detection without one), and each track's σ² (T,); all
+    three or none."""
+    T, D = len(predicted), len(measured)
+    if T == 0 or D == 0:
+        return np.full((T, D), np.inf)
+    y = measured[None, :, :] - predicted[:, None, :]  # (T, D, m)
+    S_inv = np.linalg.inv(S)
+    d2 = np.einsum("tdi,tij,tdj->td", y, S_inv, y)
+    _, log_det = np.linalg.slogdet(S)
+    costs = d2 + log_det[:, None]
+    if track_appearance is not None and detection_appearance is not None:
+        assert appearance_variance is not None, "an appearance needs each track's spread"
+        h2 = hellinger_squared(track_appearance, detection_appearance)
+        costs = costs + np.nan_to_num(h2 / appearance_variance[:, None], nan=0.0)
+    return np.where(d2 <= gate_d2, costs, np.inf)
+
+
+def associate(costs: np.ndarray) -> Assignment:
+    """The joint assignment of least total cost among the pairs inside the gate."""
+    T, D = costs.shape
+    pairs: list[tuple[int, int]] = []
+    if T and D:
+        finite = np.where(np.isfinite(costs), costs, UNASSIGNABLE)
+        rows, cols = linear_sum_assignment(finite)
+        pairs = [
+            (int(r), int(c)) for r, c in zip(rows, cols, strict=True) if np.isfinite(costs[r, c])
+        ]
+    taken_tracks = {r for r, _ in pairs}
+    taken_detections = {c for _, c in pairs}
+    return Assignment(
+        pairs=tuple(pairs),
+        lone_tracks=tuple(r for r in range(T) if r not in taken_tracks),
+        lone_detections=tuple(c for c in range(D) if c not in taken_detections),
+        costs=costs,
+    )
