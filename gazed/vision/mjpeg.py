@@ -47,6 +47,7 @@ class MjpegServer:
         self._started = threading.Event()
         self._error: BaseException | None = None
         self._closing = False
+        self._wakers: set[asyncio.Future[None]] = set()
 
     def __enter__(self) -> MjpegServer:
         self.start()
@@ -123,7 +124,9 @@ class MjpegServer:
             async with self._new_frame:
                 self._new_frame.notify_all()
 
-        asyncio.ensure_future(wake())
+        task = asyncio.ensure_future(wake())
+        self._wakers.add(task)  # held until done: the loop keeps only weak references
+        task.add_done_callback(self._wakers.discard)
 
     def _newest(self) -> tuple[int, bytes | None]:
         """The newest frame's sequence number and JPEG, encoding it on first demand."""
