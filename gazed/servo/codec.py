@@ -162,7 +162,3 @@ class Codec(ABC):
     def reset(self) -> None:
         """Forget buffered bytes and outstanding requests (after a timeout or a reconnect)."""
         self._buffer.clear()
-
-    def _discard(self, n: int) -> None:
-        self.discarded_bytes += n
-        del self._buffer[:n]
