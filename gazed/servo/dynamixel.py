@@ -24,6 +24,7 @@ from dataclasses import dataclass
 from typing import ClassVar
 
 from gazed.servo.codec import Codec, CodecError, Exchange, HandshakeError, Reply, nearest
+from gazed.servo.resync import Cut, Skip, Split, Take, resync
 
 HEADER = b"\xff\xff\xfd\x00"
 STUFF_PATTERN = b"\xff\xff\xfd"
@@ -169,47 +170,24 @@ def _packet_at(buffer: bytearray, start: int) -> tuple[int, bool] | None:
     return total, crc16(buffer[start : start + total - 2]) == crc
 
 
-def split_packets(buffer: bytearray) -> tuple[list[Packet], int, list[int]]:
-    """Take every CRC-valid packet off the front of `buffer`. Returns the packets, the bytes
-    dropped, and the IDs of packets whose CRC failed. A packet still arriving stays in `buffer`
-    unless a complete valid packet follows it (then its header was garbage)."""
-    packets: list[Packet] = []
-    discarded = 0
-    crc_failed: list[int] = []
-    while buffer:
-        start = buffer.find(HEADER)
-        if start < 0:
-            keep = len(HEADER) - 1
-            if len(buffer) > keep:
-                discarded += len(buffer) - keep
-                del buffer[: len(buffer) - keep]
-            break
-        if start:
-            discarded += start
-            del buffer[:start]
-        found = _packet_at(buffer, 0)
+def split_packets(buffer: bytearray) -> Split[Packet]:
+    """Take every CRC-valid packet off the front of `buffer`; `rejected` holds the IDs of
+    packets whose CRC failed. A packet still arriving stays in `buffer` unless a complete valid
+    packet follows it (then its header was garbage)."""
+
+    def cut(front: bytearray) -> Cut[Packet]:
+        found = _packet_at(front, 0)
         if found is None:
-            later = _next_valid(buffer)
-            if later < 0:
-                break
-            discarded += later
-            del buffer[:later]
-            continue
+            later = _next_valid(front)
+            return None if later < 0 else Skip(later)
         total, good = found
         if not good:
-            if total:
-                crc_failed.append(buffer[4])
-            discarded += 1
-            del buffer[:1]
-            continue
-        region = unstuff(buffer[HEAD_LENGTH : total - 2])
-        raw = bytes(buffer[:total])
-        del buffer[:total]
-        if region:
-            packets.append(Packet(raw[4], region[0], region[1:], raw))
-        else:
-            discarded += total
-    return packets, discarded, crc_failed
+            return Skip(1, rejected=front[4] if total else None)
+        raw = bytes(front[:total])
+        region = unstuff(raw[HEAD_LENGTH:-2])
+        return Take(total, Packet(raw[4], region[0], region[1:], raw))
+
+    return resync(buffer, cut, find_start=lambda front: front.find(HEADER), keep=len(HEADER) - 1)
 
 
 def _next_valid(buffer: bytearray) -> int:
@@ -224,7 +202,7 @@ def _next_valid(buffer: bytearray) -> int:
 
 
 def decode_packet(frame_bytes: bytes) -> Packet | None:
-    packets, _, _ = split_packets(bytearray(frame_bytes))
+    packets = split_packets(bytearray(frame_bytes)).frames
     return packets[0] if packets else None
 
 
@@ -415,11 +393,8 @@ class DynamixelCodec(Codec):
         self._pending.clear()
 
     def _parse(self) -> list[Reply]:
-        packets, discarded, crc_failed = split_packets(self._buffer)
-        self.discarded_bytes += discarded
-        self.bad_frames += len(crc_failed)
         replies = []
-        for p in packets:
+        for p in self._counted(split_packets(self._buffer)):
             if p.instruction != STATUS or not p.params:
                 self.bad_frames += 1  # our own instruction echoed by a half-duplex adapter
                 continue
