@@ -92,7 +92,7 @@ class LinkStep:
 class HeadLink:
     """The head behind the rig's `[servo]` port. `refused_upstream()` counts demands refused
     before they reached the link (malformed on the wire); `transport` replaces the rig's serial
-    port (tests); `mono_s` and `wall_ns` are the clocks."""
+    port (tests); `mono_s`, `wall_ns` and `sleep` are the clocks (`sleep` paces the park)."""
 
     def __init__(
         self,
@@ -104,12 +104,14 @@ class HeadLink:
         transport: SerialTransport | None = None,
         mono_s: Callable[[], float] = time.monotonic,
         wall_ns: Callable[[], int] = time.time_ns,
+        sleep: Callable[[float], None] = time.sleep,
     ) -> None:
         self.head = rig.head
         self.servo = rig.servo
         self._refused_upstream = refused_upstream
         self._mono_s = mono_s
         self._wall_ns = wall_ns
+        self._sleep = sleep
         self.codec = make_codec(rig.servo.protocol, **rig.servo_params())
         self.driver = ServoDriver(
             self.codec,
@@ -183,8 +185,14 @@ class HeadLink:
         """Drive the head to park, close the port; the status to publish last."""
         if self.driver.is_connected:
             try:
-                period_s = self.writer.command_period_s
-                park(self.driver, self.setpoints, self.head, period_s, mono_s=self._mono_s)
+                park(
+                    self.driver,
+                    self.setpoints,
+                    self.head,
+                    self.writer.command_period_s,
+                    mono_s=self._mono_s,
+                    sleep=self._sleep,
+                )
             except (LinkError, DeviceError, CodecError) as exc:
                 log.warning("could not park: %s", exc)
         self.driver.disconnect()
