@@ -296,10 +296,10 @@ def test_response_lag_measured_while_the_head_pursues(tmp_path: Path) -> None:
                 )
 
             loop.until(pursue, timeout_s=5.0)  # to +50°, inside the 60° limit
-            print(f"response lag {loop.status.response_lag_s * 1e3:.1f} ms")  # README figure
+            print(f"response lag {loop.status.response_lag_s * 1e3:.1f} ms")
             assert 0.04 <= loop.status.response_lag_s < 0.15, loop.status
             # the line's share as the head's end of it counted the bytes, both ways (a fresh
-            # demand every bus wake-up and a poll each 20 ms: about 0.6-0.8 of 115 200 baud)
+            # demand every bus wake-up and a poll each 20 ms)
             line_s = (
                 (head.bytes_received + head.bytes_sent - bytes_before)
                 * BITS_PER_BYTE
