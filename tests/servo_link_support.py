@@ -1,23 +1,35 @@
-"""Helpers of the servo's unit tests without a bus: a rig, a step instant, demands, the pan/tilt
-set-points written to a Pelco-D head."""
+"""Helpers of the servo's tests: a rig, demands, the pan set-points written to a Pelco-D head."""
 
 from __future__ import annotations
 
 import itertools
 import math
 import time
-from dataclasses import dataclass
 
 from gazed.config import Rig, parse_rig
 from gazed.messages import GazeDemand
 from gazed.servo.pelco_d import EXTENDED, pan_deg_from_raw, split_frames
 
+HEAD_SECTION = """[head]
+pan_min_deg = -60
+pan_max_deg = 60
+tilt_min_deg = -40
+tilt_max_deg = 20
+pan_rate_max_deg_s = 300
+tilt_rate_max_deg_s = 300
+pan_accel_max_deg_s2 = 3000
+tilt_accel_max_deg_s2 = 3000
+park_pan_deg = 5
+park_tilt_deg = -5
+"""
+"""A head of ±60° pan, -40..20° tilt, 300°/s, 3000°/s², parked at 5°, -5°."""
+
 
 def link_rig(
     port: str = "unused", protocol: str = "pelco-d", baud: int = 9600, **servo: object
 ) -> Rig:
-    """A head of ±60° pan, -40..20° tilt, 300°/s, 3000°/s² (park 5°, -5°) on `protocol` at
-    `baud`, answering 1 ms after a request and acting on it at once."""
+    """The `HEAD_SECTION` head on `protocol` at `baud`, answering 1 ms after a request and
+    acting on it at once."""
     keys = "\n".join(
         f"{k} = {str(v).lower() if isinstance(v, bool) else v}" for k, v in servo.items()
     )
@@ -33,35 +45,11 @@ timeout_ms = 50
 command_timeout_ms = 300
 reconnect_max_s = 2
 {keys}
-[head]
-pan_min_deg = -60
-pan_max_deg = 60
-tilt_min_deg = -40
-tilt_max_deg = 20
-pan_rate_max_deg_s = 300
-tilt_rate_max_deg_s = 300
-pan_accel_max_deg_s2 = 3000
-tilt_accel_max_deg_s2 = 3000
-park_pan_deg = 5
-park_tilt_deg = -5
-[sim]
+{HEAD_SECTION}[sim]
 head_latency_ms = 0
 head_reply_delay_ms = 1
 """
     )
-
-
-@dataclass(frozen=True)
-class Tick:
-    """The instant of a step (`services.runtime.Now` without the runtime)."""
-
-    wall_ns: int
-    mono_s: float
-    immediate: bool = False
-
-    @classmethod
-    def read(cls, immediate: bool = False) -> Tick:
-        return cls(time.time_ns(), time.monotonic(), immediate)
 
 
 def demand(pan_deg: float, tilt_deg: float, kind: str = "position", pan_rate_deg_s: float = 0.0):

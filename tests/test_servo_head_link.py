@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 from conftest import poll_until
-from servo_link_support import Demands, Tick, demand, link_rig, pan_setpoints_deg
+from servo_link_support import Demands, demand, link_rig, pan_setpoints_deg
 from test_servo_line import VirtualLine
 
 from gazed.messages import GazeDemand
@@ -22,6 +22,7 @@ from gazed.servo.head_link import BACKOFF_INITIAL_S, STATUS_PERIOD_S, HeadLink, 
 from gazed.servo.pelco_d import EXTENDED
 from gazed.servo.transport import LinkError
 from gazed.sim.head_emulator import HeadEmulator
+from services.runtime import Now
 
 UNIT_RAD = math.radians(0.01)  # Pelco-D
 
@@ -69,7 +70,7 @@ class Link:
     def step(self, after_s: float = 0.0, *demands: GazeDemand, immediate: bool = False) -> LinkStep:
         self.line.run_until(self.line.now_s + after_s)
         self.demands.put(*demands)
-        return self.link.step(Tick(self.line.wall_ns(), self.line.now_s, immediate))
+        return self.link.step(Now(self.line.wall_ns(), self.line.now_s, immediate))
 
     def run(self, seconds: float, keep_demanding: GazeDemand | None = None) -> list[LinkStep]:
         """Step when the link asks to, for `seconds`; a demand every step if given."""
@@ -245,7 +246,7 @@ def run_real(link: HeadLink, demands: Demands, until, keep_demanding=None, timeo
     def step():
         if keep_demanding is not None:
             demands.put(keep_demanding)
-        result = link.step(Tick.read())
+        result = link.step(Now.read())
         time.sleep(min(result.wait_s, 0.005))
         return result if until(result) else None
 
