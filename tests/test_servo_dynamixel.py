@@ -7,7 +7,7 @@ import math
 import pytest
 
 from gazed.servo import CodecError, Reply, make_codec
-from gazed.servo.dynamixel import (
+from gazed.servo.dynamixel_packets import (
     crc16,
     decode_packet,
     le,

@@ -8,7 +8,7 @@ from __future__ import annotations
 import pytest
 
 from gazed.servo import make_codec
-from gazed.servo.dynamixel import packet, status_packet
+from gazed.servo.dynamixel_packets import packet, status_packet
 from gazed.servo.pelco_d import EXTENDED, word_frame
 from gazed.servo.resync import Cut, Skip, Take, resync
 

@@ -22,13 +22,15 @@ from gazed.config import DynamixelServo
 from gazed.servo.axis_motion import AxisMotion
 from gazed.servo.codec import nearest
 from gazed.servo.dynamixel import (
-    BROADCAST_ID,
     CONTROL_TABLE,
     INSTRUCTION,
     OPERATING_MODE,
     POSITION_MODES,
-    STATUS,
     VELOCITY_UNIT_RAD_S,
+)
+from gazed.servo.dynamixel_packets import (
+    BROADCAST_ID,
+    STATUS,
     Packet,
     le,
     split_packets,
