@@ -11,7 +11,7 @@ import pytest
 
 from gazed.config import parse_rig
 from gazed.servo import make_codec
-from gazed.servo.dynamixel import crc16, le, packet, status_packet
+from gazed.servo.dynamixel_packets import crc16, le, packet, status_packet
 from gazed.servo.pelco_d import frame as pelco_frame
 from gazed.sim.head_line import HeadLine
 

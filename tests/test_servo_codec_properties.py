@@ -14,7 +14,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from gazed.servo import Codec, Reply, make_codec
-from gazed.servo.dynamixel import le, status_packet
+from gazed.servo.dynamixel_packets import le, status_packet
 from gazed.servo.pelco_d import EXTENDED, word_frame
 from gazed.servo.visca import to_nibbles
 

@@ -7,7 +7,7 @@ import math
 import pytest
 
 from gazed.servo import CodecError, Reply, make_codec
-from gazed.servo.dynamixel import (
+from gazed.servo.dynamixel_packets import (
     crc16,
     decode_packet,
     le,
@@ -90,9 +90,9 @@ def test_byte_stuffing_round_trip() -> None:
     instruction_and_address = 3
     assert int.from_bytes(frame[5:7], "little") == instruction_and_address + 10 + 2
     assert crc16(frame[:-2]) == int.from_bytes(frame[-2:], "little")
-    packets, discarded, failed = split_packets(bytearray(frame))
-    assert (len(packets), discarded, failed) == (1, 0, [])
-    assert packets[0].params == H("74 00") + params
+    split = split_packets(bytearray(frame))
+    assert (len(split.frames), split.discarded_bytes, split.rejected) == (1, 0, [])
+    assert split.frames[0].params == H("74 00") + params
 
 
 def test_stuffed_goal_positions_encode_and_decode(codec) -> None:

@@ -81,10 +81,17 @@ class VirtualLine:
 
     def __init__(self, rig, t0_s: float = 100.0) -> None:
         self.line = HeadLine(rig, t0_s)
+        self.baud = rig.servo.baud
         self.byte_time_s = self.line.byte_time_s
+        self.line_s = 0.0
         self.now_s = t0_s
         self.is_connected = False
+        self.written: list[bytes] = []
         self._free_s = t0_s
+
+    def wall_ns(self) -> int:
+        """The line's clock as a wall clock."""
+        return round(self.now_s * 1e9)
 
     def connect(self) -> None:
         self.is_connected = True
@@ -94,8 +101,10 @@ class VirtualLine:
 
     def write(self, data: bytes) -> int:
         self.line.receive(data, self.now_s)
+        self.written.append(data)
         self._free_s = max(self._free_s, self.now_s) + len(data) * self.byte_time_s
-        return round(self.now_s * 1e9)
+        self.line_s += len(data) * self.byte_time_s
+        return self.wall_ns()
 
     def line_busy_s(self) -> float:
         return max(0.0, self._free_s - self.now_s)
@@ -103,7 +112,9 @@ class VirtualLine:
     def read(self, timeout_s: float) -> tuple[bytes, int]:
         due = self.line.next_due_s()
         self.now_s = due if due is not None and due <= self.now_s + timeout_s else self.now_s
-        return self.line.service(self.now_s), round(self.now_s * 1e9)
+        data = self.line.service(self.now_s)
+        self.line_s += len(data) * self.byte_time_s
+        return data, self.wall_ns()
 
     def run_until(self, t_s: float) -> None:
         self.now_s = t_s

@@ -16,6 +16,7 @@ from pathlib import Path
 import pytest
 import zenoh
 from conftest import poll_until, start_service, unique_rig_name
+from servo_link_support import HEAD_SECTION, demand
 
 from gazed.bus import Bus
 from gazed.config import load_rig
@@ -61,18 +62,7 @@ odometry_rate_hz = {odometry_rate_hz}
 reconnect_max_s = 0.5
 {SERVO_KEYS[protocol]}
 {servo_extra}
-[head]
-pan_min_deg = -60
-pan_max_deg = 60
-tilt_min_deg = -40
-tilt_max_deg = 20
-pan_rate_max_deg_s = 300
-tilt_rate_max_deg_s = 300
-pan_accel_max_deg_s2 = 3000
-tilt_accel_max_deg_s2 = 3000
-park_pan_deg = 5
-park_tilt_deg = -5
-[sim]
+{HEAD_SECTION}[sim]
 head_latency_ms = {head_latency_ms}
 """
     )
@@ -107,15 +97,7 @@ class Loop:
     def demand(
         self, pan_deg: float, tilt_deg: float, kind: str = "position", pan_rate_deg_s: float = 0.0
     ) -> None:
-        self.demands.put(
-            GazeDemand(
-                t_capture_ns=time.time_ns(),
-                kind=kind,
-                pan_rad=math.radians(pan_deg),
-                tilt_rad=math.radians(tilt_deg),
-                pan_rate_rad_s=math.radians(pan_rate_deg_s),
-            ).stamped("test")
-        )
+        self.demands.put(demand(pan_deg, tilt_deg, kind, pan_rate_deg_s))
 
     def until(self, predicate, timeout_s: float = 10.0, keep_demanding: tuple | None = None):
         """Wait (on bus arrivals) until `predicate(self)`; optionally re-publish a demand as a
@@ -296,10 +278,10 @@ def test_response_lag_measured_while_the_head_pursues(tmp_path: Path) -> None:
                 )
 
             loop.until(pursue, timeout_s=5.0)  # to +50°, inside the 60° limit
-            print(f"response lag {loop.status.response_lag_s * 1e3:.1f} ms")  # README figure
+            print(f"response lag {loop.status.response_lag_s * 1e3:.1f} ms")
             assert 0.04 <= loop.status.response_lag_s < 0.15, loop.status
             # the line's share as the head's end of it counted the bytes, both ways (a fresh
-            # demand every bus wake-up and a poll each 20 ms: about 0.6-0.8 of 115 200 baud)
+            # demand every bus wake-up and a poll each 20 ms)
             line_s = (
                 (head.bytes_received + head.bytes_sent - bytes_before)
                 * BITS_PER_BYTE

@@ -1,5 +1,8 @@
-"""Servo IO (DESIGN §8): one codec module per protocol (bytes in, bytes out, no I/O), the
-serial transport, the driver that pairs them, and the safety layer of the `servo` process.
+"""Servo IO (DESIGN §8): one codec module per protocol (bytes in, bytes out, no I/O) over one
+resync loop (`resync`), the serial transport, the driver that pairs them, and what the `servo`
+process runs on them: the head link (`head_link`) with its set-point writer and safety layer
+(`setpoint_writer`, `limits`, `setpoints`), odometry dating (`odometry`), the line-load meter
+(`line_load`), the response lag (`response_lag`) and the park (`park`).
 
     codec = make_codec(rig.servo.protocol, **rig.servo_params())
     codec.encode_set_position(pan_rad, tilt_rad) -> list[bytes]

@@ -10,8 +10,8 @@ target is at most `sqrt(2·a·|e|)` (the speed from which the axis can still sto
 deceleration `a`), at most the rate cap, and at most `|e|/h` so a step never overshoots; the
 velocity moves towards that speed by at most `a·h` per step. A target that moves (feed-forward
 rate, as in pursuit, seed 000 §2) is followed with its rate added, so a constant-rate target is
-tracked without lag. Integration is semi-implicit Euler in fixed steps of 1 ms, with the braking speed in its
-exact discrete form, so a move ends on its target without overshoot.
+tracked without lag. Integration is semi-implicit Euler in fixed steps of `STEP_S`, with the
+braking speed in its exact discrete form, so a move ends on its target without overshoot.
 """
 
 from __future__ import annotations

@@ -18,7 +18,11 @@ import math
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import ClassVar, Literal
+from typing import ClassVar, Literal, TypeVar
+
+from gazed.servo.resync import Split
+
+T = TypeVar("T")
 
 ReplyKind = Literal["position", "ack", "completion", "error", "limit", "ok"]
 
@@ -159,10 +163,13 @@ class Codec(ABC):
     def _parse(self) -> list[Reply]:
         """Consume complete frames from `self._buffer`, leaving an incomplete tail."""
 
+    def _counted(self, split: Split[T]) -> list[T]:
+        """The frames of one pass over the buffer (`gazed.servo.resync`), its dropped bytes and
+        bad frames counted."""
+        self.discarded_bytes += split.discarded_bytes
+        self.bad_frames += len(split.rejected)
+        return split.frames
+
     def reset(self) -> None:
         """Forget buffered bytes and outstanding requests (after a timeout or a reconnect)."""
         self._buffer.clear()
-
-    def _discard(self, n: int) -> None:
-        self.discarded_bytes += n
-        del self._buffer[:n]

@@ -26,6 +26,7 @@ from collections import deque
 from typing import ClassVar
 
 from gazed.servo.codec import Codec, CodecError, Exchange, HandshakeError, Reply, nearest
+from gazed.servo.resync import Cut, Skip, Split, Take, resync
 
 DELIMITER = " "
 LINE_ENDS = b"\r\n"
@@ -92,24 +93,20 @@ def rad_from_positions(positions: float, arcsec_per_position: float) -> float:
     return math.radians(positions * arcsec_per_position / 3600.0)
 
 
-def split_lines(buffer: bytearray) -> tuple[list[str], int]:
+def split_lines(buffer: bytearray) -> Split[str]:
     """Take every complete line (ended by CR or LF) off `buffer`, blank ones skipped; a line
-    longer than 256 bytes is dropped. Returns the lines and the bytes dropped."""
-    lines: list[str] = []
-    discarded = 0
-    while True:
-        end = next((i for i, b in enumerate(buffer) if b in LINE_ENDS), -1)
+    longer than 256 bytes is dropped."""
+
+    def cut(front: bytearray) -> Cut[str]:
+        end = next((i for i, b in enumerate(front) if b in LINE_ENDS), -1)
         if end < 0:
-            if len(buffer) > MAX_LINE:
-                discarded += len(buffer)
-                buffer.clear()
-            return lines, discarded
-        line = bytes(buffer[:end]).decode("latin-1").strip()
-        del buffer[: end + 1]
-        if len(line) > MAX_LINE:
-            discarded += end + 1
-        elif line:
-            lines.append(line)
+            return Skip(len(front)) if len(front) > MAX_LINE else None
+        line = bytes(front[:end]).decode("latin-1").strip()
+        return Skip(end + 1) if len(line) > MAX_LINE else Take(end + 1, line)
+
+    split = resync(buffer, cut)
+    split.frames = [line for line in split.frames if line]
+    return split
 
 
 def parse_line(line: str) -> Reply | None:
@@ -244,10 +241,8 @@ class FlirPtuCodec(Codec):
         self._pending.clear()
 
     def _parse(self) -> list[Reply]:
-        lines, discarded = split_lines(self._buffer)
-        self.discarded_bytes += discarded
         replies = []
-        for line in lines:
+        for line in self._counted(split_lines(self._buffer)):
             reply = parse_line(line)
             if reply is None:
                 self.bad_frames += 1

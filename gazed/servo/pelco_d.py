@@ -26,6 +26,7 @@ from dataclasses import dataclass
 from typing import ClassVar
 
 from gazed.servo.codec import Codec, CodecError, Reply, nearest
+from gazed.servo.resync import Cut, Skip, Split, Take, resync
 
 SYNC = 0xFF
 FRAME_LENGTH = 7
@@ -82,32 +83,21 @@ class Frame:
 
 def split_frames(
     buffer: bytearray, accept: Callable[[Frame], bool] = lambda frame: True
-) -> tuple[list[tuple[Frame, bytes]], int]:
-    """Take every checksum-valid frame that `accept`s off the front of `buffer`; returns the
-    frames (decoded and raw) and the number of bytes dropped. A frame that is not accepted is
-    skipped one byte at a time, like garbage, so a false start can never swallow the beginning
-    of a real frame. An incomplete tail stays in `buffer`."""
-    frames: list[tuple[Frame, bytes]] = []
-    discarded = 0
-    while buffer:
-        start = buffer.find(SYNC)
-        if start < 0:
-            discarded += len(buffer)
-            buffer.clear()
-            break
-        if start:
-            discarded += start
-            del buffer[:start]
-        if len(buffer) < FRAME_LENGTH:
-            break
-        frame = Frame(*buffer[1:6])
-        if checksum(buffer[1:6]) != buffer[6] or not accept(frame):
-            discarded += 1
-            del buffer[:1]
-            continue
-        frames.append((frame, bytes(buffer[:FRAME_LENGTH])))
-        del buffer[:FRAME_LENGTH]
-    return frames, discarded
+) -> Split[tuple[Frame, bytes]]:
+    """Take every checksum-valid frame that `accept`s off the front of `buffer`, decoded and
+    raw. A frame that is not accepted is skipped one byte at a time, like garbage, so a false
+    start can never swallow the beginning of a real frame. An incomplete tail stays in
+    `buffer`."""
+
+    def cut(front: bytearray) -> Cut[tuple[Frame, bytes]]:
+        if len(front) < FRAME_LENGTH:
+            return None
+        frame = Frame(*front[1:6])
+        if checksum(front[1:6]) != front[6] or not accept(frame):
+            return Skip()
+        return Take(FRAME_LENGTH, (frame, bytes(front[:FRAME_LENGTH])))
+
+    return resync(buffer, cut, find_start=lambda front: front.find(SYNC))
 
 
 def pan_raw_from_deg(pan_deg: float) -> int:
@@ -208,10 +198,8 @@ class PelcoDCodec(Codec):
         return frame.address == self.address and frame.cmd1 == 0 and frame.cmd2 in RESPONSES
 
     def _parse(self) -> list[Reply]:
-        frames, discarded = split_frames(self._buffer, self._is_reply)
-        self.discarded_bytes += discarded
         replies = []
-        for f, raw in frames:
+        for f, raw in self._counted(split_frames(self._buffer, self._is_reply)):
             if f.cmd2 == EXTENDED["pan_response"]:
                 pan = math.radians(pan_deg_from_raw(f.word))
                 replies.append(Reply("position", pan_rad=pan, raw=raw))

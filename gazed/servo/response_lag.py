@@ -5,7 +5,7 @@ latency, the hold between two writes, and its own position loop (a position-mode
 the gap only as fast as its gain and acceleration let it). That lag is part of the actuation
 latency the estimator predicts over: the command bytes leave a few ms after a prediction, the
 head gets there a response lag later. Only the head can say how long that is, and it differs
-from one device to the next (a Dynamixel in tens of ms, a PTZ camera over VISCA in a hundred).
+from one device to the next.
 
 For a set-point moving at a steady rate ṡ, a head that follows it τ late reports
 p(t) = s(t - τ) = s(t) - ṡ τ, so one position report gives τ = (s(t) - p(t)) / ṡ per axis. A

@@ -24,6 +24,7 @@ from collections.abc import Callable
 from typing import ClassVar, TypeVar
 
 from gazed.servo.codec import Codec, CodecError, Exchange, HandshakeError, Reply, nearest
+from gazed.servo.resync import Cut, Skip, Split, Take, resync
 
 T = TypeVar("T")
 
@@ -84,33 +85,23 @@ def reply_header(address: int) -> int:
 
 def split_packets(
     buffer: bytearray, is_header: bytes, decode: Callable[[bytes], T | None]
-) -> tuple[list[T], int]:
+) -> Split[T]:
     """Take every `header ... FF` packet (at most 16 bytes) off the front of `buffer` that
-    `decode` accepts, and return what it made of them, with the number of bytes dropped.
-    `is_header` lists the bytes a packet may start with. A packet `decode` refuses is skipped
-    one byte at a time, like garbage, so a false start never swallows a real packet."""
-    packets: list[T] = []
-    discarded = 0
-    while buffer:
-        start = next((i for i, b in enumerate(buffer) if b in is_header), -1)
-        if start < 0:
-            discarded += len(buffer)
-            buffer.clear()
-            break
-        if start:
-            discarded += start
-            del buffer[:start]
-        end = buffer.find(TERMINATOR, 1)
-        if end < 0 and len(buffer) < MAX_PACKET:
-            break
-        decoded = decode(bytes(buffer[: end + 1])) if 0 < end < MAX_PACKET else None
-        if decoded is None:
-            discarded += 1
-            del buffer[:1]
-            continue
-        packets.append(decoded)
-        del buffer[: end + 1]
-    return packets, discarded
+    `decode` accepts, and return what it made of them. `is_header` lists the bytes a packet may
+    start with. A packet `decode` refuses is skipped one byte at a time, like garbage, so a
+    false start never swallows a real packet."""
+
+    def find_start(front: bytearray) -> int:
+        return next((i for i, b in enumerate(front) if b in is_header), -1)
+
+    def cut(front: bytearray) -> Cut[T]:
+        end = front.find(TERMINATOR, 1)
+        if end < 0 and len(front) < MAX_PACKET:
+            return None
+        decoded = decode(bytes(front[: end + 1])) if 0 < end < MAX_PACKET else None
+        return Skip() if decoded is None else Take(end + 1, decoded)
+
+    return resync(buffer, cut, find_start)
 
 
 class ViscaCodec(Codec):
@@ -208,9 +199,7 @@ class ViscaCodec(Codec):
             raise HandshakeError(f"VISCA IF_Clear answered {got}, expected completion")
 
     def _parse(self) -> list[Reply]:
-        replies, discarded = split_packets(self._buffer, self._reply_headers, self._decode)
-        self.discarded_bytes += discarded
-        return replies
+        return self._counted(split_packets(self._buffer, self._reply_headers, self._decode))
 
     def _decode(self, p: bytes) -> Reply | None:
         kind, socket = p[1] & 0xF0, p[1] & 0x0F

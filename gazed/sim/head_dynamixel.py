@@ -22,13 +22,15 @@ from gazed.config import DynamixelServo
 from gazed.servo.axis_motion import AxisMotion
 from gazed.servo.codec import nearest
 from gazed.servo.dynamixel import (
-    BROADCAST_ID,
     CONTROL_TABLE,
     INSTRUCTION,
     OPERATING_MODE,
     POSITION_MODES,
-    STATUS,
     VELOCITY_UNIT_RAD_S,
+)
+from gazed.servo.dynamixel_packets import (
+    BROADCAST_ID,
+    STATUS,
     Packet,
     le,
     split_packets,
@@ -82,13 +84,13 @@ class DynamixelDevice:
 
     def receive(self, data: bytes, t_s: float) -> bytes:
         self._buffer += data
-        packets, discarded, crc_failed = split_packets(self._buffer)
-        self.ignored += discarded
+        split = split_packets(self._buffer)
+        self.ignored += split.discarded_bytes
         out = bytearray()
-        for device_id in crc_failed:
+        for device_id in split.rejected:
             if device_id in self.servos:
                 out += status_packet(device_id, ERROR["crc"])
-        for p in packets:
+        for p in split.frames:
             if p.instruction != STATUS:
                 out += self._handle(p, t_s)
         return bytes(out)

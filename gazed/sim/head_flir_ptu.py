@@ -21,6 +21,7 @@ from collections.abc import Callable
 from gazed.config import FlirPtuServo
 from gazed.servo.axis_motion import AxisMotion
 from gazed.servo.flir_ptu import OPS, rad_from_positions
+from gazed.servo.resync import Cut, Skip, Take, resync
 from gazed.sim.head_mechanics import HeadMechanics
 
 TOKEN_ENDS = b" \r\n"
@@ -28,6 +29,14 @@ TOKEN = re.compile(r"^([A-Za-z]+)([-+]?\d+)?$")
 MAX_TOKEN = 64
 EOL = "\r\n"
 AXIS_NAMES = {"P": "Pan", "T": "Tilt"}
+
+
+def _token(front: bytearray) -> Cut[str]:
+    """A command token ended by a space, CR or LF; a token too long to end is dropped."""
+    end = next((i for i, b in enumerate(front) if b in TOKEN_ENDS), -1)
+    if end < 0:
+        return Skip(len(front)) if len(front) > MAX_TOKEN else None
+    return Take(end + 1, bytes(front[:end]).decode("latin-1"))
 
 
 class FlirPtuDevice:
@@ -62,18 +71,9 @@ class FlirPtuDevice:
 
     def receive(self, data: bytes, t_s: float) -> bytes:
         self._buffer += data
-        out = []
-        while True:
-            end = next((i for i, b in enumerate(self._buffer) if b in TOKEN_ENDS), -1)
-            if end < 0:
-                if len(self._buffer) > MAX_TOKEN:
-                    self.ignored += len(self._buffer)
-                    self._buffer.clear()
-                break
-            token = bytes(self._buffer[:end]).decode("latin-1")
-            del self._buffer[: end + 1]
-            if token:
-                out.append(self._submit(token, t_s))
+        split = resync(self._buffer, _token)
+        self.ignored += split.discarded_bytes
+        out = [self._submit(token, t_s) for token in split.frames if token]
         return "".join(out).encode("latin-1")
 
     def poll(self, t_s: float) -> bytes:

@@ -80,11 +80,6 @@ class HeadMechanics:
         """Nothing scheduled and both axes at rest where they were told to be."""
         return not self._events and self.pan.settled and self.tilt.settled
 
-    @property
-    def busy_until_s(self) -> float:
-        """When the last scheduled command acts (now if none)."""
-        return self._events[-1][0] if self._events else self.t_s
-
     # --- time ------------------------------------------------------------------------------
 
     def advance(self, t_s: float) -> None:

@@ -47,10 +47,10 @@ class PelcoDDevice:
     def receive(self, data: bytes, t_s: float) -> bytes:
         """Bytes from the host, received by `t_s`; returns the reply bytes."""
         self._buffer += data
-        frames, discarded = split_frames(self._buffer, lambda f: f.address == self.address)
-        self.ignored += discarded
+        split = split_frames(self._buffer, lambda f: f.address == self.address)
+        self.ignored += split.discarded_bytes
         out = bytearray()
-        for frame, _ in frames:
+        for frame, _ in split.frames:
             out += self._handle(frame, t_s)
         return bytes(out)
 

@@ -80,10 +80,10 @@ class ViscaDevice:
 
     def receive(self, data: bytes, t_s: float) -> bytes:
         self._buffer += data
-        packets, discarded = split_packets(self._buffer, HOST_HEADERS, _command)
-        self.ignored += discarded
+        split = split_packets(self._buffer, HOST_HEADERS, _command)
+        self.ignored += split.discarded_bytes
         out = bytearray()
-        for p in packets:
+        for p in split.frames:
             if p[0] != BROADCAST and p[0] & 0x0F != self.address:
                 continue
             out += self._handle(p[1:-1], t_s)

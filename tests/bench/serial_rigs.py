@@ -7,9 +7,9 @@ baud rate, timeouts and rates; the port swapped for the emulator's pty), scored 
                                       [--odometry-rate-hz 15] [--command-rate-hz 15]
 
 The emulator keeps each line's timing at its baud rate, so this shows whether a shipped rig's
-rates fit its line: a 9600 baud Pelco-D or PTU line carries a set-point in 15-40 ms and a
-position poll in 30 ms; the servo's `line_load` says how full the line was. The rate options
-replace the shipped rates, to find the ones a line carries.
+rates fit its line: every set-point and position poll takes its bytes' time at the baud rate,
+and the servo's `line_load` says how full the line was. The rate options replace the shipped
+rates, to find the ones a line carries.
 """
 
 from __future__ import annotations

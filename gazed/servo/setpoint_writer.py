@@ -1,0 +1,146 @@
+"""Demands to set-points written to the head: the `servo` process's command path.
+
+Every demand is limited (`DemandLimiter`: non-finite refused, joint limits — brought in by one
+device unit, so rounding never crosses them — and rate limits clamped, all counted) and
+becomes the target of the set-point generator, whose set-points — never a jump — are written at
+once for a fresh demand and every command period while a move is under way — but not behind a
+whole set-point still waiting for the serial line (the newest then replaces it, counted as
+`held_for_the_line`). No fresh demand within the command timeout -> hold (decelerate to rest).
+Each fresh demand, as limited, goes to `on_command` the moment its bytes are written.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Iterable
+
+from gazed.config import HeadSection
+from gazed.geometry.kinematics import device_from_joint
+from gazed.messages import GazeDemand
+from gazed.servo.driver import ServoDriver
+from gazed.servo.limits import DemandLimiter, Target
+from gazed.servo.setpoints import SetpointGenerator
+
+
+class SetpointWriter:
+    """Demands pulled from `demands()`, set-points written through `driver`, on the caller's
+    monotonic clock (seconds)."""
+
+    def __init__(
+        self,
+        head: HeadSection,
+        driver: ServoDriver,
+        demands: Callable[[], Iterable[GazeDemand]],
+        on_command: Callable[[GazeDemand, int], None],
+        command_period_s: float,
+        command_timeout_s: float,
+        t_s: float,
+    ) -> None:
+        self.head = head
+        self.driver = driver
+        self._demands = demands
+        self._on_command = on_command
+        self.command_period_s = command_period_s
+        self.command_timeout_s = command_timeout_s
+        inset_rad = driver.codec.resolution_rad
+        self.limiter = DemandLimiter(head, inset_rad)
+        self.setpoints = SetpointGenerator(head, t_s, inset_rad)
+        self.holding = True
+        self.counts = {"commands": 0, "demands": 0, "held_for_the_line": 0}
+        self.write_ms = 0.0
+        self._next_command_s = 0.0
+        self._last_demand_s: float | None = None
+        self._written: tuple[float, float] | None = None
+        self._fresh: GazeDemand | None = None  # the newest demand, as limited, not yet written
+        self._setpoint_line_s = 0.0  # how long the last set-point's bytes took on the line
+
+    def start_point(self, t_s: float) -> tuple[float, float]:
+        """Where a head that cannot report its position is sent when the link opens: the
+        set-point if one was written before, else park."""
+        return self.setpoints.advance(t_s) if self._written else self.head.park_rad
+
+    def reset(self, pan_rad: float, tilt_rad: float, t_s: float) -> None:
+        """At rest where the head is (the link was just opened), holding."""
+        self.setpoints.reset(pan_rad, tilt_rad, t_s)
+        self._written = (pan_rad, tilt_rad)
+        self.holding = True
+        self._last_demand_s = None
+        self._fresh = None
+
+    def wake_times_s(self) -> list[float]:
+        """When a set-point is next due and when the demands time out, where either applies."""
+        times = []
+        if not self.setpoints.settled or self._fresh is not None:
+            times.append(self._next_command_s)
+        if not self.holding and self._last_demand_s is not None:
+            times.append(self._last_demand_s + self.command_timeout_s)
+        return times
+
+    def take_demands(self, t_s: float, executable: bool) -> None:
+        """Limit and count every demand waiting; track the newest unless not `executable`
+        (no link: it is dropped)."""
+        latest: tuple[GazeDemand, Target] | None = None
+        for demand in self._demands():
+            self.counts["demands"] += 1
+            target = self.limiter.limit(demand)
+            if target is not None:
+                latest = (demand, target)
+        if latest is None or not executable:
+            return
+        demand, target = latest
+        self.setpoints.track(target, t_s)
+        self._last_demand_s = t_s
+        self._fresh = demand.model_copy(
+            update={
+                "pan_rad": target.pan_rad,
+                "tilt_rad": target.tilt_rad,
+                "pan_rate_rad_s": target.pan_rate_rad_s,
+                "tilt_rate_rad_s": target.tilt_rate_rad_s,
+            }
+        )
+        self._next_command_s = t_s
+        self.holding = False
+
+    def check_hold(self, t_s: float) -> None:
+        """Hold once no fresh demand came within the command timeout."""
+        if self.holding or self._last_demand_s is None:
+            return
+        if t_s - self._last_demand_s > self.command_timeout_s:
+            self.setpoints.hold(t_s)
+            self.holding = True
+            self._next_command_s = t_s
+
+    def write(self, t_s: float) -> None:
+        """The set-point at `t_s`, if one is due and the line has room for it."""
+        if t_s < self._next_command_s:
+            return
+        # a set-point may queue behind the one on the line, not behind a whole one more: on a
+        # line that cannot carry them all, the newest replaces those not yet sent
+        transport = self.driver.transport
+        waiting_s = transport.line_busy_s() - self._setpoint_line_s
+        if waiting_s > 0:
+            self._next_command_s = t_s + waiting_s
+            self.counts["held_for_the_line"] += 1
+            return
+        setpoint = self.setpoints.advance(t_s)
+        if setpoint == self._written and self._fresh is None:
+            self._next_command_s = t_s + self.command_period_s
+            return
+        started = time.perf_counter()
+        busy_before_s = transport.line_busy_s()
+        t_ns = self.driver.set_position(*device_from_joint(self.head, *setpoint))
+        self.write_ms = (time.perf_counter() - started) * 1000.0
+        self._setpoint_line_s = max(0.0, transport.line_busy_s() - busy_before_s)
+        self._written = setpoint
+        self.counts["commands"] += 1
+        if self._fresh is not None:
+            self._on_command(self._fresh, t_ns)
+            self._fresh = None
+        self._next_command_s = t_s + self.command_period_s
+
+    def write_fresh(self, t_s: float) -> None:
+        """A demand that came while the head was answering a poll goes out now, not after the
+        whole poll (Pelco-D asks pan and tilt in two exchanges)."""
+        self.take_demands(t_s, executable=True)
+        if self._fresh is not None:
+            self.write(t_s)
