@@ -93,7 +93,7 @@ class GazeService:
     def health(self) -> HealthReport:
         c = self.controller
         counters = dict(c.counts)
-        counters.update(demands=self.demands_sent, clamps=c.clamps, refused=c.limiter.refused)
+        counters.update(demands=self.demands_sent, clamps=c.clamps, refused=c.shaper.refused)
         return HealthReport(counters=counters, notes={"state": c.state})
 
     def close(self) -> None:

@@ -122,7 +122,7 @@ def test_a_corner_ends_a_leg_only_when_two_looks_agree() -> None:
     loop.look()
     settle(loop)
     loop.look(turn_deg=50.0)
-    assert loop.c.trace_job is not None and loop.c.trace_job.corner_looks == 1
+    assert loop.c.tracer.job is not None and loop.c.tracer.job.corner_looks == 1
     loop.look()  # the second look sees a straight edge: not a corner
     settle(loop)
     decision = loop.look()
