@@ -1,8 +1,9 @@
 """Gaze control: the saccade/pursuit state machine and where to point (DESIGN §7).
 
-`controller` is the state machine; the other modules are the parts it drives: `aim` (where a
-target is and where it will be when a move ends), `settling`, `sightings`, `residual`,
-`lost_search`, `trace` and `demand`.
+`controller` is the state machine. The parts it drives, each holding the state of its concern:
+`sightings` (what vision has shown), `move` (a ballistic move and its settling, aimed by
+`aim.arrival_aim`), `pursuit`, `look_and_move`, `lost_search`, `trace` and `demand` (limits and
+the hold). `schedule` says when the `gaze` process ticks the controller.
 """
 
 STAGE = "gaze"  # this process's name in a message's stamps

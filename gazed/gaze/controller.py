@@ -159,7 +159,7 @@ class GazeController:
         self.sightings.take(detection, count=self.state in TAKING_UP)
 
     def on_candidates(self, candidates: Candidates) -> None:
-        self.sightings.candidates = candidates
+        self.sightings.on_candidates(candidates)
 
     def on_edge(self, edge: EdgeObservation) -> None:
         self.tracer.on_edge(edge)

@@ -47,6 +47,9 @@ class Sightings:
             self._count(detection)
         self.found = detection
 
+    def on_candidates(self, candidates: Candidates) -> None:
+        self.candidates = candidates
+
     def restart_run(self) -> None:
         self.in_a_row = 0
 
