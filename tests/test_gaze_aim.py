@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 
 import pytest
+from test_gaze_controller import Clock, detection, prediction
 
 from gazed.config import parse_rig
 from gazed.gaze.aim import (
@@ -19,7 +20,7 @@ from gazed.gaze.aim import (
 )
 from gazed.geometry.camera import CameraModel
 from gazed.geometry.kinematics import HeadKinematics
-from gazed.messages import Detection, HeadPose, Prediction
+from gazed.messages import HeadPose
 
 RIG = parse_rig('[rig]\nname = "a"\n')
 CAMERA = CameraModel.from_section(RIG.camera)
@@ -39,19 +40,10 @@ def test_an_aim_extrapolates_at_its_rates_both_ways_in_time() -> None:
 
 
 def test_a_prediction_is_an_aim_for_the_instant_it_was_made_for() -> None:
-    p = Prediction(
-        t_capture_ns=T0 - 150_000_000,
-        filter="imm",
-        t_effect_ns=T0 + 20_000_000,
-        horizon_s=0.17,
-        pan_rad=0.3,
-        tilt_rad=-0.1,
-        pan_rate_rad_s=0.2,
-        tilt_rate_rad_s=0.05,
-        visual_latency_s=0.15,
-        actuation_latency_s=0.02,
-    )
-    assert Aim.of_prediction(p) == Aim(T0 + 20_000_000, 0.3, -0.1, 0.2, 0.05)
+    clock = Clock()
+    p = prediction(clock, 10.0, -5.0, pan_rate_deg_s=20.0, actuation_s=0.03)
+    aim = Aim.of_prediction(p)
+    assert aim == Aim(clock.wall_ns + 30_000_000, 10 * DEG, -5 * DEG, 20 * DEG, 0.0)
 
 
 def test_an_image_point_aims_by_its_offset_from_the_centre() -> None:
@@ -72,22 +64,13 @@ def test_an_image_point_aims_by_its_offset_from_the_centre() -> None:
 
 
 def test_a_detection_aims_from_its_own_head_pose_at_its_capture() -> None:
-    detection = Detection(
-        t_capture_ns=T0 - 40_000_000,
-        seq=1,
-        detector="flow",
-        found=True,
-        u_px=CX,
-        v_px=CY,
-        du_px_s=50.0,
-        width_px=640,
-        height_px=480,
-        head=HeadPose(pan_rad=0.2, tilt_rad=-0.1),
-    )
-    aim = detection_aim(CAMERA, KINEMATICS, detection)
-    assert aim.t_ns == T0 - 40_000_000
-    assert (aim.pan_rad, aim.tilt_rad) == pytest.approx((0.2, -0.1), abs=1e-9)
-    assert aim.pan_rate_rad_s == pytest.approx(50.0 / F / math.cos(-0.1), rel=1e-3)
+    clock = Clock()
+    seen = detection(clock, CX, CY, head_deg=(12.0, -6.0), du=50.0, age_s=0.04)
+    aim = detection_aim(CAMERA, KINEMATICS, seen)
+    assert aim.t_ns == clock.wall_ns - 40_000_000
+    assert (aim.pan_rad, aim.tilt_rad) == pytest.approx((12 * DEG, -6 * DEG), abs=1e-9)
+    # at tilt t, an image step of du turns the pan axis by du / (F cos t)
+    assert aim.pan_rate_rad_s == pytest.approx(50.0 / F / math.cos(6 * DEG), rel=1e-3)
 
 
 def test_move_durations_follow_the_triangle_and_trapezoid_profiles() -> None:

@@ -6,10 +6,11 @@ from __future__ import annotations
 import math
 
 import pytest
+from test_gaze_controller import Clock, prediction
 
 from gazed.config import parse_rig
 from gazed.gaze.demand import DemandShaper, Hold, make_demand
-from gazed.messages import Odometry, Prediction
+from gazed.messages import Odometry
 
 RIG = parse_rig(
     '[rig]\nname = "d"\n[head]\npan_max_deg = 60\npan_rate_max_deg_s = 100\n'
@@ -23,21 +24,9 @@ def test_a_demand_carries_its_sources_capture_and_stamps_then_the_gazes() -> Non
     alone = make_demand("hold", 0.1, 0.2, T0)
     assert alone.t_capture_ns == T0 and alone.stamps == (("gaze", T0),)
     assert (alone.pan_rate_rad_s, alone.tilt_rate_rad_s) == (0.0, 0.0)
-    source = Prediction(
-        t_capture_ns=T0 - 10**8,
-        stamps=(("vision", T0 - 5 * 10**7), ("estimator", T0 - 10**7)),
-        filter="imm",
-        t_effect_ns=T0,
-        horizon_s=0.1,
-        pan_rad=0.0,
-        tilt_rad=0.0,
-        pan_rate_rad_s=0.0,
-        tilt_rate_rad_s=0.0,
-        visual_latency_s=0.1,
-        actuation_latency_s=0.02,
-    )
+    source = prediction(Clock(), 0.0, 0.0)
     demand = make_demand("pursuit", 0.1, 0.2, T0, source, (0.3, -0.4))
-    assert demand.t_capture_ns == T0 - 10**8
+    assert demand.t_capture_ns == source.t_capture_ns
     assert [stage for stage, _ in demand.stamps] == ["vision", "estimator", "gaze"]
     assert (demand.pan_rate_rad_s, demand.tilt_rate_rad_s) == (0.3, -0.4)
 

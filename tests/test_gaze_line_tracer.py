@@ -6,12 +6,13 @@ from __future__ import annotations
 import math
 
 import pytest
+from test_gaze_trace import edge
 
 from gazed.config import parse_rig
 from gazed.gaze.trace import LineTracer
 from gazed.geometry.camera import CameraModel
 from gazed.geometry.kinematics import HeadKinematics
-from gazed.messages import EdgeObservation, GazeCommand, HeadPose, Odometry
+from gazed.messages import GazeCommand, Odometry
 
 RIG = parse_rig('[rig]\nname = "t"\n[gaze]\nsettle_ms = 40\ntrace_misses = 2\n')
 CAMERA = CameraModel.from_section(RIG.camera)
@@ -62,20 +63,7 @@ class Bench:
 
     def look(self, dv_px: float = 0.0, found: bool = True, turn_deg: float = 0.0) -> str | None:
         """An edge running left-right through the image, dv_px below the centre."""
-        pan, tilt = self.job.goal_rad
-        self.tracer.on_edge(
-            EdgeObservation(
-                t_capture_ns=self.wall_ns + 1,
-                seq=0,
-                found=found,
-                u_px=CX,
-                v_px=CY + dv_px,
-                ahead_px=(CX + 12.0, CY + dv_px),
-                behind_px=(CX - 12.0, CY + dv_px),
-                turn_rad=math.radians(turn_deg),
-                head=HeadPose(pan_rad=pan, tilt_rad=tilt),
-            )
-        )
+        self.tracer.on_edge(edge(self.wall_ns + 1, self.job.goal_rad, dv_px, found, turn_deg))
         return self.step(self.odometry())
 
 

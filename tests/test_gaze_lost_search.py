@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 
 import pytest
+from test_gaze_controller import Clock, prediction
 
 from gazed.config import parse_rig
 from gazed.gaze.aim import MoveLimits
@@ -32,27 +33,17 @@ def search(camera_xyz_m: tuple[float, float, float] | None = (0.0, 0.0, 3.0)) ->
     return LostSearch(RIG.gaze, 3 * DEG, camera_xyz_m, limits, RIG.camera.frame_period_s)
 
 
-def prediction(cov=None, ground_xy_m=(0.0, 5.0)) -> Prediction:
-    return Prediction(
-        t_capture_ns=T0,
-        filter="imm",
-        t_effect_ns=T0,
-        horizon_s=0.17,
-        pan_rad=0.0,
-        tilt_rad=0.0,
-        pan_rate_rad_s=0.0,
-        tilt_rate_rad_s=0.0,
-        visual_latency_s=LATENCY_S,
-        actuation_latency_s=0.02,
-        ground_xy_m=ground_xy_m,
-        position_cov_m2=cov,
+def coasting(cov=None) -> Prediction:
+    """A prediction 5 m ahead of the camera, with a position covariance or without one."""
+    return prediction(Clock(), 0.0, 0.0).model_copy(
+        update={"ground_xy_m": (0.0, 5.0), "position_cov_m2": cov}
     )
 
 
 def test_the_region_grows_with_time_without_a_covariance() -> None:
     s = search()
     assert s.radius_rad(None, 0.5) == pytest.approx(5 * DEG)
-    assert s.radius_rad(prediction(), 1.2) == pytest.approx(12 * DEG)
+    assert s.radius_rad(coasting(), 1.2) == pytest.approx(12 * DEG)
     assert s.max_radius_rad == pytest.approx(40 * DEG)
 
 
@@ -60,7 +51,7 @@ def test_the_region_is_the_covariance_seen_from_the_camera_where_that_is_wider()
     """Covariance [[3, 1], [1, 3]] m²: largest eigenvalue 4, 2 m; 5 m ahead of a camera 3 m
     up, that is 2 / sqrt(34) rad."""
     s = search()
-    p = prediction(cov=((3.0, 1.0), (1.0, 3.0)))
+    p = coasting(cov=((3.0, 1.0), (1.0, 3.0)))
     assert s.radius_rad(p, 0.1) == pytest.approx(2.0 / math.sqrt(34.0))
     assert s.radius_rad(p, 3.0) == pytest.approx(30 * DEG)  # time has outgrown it
     # without the camera's position the covariance cannot be turned into an angle

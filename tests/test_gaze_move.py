@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 
 import pytest
+from test_gaze_controller import T0, Clock, detection
 
 from gazed.config import parse_rig
 from gazed.gaze.aim import Aim, MoveLimits, move_duration_s
@@ -17,7 +18,6 @@ from gazed.messages import Detection, HeadPose, Odometry
 RIG = parse_rig('[rig]\nname = "m"\n')
 KINEMATICS = HeadKinematics.from_section(RIG.head)
 DEG = math.radians(1.0)
-T0 = 10**18
 LIMITS = MoveLimits((100 * DEG, 100 * DEG), (400 * DEG, 400 * DEG))
 
 
@@ -75,18 +75,9 @@ def test_a_move_aims_at_the_arrival_and_restarts_the_settling() -> None:
     assert move.settling.since_s is None
 
 
-def detection(t_ns: int) -> Detection:
-    return Detection(
-        t_capture_ns=t_ns,
-        seq=1,
-        detector="flow",
-        found=True,
-        u_px=319.5,
-        v_px=239.5,
-        width_px=640,
-        height_px=480,
-        head=HeadPose(pan_rad=0.0, tilt_rad=0.0),
-    )
+def seen(t_ns: int) -> Detection:
+    """A detection at the image centre captured at t_ns."""
+    return detection(Clock(), 319.5, 239.5, age_s=(T0 - t_ns) / 1e9)
 
 
 def test_look_and_move_moves_on_a_fresh_look_then_waits_for_one_after_settling() -> None:
@@ -97,16 +88,16 @@ def test_look_and_move_moves_on_a_fresh_look_then_waits_for_one_after_settling()
         return cycle.step(found, lambda d: target, odometry(pan_deg), T0, wall_ns, mono_s)
 
     assert step(None, 0.0, T0, 1.0) is None  # nothing seen: hold
-    assert step(detection(T0 - 1), 0.0, T0, 1.0) is None  # from before pursuit began
-    move = step(detection(T0), 0.0, T0, 1.0)
+    assert step(seen(T0 - 1), 0.0, T0, 1.0) is None  # from before pursuit began
+    move = step(seen(T0), 0.0, T0, 1.0)
     assert move is not None and move.kind == "position" and not cycle.looking
     assert move.pan_rad == pytest.approx(5 * DEG) and move.t_capture_ns == T0
     for mono_s in (1.2, 1.3):  # at the goal, settling
-        demand = step(detection(T0), 5.0, T0 + 10**9, mono_s)
+        demand = step(seen(T0), 5.0, T0 + 10**9, mono_s)
         assert demand is not None and demand.pan_rad == pytest.approx(5 * DEG)
     assert cycle.looking and cycle.look_since_ns == T0 + 10**9
-    assert step(detection(T0 + 10**9 - 1), 5.0, T0 + 10**9, 1.4) is None  # from before settling
-    assert step(detection(T0 + 10**9), 5.0, T0 + 10**9, 1.4) is not None
+    assert step(seen(T0 + 10**9 - 1), 5.0, T0 + 10**9, 1.4) is None  # from before settling
+    assert step(seen(T0 + 10**9), 5.0, T0 + 10**9, 1.4) is not None
     assert not cycle.looking
     cycle.restart()
     assert cycle.looking

@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 
 import pytest
+from test_gaze_controller import T0, Clock, detection
 
 from gazed.config import parse_rig
 from gazed.gaze.sightings import Sightings
@@ -19,7 +20,6 @@ RIG = parse_rig(
 )
 CAMERA = CameraModel.from_section(RIG.camera)
 F = CAMERA.K[0, 0]
-T0 = 10**18
 MS = 1_000_000
 
 
@@ -28,18 +28,9 @@ def sightings() -> Sightings:
     return Sightings(RIG.gaze, RIG.camera.frame_period_s, CAMERA, kinematics)
 
 
-def detection(t_ns: int, u_px: float = 319.5) -> Detection:
-    return Detection(
-        t_capture_ns=t_ns,
-        seq=1,
-        detector="flow",
-        found=True,
-        u_px=u_px,
-        v_px=239.5,
-        width_px=640,
-        height_px=480,
-        head=HeadPose(pan_rad=0.0, tilt_rad=0.0),
-    )
+def seen(t_ns: int, u_px: float = 319.5) -> Detection:
+    """A detection captured at t_ns from a head at rest at (0, 0)."""
+    return detection(Clock(), u_px, 239.5, age_s=(T0 - t_ns) / 1e9)
 
 
 def candidates(t_ns: int, scores: tuple[float, ...], tilt_rate_deg_s: float = 0.0) -> Candidates:
@@ -58,16 +49,16 @@ def candidates(t_ns: int, scores: tuple[float, ...], tilt_rate_deg_s: float = 0.
 
 def test_a_run_counts_frames_a_frame_or_two_apart() -> None:
     s = sightings()
-    s.take(detection(T0), count=True)
+    s.take(seen(T0), count=True)
     assert s.in_a_row == 1
-    s.take(detection(T0 + 40 * MS), count=True)
-    s.take(detection(T0 + 120 * MS), count=True)  # a frame missed: 2 periods, still a run
+    s.take(seen(T0 + 40 * MS), count=True)
+    s.take(seen(T0 + 120 * MS), count=True)  # a frame missed: 2 periods, still a run
     assert s.in_a_row == 3
-    s.take(detection(T0 + 120 * MS), count=True)  # the same frame again counts nothing
+    s.take(seen(T0 + 120 * MS), count=True)  # the same frame again counts nothing
     assert s.in_a_row == 3
-    s.take(detection(T0 + 230 * MS), count=True)  # 2.75 periods: a new run
+    s.take(seen(T0 + 230 * MS), count=True)  # 2.75 periods: a new run
     assert s.in_a_row == 1
-    s.take(detection(T0 + 270 * MS), count=False)  # taken, not counted
+    s.take(seen(T0 + 270 * MS), count=False)  # taken, not counted
     assert s.in_a_row == 1 and s.found is not None and s.found.t_capture_ns == T0 + 270 * MS
     s.restart_run()
     assert s.in_a_row == 0
@@ -76,7 +67,7 @@ def test_a_run_counts_frames_a_frame_or_two_apart() -> None:
 def test_recent_means_since_the_state_began_and_within_lost_after_ms() -> None:
     s = sightings()
     assert s.recent(T0, since_ns=0) is None
-    s.take(detection(T0), count=True)
+    s.take(seen(T0), count=True)
     assert s.recent(T0 + 300 * MS, since_ns=T0) is not None
     assert s.recent(T0 + 301 * MS, since_ns=T0) is None  # too old
     assert s.recent(T0 + 10 * MS, since_ns=T0 + 1) is None  # from before the state began
@@ -101,5 +92,5 @@ def test_the_best_candidate_is_the_strongest_from_a_head_at_rest() -> None:
 
 
 def test_a_detection_aims_from_its_head_pose() -> None:
-    aim = sightings().aim(detection(T0, u_px=319.5 + 200.0))
+    aim = sightings().aim(seen(T0, u_px=319.5 + 200.0))
     assert aim.t_ns == T0 and aim.pan_rad == pytest.approx(math.atan(200.0 / F))
