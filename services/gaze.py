@@ -9,8 +9,8 @@ Settings: [gaze] (control mode, rates, fovea, settling, lost and search timing, 
 [head] (limits, park pose, kinematics), [camera] (pixels to angles), [calibration]
 camera_xyz_m (the lost-search region in angles).
 
-The state machine itself is `gazed.gaze.controller.GazeController`; this module only moves
-messages in and out of it.
+The state machine itself is `gazed.gaze.controller.GazeController`, and when it ticks is
+`gazed.gaze.schedule.TickSchedule`; this module only moves messages in and out of them.
 """
 
 from __future__ import annotations
@@ -20,6 +20,7 @@ import logging
 from gazed.bus import Bus
 from gazed.config import Rig
 from gazed.gaze.controller import GazeController
+from gazed.gaze.schedule import TickSchedule
 from gazed.topics import (
     ESTIMATOR_PREDICTION,
     GAZE_COMMAND,
@@ -39,16 +40,7 @@ log = logging.getLogger("gazed.gaze")
 class GazeService:
     def __init__(self, rig: Rig, bus: Bus) -> None:
         self.controller = GazeController(rig, Now.read().mono_s)
-        self.period_s = 1.0 / rig.gaze.rate_hz
-        # After a prediction, the timer's next tick: a period later, unless a prediction is due
-        # first anyway (a rate at or below the camera's). Then it waits half a frame longer, so
-        # that it fires only when a prediction is missing, not a moment before the next one
-        # (that demand would be stale at once and hold the servo and this process as the
-        # prediction arrives).
-        frame_period_s = rig.camera.frame_period_s
-        self.after_prediction_s = self.period_s + (
-            0.5 * frame_period_s if self.period_s >= frame_period_s else 0.0
-        )
+        self.schedule = TickSchedule(rig.gaze.rate_hz, rig.camera.frame_period_s)
         self.predictions = bus.subscribe(ESTIMATOR_PREDICTION, capacity=16, immediate=True)
         self.detections = bus.subscribe(VISION_DETECTION, capacity=16)
         self.candidates = bus.subscribe(VISION_CANDIDATES, capacity=4)
@@ -58,7 +50,6 @@ class GazeService:
         self.traces = bus.publisher(GAZE_TRACE)
         self.demands = bus.publisher(GAZE_DEMAND)
         self.states = bus.publisher(GAZE_STATE)
-        self.next_tick_s = 0.0
         self.demands_sent = 0
 
     def step(self, now: Now) -> float:
@@ -73,12 +64,11 @@ class GazeService:
             c.on_edge(edge)
         for command in self.commands.take():
             c.on_command(command, now.wall_ns, now.mono_s)
-            self.next_tick_s = now.mono_s  # act on it now
+            self.schedule.act_now(now.mono_s)
         fresh = self.predictions.take()
         for prediction in fresh:
             c.on_prediction(prediction)
-        if fresh or now.mono_s >= self.next_tick_s:  # a new prediction acts at once
-            self.next_tick_s = now.mono_s + (self.after_prediction_s if fresh else self.period_s)
+        if self.schedule.due(now.mono_s, fresh_prediction=bool(fresh)):
             decision = c.tick(now.wall_ns, now.mono_s)
             for t in decision.transitions:
                 log.debug("%s -> %s: %s", t.previous, t.state, t.reason)  # gazed run logs them
@@ -88,12 +78,12 @@ class GazeService:
                 self.demands_sent += 1
             if decision.trace is not None:
                 self.traces.put(decision.trace)
-        return max(0.0, self.next_tick_s - now.mono_s)
+        return self.schedule.wait_s(now.mono_s)
 
     def health(self) -> HealthReport:
         c = self.controller
         counters = dict(c.counts)
-        counters.update(demands=self.demands_sent, clamps=c.clamps, refused=c.limiter.refused)
+        counters.update(demands=self.demands_sent, clamps=c.clamps, refused=c.shaper.refused)
         return HealthReport(counters=counters, notes={"state": c.state})
 
     def close(self) -> None:

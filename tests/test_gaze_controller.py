@@ -402,14 +402,14 @@ def test_look_and_move_moves_only_after_a_fresh_look() -> None:
         clock.advance(0.04)
         c.on_odometry(odometry(clock, goal, 0.0))
         assert c.tick(clock.wall_ns, clock.mono_s).demand.kind == "position"
-    assert c.looking
+    assert c.look_and_move.looking
     clock.advance(0.01)
     hold = c.tick(clock.wall_ns, clock.mono_s).demand
     assert hold.kind == "hold"  # waiting for a frame taken after settling
     c.on_detection(detection(clock, 320.0, 240.0, head_deg=(goal, 0.0)))
     c.on_prediction(prediction(clock, goal, 0.0))
     assert c.tick(clock.wall_ns, clock.mono_s).demand.kind == "position"
-    assert not c.looking
+    assert not c.look_and_move.looking
 
 
 def test_a_restarted_controller_takes_up_a_target_in_view_instead_of_parking() -> None:

@@ -19,6 +19,24 @@ CX, CY = CAMERA.K[0, 2], CAMERA.K[1, 2]
 F = CAMERA.K[0, 0]
 
 
+def edge(
+    t_ns: int, head_rad: tuple[float, float], dv_px: float, found: bool, turn_deg: float
+) -> EdgeObservation:
+    """An edge through the image centre (offset dv_px down), running left-right, its next
+    points 12 px either way."""
+    return EdgeObservation(
+        t_capture_ns=t_ns,
+        seq=0,
+        found=found,
+        u_px=CX,
+        v_px=CY + dv_px,
+        ahead_px=(CX + 12.0, CY + dv_px),
+        behind_px=(CX - 12.0, CY + dv_px),
+        turn_rad=math.radians(turn_deg),
+        head=HeadPose(pan_rad=head_rad[0], tilt_rad=head_rad[1]),
+    )
+
+
 class Loop:
     """The controller with a head that is wherever it was last sent, and a clock."""
 
@@ -43,20 +61,7 @@ class Loop:
         return decision
 
     def look(self, dv_px: float = 0.0, found: bool = True, turn_deg: float = 0.0):
-        """An edge through the image centre (offset dv_px down), running left-right."""
-        self.c.on_edge(
-            EdgeObservation(
-                t_capture_ns=self.wall_ns + 1,
-                seq=0,
-                found=found,
-                u_px=CX,
-                v_px=CY + dv_px,
-                ahead_px=(CX + 12.0, CY + dv_px),
-                behind_px=(CX - 12.0, CY + dv_px),
-                turn_rad=math.radians(turn_deg),
-                head=HeadPose(pan_rad=self.head[0], tilt_rad=self.head[1]),
-            )
-        )
+        self.c.on_edge(edge(self.wall_ns + 1, self.head, dv_px, found, turn_deg))
         return self.tick()
 
 
@@ -122,7 +127,7 @@ def test_a_corner_ends_a_leg_only_when_two_looks_agree() -> None:
     loop.look()
     settle(loop)
     loop.look(turn_deg=50.0)
-    assert loop.c.trace_job is not None and loop.c.trace_job.corner_looks == 1
+    assert loop.c.tracer.job is not None and loop.c.tracer.job.corner_looks == 1
     loop.look()  # the second look sees a straight edge: not a corner
     settle(loop)
     decision = loop.look()

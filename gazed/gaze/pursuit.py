@@ -1,0 +1,107 @@
+"""Pursuit's demand (seed 000 §6): the predicted position and rates for the instant the demand
+acts (the prediction extrapolated to now + actuation latency), plus a feedback term on the
+residual between where the target was seen and where it had been predicted to be at that
+instant, smoothed and bounded by the fovea. Before the estimator has a prediction, or when it
+has gone stale, the detection itself (its angles and angular rates) is followed.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+
+from gazed.config import GazeSection
+from gazed.gaze.aim import Aim, detection_aim
+from gazed.gaze.demand import make_demand
+from gazed.geometry.camera import CameraModel
+from gazed.geometry.kinematics import HeadKinematics
+from gazed.messages import Detection, GazeDemand, Prediction
+
+PREDICTION_FRESH_S = 0.5  # an older prediction is not used for pursuit
+KEPT_PREDICTIONS = 64  # the newest predictions, to reach back over the visual latency
+
+
+def _bounded(value: float, bound: float) -> float:
+    return max(-bound, min(bound, value))
+
+
+class ResidualFeedback:
+    """Keeps the recent predictions; `update` with each detection seen in pursuit; `correction`
+    is the smoothed residual (pan, tilt), radians."""
+
+    def __init__(self, smoothing: float, bound_rad: float) -> None:
+        self.smoothing = smoothing
+        self.bound_rad = bound_rad
+        self.predictions: deque[Prediction] = deque(maxlen=KEPT_PREDICTIONS)
+        self.correction = (0.0, 0.0)
+
+    def on_prediction(self, prediction: Prediction) -> None:
+        self.predictions.append(prediction)
+
+    def update(self, seen: Aim) -> None:
+        """Move the correction toward the residual of `seen` (a detection, at its capture)
+        against the newest prediction made for an instant no later than it."""
+        predicted = [p for p in self.predictions if p.t_effect_ns <= seen.t_ns]
+        if not predicted:
+            return
+        pan_p, tilt_p = Aim.of_prediction(predicted[-1]).at(seen.t_ns)
+        alpha, (pan_c, tilt_c) = self.smoothing, self.correction
+        self.correction = (
+            _bounded(pan_c + alpha * (seen.pan_rad - pan_p - pan_c), self.bound_rad),
+            _bounded(tilt_c + alpha * (seen.tilt_rad - tilt_p - tilt_c), self.bound_rad),
+        )
+
+
+class Pursuit:
+    """Holds the estimator's latest prediction; `aim` is it while fresh (a stale one is
+    counted in `stale_predictions`), `demand` what pursuit (or a coast on the prediction)
+    asks of the head."""
+
+    def __init__(
+        self,
+        gaze: GazeSection,
+        fovea_rad: float,
+        camera: CameraModel,
+        kinematics: HeadKinematics,
+    ) -> None:
+        self.gain = gaze.residual_gain
+        self.feedback = ResidualFeedback(gaze.residual_smoothing, fovea_rad)
+        self.camera = camera
+        self.kinematics = kinematics
+        self.prediction: Prediction | None = None
+        self.stale_predictions = 0
+
+    def on_prediction(self, prediction: Prediction) -> None:
+        self.prediction = prediction
+        self.feedback.on_prediction(prediction)
+
+    def on_detection(self, detection: Detection) -> None:
+        """A detection seen in pursuit: it updates the residual feedback."""
+        self.feedback.update(detection_aim(self.camera, self.kinematics, detection))
+
+    def aim(self, wall_ns: int) -> Aim | None:
+        """The latest prediction, if fresh, as an aim."""
+        p = self.prediction
+        if p is None:
+            return None
+        if abs(wall_ns - p.t_effect_ns) / 1e9 > PREDICTION_FRESH_S:  # stale, or from the future
+            self.stale_predictions += 1
+            return None
+        return Aim.of_prediction(p)
+
+    def demand(self, wall_ns: int, found: Detection | None, correction: bool) -> GazeDemand | None:
+        """Position and rates for the instant the demand acts (now + actuation latency), from
+        the prediction or else the detection `found`; with `correction`, plus the feedback
+        term. None with neither to follow."""
+        aim = self.aim(wall_ns)
+        source: Prediction | Detection | None = self.prediction
+        if aim is None:
+            if found is None:
+                return None
+            aim, source = detection_aim(self.camera, self.kinematics, found), found
+        actuation_s = self.prediction.actuation_latency_s if self.prediction is not None else 0.0
+        pan, tilt = aim.at(wall_ns + round(actuation_s * 1e9))
+        if correction:
+            pan_c, tilt_c = self.feedback.correction
+            pan, tilt = pan + self.gain * pan_c, tilt + self.gain * tilt_c
+        rates = (aim.pan_rate_rad_s, aim.tilt_rate_rad_s)
+        return make_demand("pursuit", pan, tilt, wall_ns, source, rates)

@@ -1,0 +1,107 @@
+"""What vision has shown of the target: its latest detection with the run of frames in a row
+that have shown it, and the latest whole-frame motion candidates.
+
+A detection is taken up only after `reacquire_detections` in a row, so that a lone false
+detection draws no move. Candidates are searched only in frames taken from a head at rest: a
+turning head's compensation residue looks like motion too.
+"""
+
+from __future__ import annotations
+
+from gazed.config import GazeSection
+from gazed.gaze import FUTURE_TOLERANCE_NS
+from gazed.gaze.aim import Aim, detection_aim, image_aim
+from gazed.gaze.move import at_rest
+from gazed.geometry.camera import CameraModel
+from gazed.geometry.kinematics import HeadKinematics
+from gazed.messages import Candidates, Detection
+
+RUN_GAP_FRAMES = 2.5  # a detection this many frame periods after the last still continues a run
+
+
+class Sightings:
+    """`found`: the latest detection of the target taken into account; `in_a_row`: how many
+    consecutive frames have shown it since the run was last restarted; `candidates`: the
+    latest motion candidates; `turning_candidates` counts those seen from a turning head."""
+
+    def __init__(
+        self,
+        gaze: GazeSection,
+        frame_period_s: float,
+        camera: CameraModel,
+        kinematics: HeadKinematics,
+    ) -> None:
+        self.frame_period_s = frame_period_s
+        self.max_age_ms = gaze.lost_after_ms
+        self.candidate_min_score = gaze.candidate_min_score
+        self.camera = camera
+        self.kinematics = kinematics
+        self.found: Detection | None = None
+        self.in_a_row = 0
+        self.candidates: Candidates | None = None
+        self.turning_candidates = 0
+
+    def take(self, detection: Detection, count: bool) -> None:
+        """The newest detection; with `count`, it extends the run first."""
+        if count:
+            self._count(detection)
+        self.found = detection
+
+    def on_candidates(self, candidates: Candidates) -> None:
+        self.candidates = candidates
+
+    def restart_run(self) -> None:
+        self.in_a_row = 0
+
+    def forget(self) -> None:
+        """Only detections from after now count (the head has just moved)."""
+        self.found = None
+
+    def aim(self, detection: Detection) -> Aim:
+        """Where a detection says the target is, at its capture."""
+        return detection_aim(self.camera, self.kinematics, detection)
+
+    def recent(self, wall_ns: int, since_ns: int) -> Detection | None:
+        """The latest detection if it was captured since `since_ns`, at most `max_age_ms` ago
+        and not implausibly far in the future."""
+        d = self.found
+        if d is None or d.t_capture_ns < since_ns or d.t_capture_ns - wall_ns > FUTURE_TOLERANCE_NS:
+            return None
+        if (wall_ns - d.t_capture_ns) / 1e6 > self.max_age_ms:
+            return None
+        return d
+
+    def best_candidate(self, wall_ns: int, since_ns: int) -> Aim | None:
+        """The strongest motion candidate of the latest frame, if it was captured since
+        `since_ns`, at most `max_age_ms` ago, from a head at rest, and scores at least
+        `candidate_min_score`."""
+        c = self.candidates
+        if c is None or c.head is None or not c.candidates or c.t_capture_ns < since_ns:
+            return None
+        if (wall_ns - c.t_capture_ns) / 1e6 > self.max_age_ms:
+            return None
+        if not at_rest(c.head):
+            self.turning_candidates += 1
+            return None
+        best = max(c.candidates, key=lambda k: k.score)
+        if best.score < self.candidate_min_score:
+            return None
+        return image_aim(
+            self.camera,
+            self.kinematics,
+            c.head,
+            c.t_capture_ns,
+            (best.u_px, best.v_px),
+            (best.du_px_s, best.dv_px_s),
+        )
+
+    def _count(self, detection: Detection) -> None:
+        """One more in a row if it comes a frame or two after the previous one; the first of a
+        new run otherwise (a repeat of a frame counts nothing)."""
+        if self.found is None:
+            self.in_a_row = 1
+            return
+        gap_s = (detection.t_capture_ns - self.found.t_capture_ns) / 1e9
+        if gap_s <= 0.0:
+            return
+        self.in_a_row = self.in_a_row + 1 if gap_s <= RUN_GAP_FRAMES * self.frame_period_s else 1
