@@ -115,6 +115,9 @@ class Detection(Message):
 
 
 class Candidate(BaseModel):
+    """One whole-frame motion region: its centroid, image velocity, area, motion energy and its
+    interest score among the frame's regions."""
+
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False, frozen=True)
     u_px: float
     v_px: float
@@ -150,6 +153,8 @@ class Odometry(Message):
 
 
 class ServoStatus(Message):
+    """The head link's state and counters, on every change and about once a second."""
+
     SCHEMA: ClassVar[str] = "gazed.ServoStatus"
     protocol: str
     port: str
@@ -198,6 +203,8 @@ GazeStateName = Literal["park", "search", "saccade", "pursuit", "lost", "trace"]
 
 
 class GazeState(Message):
+    """A transition of the gaze controller, with its reason."""
+
     SCHEMA: ClassVar[str] = "gazed.GazeState"
     state: GazeStateName
     previous: GazeStateName | None = None
@@ -243,6 +250,9 @@ class TraceResult(Message):
 
 
 class EstimatorState(Message):
+    """The filter after a detection or a coasting step: combined state, covariance, model
+    probabilities and the target on the ground."""
+
     SCHEMA: ClassVar[str] = "gazed.EstimatorState"
     filter: str
     x: tuple[float, ...] = Field(
@@ -288,6 +298,9 @@ class ManeuverEvent(Message):
 
 
 class SimTruth(Message):
+    """What the simulator knows at a frame's capture: the target on the ground and the true
+    head pose, for scoring the loop."""
+
     SCHEMA: ClassVar[str] = "gazed.SimTruth"
     seq: int = Field(ge=0)
     target_xy_m: tuple[float, float]
@@ -316,6 +329,8 @@ class Health(Message):
 
 
 class ProcessStatus(BaseModel):
+    """One process as its supervisor sees it."""
+
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False, frozen=True)
     name: str
     state: Literal["starting", "running", "backoff", "stopped", "missing", "disabled", "failed"]
@@ -327,6 +342,8 @@ class ProcessStatus(BaseModel):
 
 
 class SupervisorStatus(Message):
+    """Every process's state and restarts, once a second and on every change."""
+
     SCHEMA: ClassVar[str] = "gazed.SupervisorStatus"
     state: Literal["starting", "running", "reloading", "stopping", "failed"]
     host: str = Field("", description="Host of this supervisor (a rig may span several).")

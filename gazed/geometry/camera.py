@@ -15,8 +15,8 @@ import numpy as np
 
 from gazed.config import CameraSection
 
-# Iterate the undistortion to round-off (OpenCV's default 5 iterations leave ~0.02 px at the
-# corners of a k1 = -0.25 lens).
+# Iterate the undistortion to round-off: OpenCV's default of 5 iterations leaves a visible error
+# at the corners of a strongly distorted lens.
 UNDISTORT_ITERATIONS = 100  # cv2.undistortPointsIter: stop after this many, or at this change
 UNDISTORT_EPSILON = 1e-12
 
