@@ -10,15 +10,11 @@ Every mode (imm, innovation, alphabeta, image-cv) is a `TrackEstimator` over N t
 batch calls `step` / `forecast` take one row per track.
 """
 
-from gazed.estimation.estimator import (
-    Forecast,
-    Measurement,
-    Outcome,
-    PredictedState,
-    TrackEstimator,
-)
+from gazed.estimation.estimator import TrackEstimator
 from gazed.estimation.events import ManeuverEvent
 from gazed.estimation.factory import FILTER_MODES, build_estimator
+from gazed.estimation.measurement import Measurement
+from gazed.estimation.results import Forecast, Outcome, PredictedState
 
 __all__ = [
     "FILTER_MODES",
