@@ -10,8 +10,8 @@ import pytest
 
 from gazed.cli import main
 from gazed.config import EstimatorSection
-from gazed.eval.estimator import track_errors
 from gazed.eval.pedestrians import TrackFileError, read_tracks
+from gazed.eval.track_prediction import track_errors
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "pedestrians"
 
