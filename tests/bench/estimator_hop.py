@@ -110,11 +110,11 @@ def main() -> None:
     print(f"estimator step per detection, {args.rig.name}, {args.detections} detections:")
     for _ in range(args.repeats):
         times, service = step_us(args.rig, stream[:])
-        counts = service.counts
+        counts = service.tracker.counts
         print(
             f"  median {statistics.median(times):7.0f} µs, p90 {np.percentile(times, 90):7.0f} µs"
             f"  (measured {counts['measured']}, rejected {counts['rejected']},"
-            f" filter {service.filter}, most likely {service.estimator.most_likely()})"
+            f" filter {service.tracker.filter}, most likely {service.tracker.estimator.most_likely()})"
         )
 
 
