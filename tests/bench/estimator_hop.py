@@ -26,7 +26,7 @@ from gazed.config import load_rig
 from gazed.geometry.camera import CameraModel
 from gazed.geometry.pose import CameraPose
 from gazed.messages import Detection, HeadPose
-from gazed.sim.trajectories import make_trajectory
+from gazed.sim.world import trajectories
 from services.estimator import EstimatorService
 from services.runtime import Now
 
@@ -40,15 +40,7 @@ RATE_STEP_S = 1e-3
 
 def detections(rig_path: Path, n: int) -> list[Detection]:
     rig = load_rig(rig_path)
-    sim = rig.sim
-    trajectory = make_trajectory(
-        sim.trajectory,
-        seed=sim.seed,
-        speed_m_s=sim.trajectory_speed_m_s,
-        scale=sim.trajectory_scale,
-        centre_xy_m=sim.area_centre_xy_m,
-        base_dir=rig_path.parent,
-    )
+    trajectory, _ = trajectories(rig)
     pose, camera = CameraPose.from_rig(rig), CameraModel.from_section(rig.camera)
     height = rig.calibration.target_height_m
     period_s = rig.camera.frame_period_s
