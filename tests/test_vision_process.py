@@ -119,7 +119,7 @@ def test_service_steps_publish_detections_and_count_bad_frames(tmp_path: Path) -
         service = VisionService(rig, bus, source=ScriptedSource(script))
         poll_until(lambda: service.detections.matched(), 5.0)
         for k in range(int(16 / RATE_HZ * 100) + 2):  # odometry at 100 Hz over the frames
-            service.history.add(odometry(k / 100.0))
+            service.stage.history.add(odometry(k / 100.0))
         steps = 0
         while service.step(Now.read()) == 0.0:
             steps += 1
