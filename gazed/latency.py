@@ -1,8 +1,9 @@
 """Latencies measured live from message stamps (DESIGN §3: the stamps are the measure).
 
 `LatencyWindow` keeps the latest samples of one latency (or duration) and gives their median,
-robust to the odd late message, and their largest; `stage_gap_s` reads the time between two stages of one message's stamps, and
-`processing_s` the loop's own processing latency (frame arrival at vision -> command written).
+robust to the odd late message, and their largest; `stage_gap_s` reads the time between two
+stages of one message's stamps, and `processing_s` the loop's own processing latency (frame
+arrival at vision -> command written).
 """
 
 from __future__ import annotations
