@@ -10,56 +10,25 @@ from pathlib import Path
 import numpy as np
 import pytest
 from conftest import write_rig
+from vision_scene import CAMERA_BODY, RATE_HZ, T0_NS, captured, odometry, scene
 
 from gazed.config import load_rig
-from gazed.geometry.camera import CameraModel
-from gazed.geometry.kinematics import HeadKinematics
-from gazed.messages import HeadPose, Odometry
 from gazed.vision.detector import DetectorOutput, FramePair
 from gazed.vision.frames import CapturedFrame, FrameError, FrameIntake
 from gazed.vision.stage import VisionStage
-from gazed.vision.synthetic import SyntheticScene
 
-T0_NS = 1_700_000_000 * 10**9
-RATE_HZ = 25.0
 STAMP_NS = 42
-RIG_BODY = """
-[camera]
-source = "sim"
-width_px = 320
-height_px = 240
-hfov_deg = 60
-"""
-
-
-def head(t_s: float) -> HeadPose:
-    return HeadPose(pan_rad=-0.3 + 0.5 * t_s, tilt_rad=0.05, pan_rate_rad_s=0.5)
 
 
 def frames(count: int) -> list[CapturedFrame]:
-    camera = CameraModel.from_fov(320, 240, math.radians(60))
-    scene = SyntheticScene(
-        camera, HeadKinematics(), head, lambda t: (-0.28 + 0.5 * t, 0.06), seed=5, field_rad=0.9
-    )
-    out = []
-    for i in range(count):
-        image, truth = scene.render(i / RATE_HZ, i)
-        out.append(CapturedFrame(image, "bgr8", T0_NS + round(truth.t_s * 1e9), i, (("sim", 1),)))
-    return out
-
-
-def odometry(t_s: float) -> Odometry:
-    pose = head(t_s)
-    return Odometry(
-        t_capture_ns=T0_NS + round(t_s * 1e9),
-        pan_rad=pose.pan_rad,
-        tilt_rad=pose.tilt_rad,
-        pan_rate_rad_s=pose.pan_rate_rad_s,
-    )
+    synthetic = scene()
+    return [captured(*synthetic.render(i / RATE_HZ, i), i) for i in range(count)]
 
 
 def stage_for(tmp_path: Path, body: str = "") -> VisionStage:
-    stage = VisionStage(load_rig(write_rig(tmp_path, RIG_BODY + body)), clock_ns=lambda: STAMP_NS)
+    stage = VisionStage(
+        load_rig(write_rig(tmp_path, CAMERA_BODY + body)), clock_ns=lambda: STAMP_NS
+    )
     for k in range(100):  # odometry at 100 Hz over the first second
         stage.add_odometry(odometry(k / 100.0), T0_NS + 10**9)
     return stage
