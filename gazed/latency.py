@@ -1,8 +1,9 @@
 """Latencies measured live from message stamps (DESIGN §3: the stamps are the measure).
 
-`LatencyWindow` keeps the latest samples of one latency and gives their median, robust to the
-odd late message; `stage_gap_s` reads the time between two stages of one message's stamps, and
-`processing_s` the loop's own processing latency (frame arrival at vision -> command written).
+`LatencyWindow` keeps the latest samples of one latency (or duration) and gives their median,
+robust to the odd late message, and their largest; `stage_gap_s` reads the time between two
+stages of one message's stamps, and `processing_s` the loop's own processing latency (frame
+arrival at vision -> command written).
 """
 
 from __future__ import annotations
@@ -15,7 +16,8 @@ from gazed.messages import ARRIVAL_STAGE, Message
 
 
 class LatencyWindow:
-    """The median of the last `size` samples (seconds); `default_s` until the first."""
+    """The median and the largest of the last `size` samples (seconds); `default_s` until the
+    first."""
 
     def __init__(self, default_s: float, size: int = 50) -> None:
         self.default_s = default_s
@@ -38,6 +40,10 @@ class LatencyWindow:
         if self._median_s is None:
             self._median_s = float(np.median(self._samples))
         return self._median_s
+
+    @property
+    def max_s(self) -> float:
+        return max(self._samples) if self._samples else self.default_s
 
 
 def processing_s(message: Message) -> float | None:

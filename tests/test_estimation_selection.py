@@ -7,7 +7,7 @@ import pytest
 
 from gazed.config import EstimatorSection
 from gazed.estimation import Measurement, build_estimator
-from gazed.eval.estimator import kelly_report
+from gazed.eval.scenario_reports import kelly_report
 from gazed.eval.scenarios import kelly
 
 

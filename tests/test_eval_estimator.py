@@ -10,8 +10,8 @@ import pytest
 
 from gazed.cli import main
 from gazed.config import EstimatorSection
-from gazed.eval.estimator import track_errors
 from gazed.eval.pedestrians import TrackFileError, read_tracks
+from gazed.eval.track_prediction import track_errors
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "pedestrians"
 
@@ -52,7 +52,7 @@ def test_rounded_square_report(capsys) -> None:
 
 def test_rounded_square_switches_sooner_on_better_velocity_measurements(capsys) -> None:
     """The switch delay is set by the measurements' information: the same seed with a quarter
-    of the velocity noise switches sooner (the README's figures)."""
+    of the velocity noise switches sooner."""
     delays = []
     for noise in ("0.2", "0.05"):
         code, out, _ = run(
@@ -162,7 +162,8 @@ def test_pedestrian_file_is_read_as_its_readme_says() -> None:
     reason="../shared/data/pedestrians not present (CI clones it beside the repo)",
 )
 def test_imm_is_no_worse_than_cv_on_pedestrians() -> None:
-    """The target of issue 4 on the first 120 tracks of the eth scene (0.4 s and 0.8 s)."""
+    """The IMM predicts pedestrians at least as well as constant velocity (within 2 %), on the
+    first 120 tracks of the eth scene at 0.4 s and 0.8 s."""
     tracks = read_tracks(DATA / "biwi_eth.txt")[:120]
     section = EstimatorSection()
     imm = track_errors(section, tracks, "imm", [0.4, 0.8], 0.0, 0)["error_m"]

@@ -34,3 +34,13 @@ def test_stage_gap_between_two_stamps() -> None:
     )
     assert stage_gap_s(detection, "sim", "vision") == 0.003
     assert stage_gap_s(detection, "sim", "servo") is None
+
+
+def test_window_max_is_the_largest_latest_sample() -> None:
+    window = LatencyWindow(default_s=0.02, size=2)
+    assert window.max_s == 0.02
+    for sample in (0.3, 0.1):
+        window.add(sample)
+    assert window.max_s == 0.3
+    window.add(0.2)  # 0.3 leaves the window
+    assert window.max_s == 0.2

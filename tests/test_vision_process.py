@@ -13,61 +13,28 @@ import numpy as np
 import pytest
 import zenoh
 from conftest import poll_until, start_service, unique_rig_name, write_rig
+from vision_scene import CAMERA_BODY, RATE_HZ, T0_NS, captured, odometry, scene
 
 from gazed.bus import Bus
 from gazed.config import load_rig
 from gazed.geometry.camera import CameraModel
 from gazed.geometry.kinematics import HeadKinematics
-from gazed.messages import Candidates, Detection, FrameHeader, HeadPose, Health, Odometry
+from gazed.messages import Candidates, Detection, FrameHeader, HeadPose, Health
 from gazed.topics import SERVO_ODOMETRY, SIM_FRAME, VISION_CANDIDATES, VISION_DETECTION, health
 from gazed.vision.frames import CapturedFrame
 from gazed.vision.source import FrameSource, SourceStatus
-from gazed.vision.synthetic import SceneTruth, SyntheticScene
+from gazed.vision.synthetic import SyntheticScene
 from services.runtime import Now
 from services.vision import VisionService
 
-T0_NS = 1_700_000_000 * 10**9
-RATE_HZ = 25.0
-PAN_RATE = math.radians(30.0)
-RIG_BODY = """
-[camera]
-source = "sim"
-width_px = 320
-height_px = 240
-hfov_deg = 60
-
+RIG_BODY = (
+    CAMERA_BODY
+    + """
 [vision]
 detector = "flow"
 fovea_deg = 10
 """
-
-
-def head(t_s: float) -> HeadPose:
-    """Panning at a constant 30°/s (so interpolated odometry is exact)."""
-    return HeadPose(pan_rad=-0.3 + PAN_RATE * t_s, tilt_rad=0.05, pan_rate_rad_s=PAN_RATE)
-
-
-def scene() -> SyntheticScene:
-    camera = CameraModel.from_fov(320, 240, math.radians(60))
-    # the head pursues a target moving at 30°/s with a small offset
-    return SyntheticScene(
-        camera,
-        HeadKinematics(),
-        head,
-        lambda t: (-0.3 + PAN_RATE * t + 0.02 * math.sin(3 * t), 0.05 + 0.01 * t),
-        seed=31,
-        field_rad=0.9,
-    )
-
-
-def odometry(t_s: float) -> Odometry:
-    pose = head(t_s)
-    return Odometry(
-        t_capture_ns=T0_NS + round(t_s * 1e9),
-        pan_rad=pose.pan_rad,
-        tilt_rad=pose.tilt_rad,
-        pan_rate_rad_s=pose.pan_rate_rad_s,
-    )
+)
 
 
 class ScriptedSource(FrameSource):
@@ -97,10 +64,6 @@ class ScriptedSource(FrameSource):
         return SourceStatus("connected", frames=0)
 
 
-def captured(image: np.ndarray, truth: SceneTruth, seq: int) -> CapturedFrame:
-    return CapturedFrame(image, "bgr8", T0_NS + round(truth.t_s * 1e9), seq, (("sim", 1),))
-
-
 def test_service_steps_publish_detections_and_count_bad_frames(tmp_path: Path) -> None:
     rig = load_rig(write_rig(tmp_path, RIG_BODY, port=17601))
     frames = [scene().render(i / RATE_HZ, i) for i in range(16)]
@@ -119,7 +82,7 @@ def test_service_steps_publish_detections_and_count_bad_frames(tmp_path: Path) -
         service = VisionService(rig, bus, source=ScriptedSource(script))
         poll_until(lambda: service.detections.matched(), 5.0)
         for k in range(int(16 / RATE_HZ * 100) + 2):  # odometry at 100 Hz over the frames
-            service.history.add(odometry(k / 100.0))
+            service.stage.history.add(odometry(k / 100.0))
         steps = 0
         while service.step(Now.read()) == 0.0:
             steps += 1

@@ -7,18 +7,16 @@
     estimator.model_probabilities(); estimator.most_likely(); estimator.drain_events()
 
 Every mode (imm, innovation, alphabeta, image-cv) is a `TrackEstimator` over N tracks; the
-batch calls `step` / `forecast` take one row per track.
+batch calls `step` / `forecast` take one row per track. The `estimator` process's work per
+detection — the measurement, the loop's latencies, coasting and the prediction to the effect
+time — is `target_tracker.TargetTracker`.
 """
 
-from gazed.estimation.estimator import (
-    Forecast,
-    Measurement,
-    Outcome,
-    PredictedState,
-    TrackEstimator,
-)
+from gazed.estimation.estimator import TrackEstimator
 from gazed.estimation.events import ManeuverEvent
 from gazed.estimation.factory import FILTER_MODES, build_estimator
+from gazed.estimation.measurement import Measurement
+from gazed.estimation.results import Forecast, Outcome, PredictedState
 
 __all__ = [
     "FILTER_MODES",

@@ -9,9 +9,9 @@
    `rows` (K,) int64 selects the tracks a call works on (None: all N, in order); every other
    per-row array (dt, z, R, the innovation terms) has K rows, in the order of `rows`.
 
-   Why C: one track's step is a few thousand flops on 6x6 matrices. NumPy spends about 1 µs
-   per call however small its operands, and an IMM step needs some 250 calls; here the step
-   is one call, and a batch of tracks is a loop that stays in cache (README, "Estimation").
+   Why C: one track's step is a few thousand flops on 6x6 matrices. NumPy pays a fixed
+   overhead per call however small its operands, and an IMM step needs hundreds of calls;
+   here the step is one call, and a batch of tracks is a loop that stays in cache.
 
    Heading: with `angle` >= 0 that state component is an angle, averaged as one in mixing and
    combination (its differences wrapped to (-π, π]) and wrapped after an update. */

@@ -1,7 +1,7 @@
 """Chi-square quantiles for the gates and consistency tests, without scipy.
 
 The thresholds are computed once per filter (a few per construction), so plain Python is
-fast enough, and `import scipy.stats` (about a second) stays out of process start-up.
+fast enough, and the slow `import scipy.stats` stays out of process start-up.
 
 The upper tail of χ²(k) at x is the regularised incomplete gamma Q(k/2, x/2), evaluated by
 its series below a + 1 and by its continued fraction above (Numerical Recipes §6.2), in

@@ -16,8 +16,8 @@ the ground plane (metres) or, for `image-cv`, in gaze angles (radians) — and d
   from the latest measurement;
 - maneuver events when the most likely model changes (see `events`).
 
-Subclasses implement the filter: `_initialise`, `_predict`, `_innovate`, `_correct`,
-`_forecast`, `_probabilities` and, with more than one model, `_signature`.
+Subclasses implement the filter (`mode_filter`): `_initialise`, `_predict`, `_innovate`,
+`_correct`, `_forecast`, `_probabilities` and, with more than one model, `_signature`.
 The single-track calls (`update`, `coast`, `predict`, ...) act on track 0; the batch calls
 (`step`, `forecast`) take one row per track.
 """
@@ -25,166 +25,21 @@ The single-track calls (`update`, `coast`, `predict`, ...) act on track 0; the b
 from __future__ import annotations
 
 import math
-from abc import ABC, abstractmethod
-from dataclasses import dataclass
-from enum import IntEnum
-from typing import Any, ClassVar, Literal
+from typing import ClassVar, Literal
 
 import numpy as np
 
 from gazed.estimation.chi_square import chi2_quantile
 from gazed.estimation.events import ManeuverEvent, ManeuverTracker
 from gazed.estimation.masks import every, some
+from gazed.estimation.measurement import Measurement
+from gazed.estimation.mode_filter import ModeFilter
+from gazed.estimation.results import COUNTED, Forecast, Outcome, PredictedState
 from gazed.estimation.small_matrices import positive_definite
 
 Space = Literal["ground", "gaze"]
 
 EMPTY, PENDING, TRACKING = 0, 1, 2
-
-
-class Outcome(IntEnum):
-    """What one step did to one track."""
-
-    IDLE = 0  # nothing to do (no measurement and no track, or a coast into the past)
-    PENDING = 1  # first position held until a second gives a velocity
-    INITIALISED = 2
-    ACCEPTED = 3
-    COASTED = 4  # predict-only step
-    NONFINITE = 5  # measurement rejected: not finite or covariance not positive definite
-    OUT_OF_ORDER = 6  # measurement not later than the track's state: dropped
-    GATED = 7  # outlier: outside the chi-square gate of every model
-    REINITIALISED = 8  # restarted after `reinit_after_misses` outliers in a row
-    DROPPED = 9  # coasted longer than coast_max_s: track forgotten
-
-
-COUNTED = (
-    Outcome.ACCEPTED,
-    Outcome.COASTED,
-    Outcome.NONFINITE,
-    Outcome.OUT_OF_ORDER,
-    Outcome.GATED,
-    Outcome.REINITIALISED,
-    Outcome.DROPPED,
-)
-
-
-@dataclass(frozen=True)
-class Measurement:
-    """One observation of the target at `t_s` (seconds, any consistent clock).
-
-    In the filter's plane: ground modes take metres and m/s, `image-cv` takes (pan, tilt) in
-    radians and rad/s. Covariances are 2x2. Use `ground(...)` or `gaze(...)` to build one.
-    """
-
-    t_s: float
-    position: np.ndarray
-    position_cov: np.ndarray
-    velocity: np.ndarray | None = None
-    velocity_cov: np.ndarray | None = None
-
-    @classmethod
-    def ground(
-        cls,
-        t_s: float,
-        xy_m: Any,
-        xy_cov_m2: Any,
-        velocity_m_s: Any = None,
-        velocity_cov_m2_s2: Any = None,
-    ) -> Measurement:
-        return cls._build(t_s, xy_m, xy_cov_m2, velocity_m_s, velocity_cov_m2_s2)
-
-    @classmethod
-    def gaze(
-        cls,
-        t_s: float,
-        pan_tilt_rad: Any,
-        pan_tilt_cov_rad2: Any,
-        rates_rad_s: Any = None,
-        rates_cov_rad2_s2: Any = None,
-    ) -> Measurement:
-        return cls._build(t_s, pan_tilt_rad, pan_tilt_cov_rad2, rates_rad_s, rates_cov_rad2_s2)
-
-    @classmethod
-    def _build(cls, t_s: float, p: Any, p_cov: Any, v: Any, v_cov: Any) -> Measurement:
-        if (v is None) != (v_cov is None):
-            raise ValueError("a velocity needs its covariance (and a covariance its velocity)")
-        return cls(
-            float(t_s),
-            _array(p, (2,), "position"),
-            _array(p_cov, (2, 2), "position covariance"),
-            None if v is None else _array(v, (2,), "velocity"),
-            None if v_cov is None else _array(v_cov, (2, 2), "velocity covariance"),
-        )
-
-    @property
-    def z(self) -> np.ndarray:
-        """[p, v] or [p]: (4,) or (2,)."""
-        return (
-            self.position
-            if self.velocity is None
-            else np.concatenate([self.position, self.velocity])
-        )
-
-    @property
-    def R(self) -> np.ndarray:
-        """Block-diagonal covariance of z: (4, 4) or (2, 2)."""
-        if self.velocity_cov is None:
-            return self.position_cov
-        R = np.zeros((4, 4))
-        R[:2, :2] = self.position_cov
-        R[2:, 2:] = self.velocity_cov
-        return R
-
-    @property
-    def usable(self) -> bool:
-        """Finite, with covariances symmetric (to 1e-9 relative) and positive definite: what
-        `small_matrices.positive_definite` and the finiteness checks of `TrackEstimator.step`
-        accept, evaluated on the 2x2 blocks in plain Python (R is block diagonal)."""
-        values = [self.t_s, *self.position.tolist()]
-        blocks = [self.position_cov.tolist()]
-        if self.velocity is not None and self.velocity_cov is not None:
-            values += self.velocity.tolist()
-            blocks.append(self.velocity_cov.tolist())
-        return all(map(math.isfinite, values)) and all(map(_usable_covariance, blocks))
-
-
-def _usable_covariance(C: list[list[float]]) -> bool:
-    """A 2x2 covariance (nested lists) is finite, symmetric and positive definite."""
-    (a, b), (c, d) = C
-    return (
-        all(map(math.isfinite, (a, b, c, d)))
-        and abs(b - c) <= 1e-9 * (1.0 + min(abs(b), abs(c)))
-        and a > 0.0
-        and a * d - b * c > 0.0
-    )
-
-
-def _array(value: Any, shape: tuple[int, ...], what: str) -> np.ndarray:
-    a = np.asarray(value, dtype=float)
-    if a.shape != shape:
-        raise ValueError(f"{what}: expected shape {shape}, got {a.shape}")
-    return a
-
-
-@dataclass(frozen=True)
-class PredictedState:
-    """Position, velocity and the covariance of [p, v] at `t_s` (one track)."""
-
-    t_s: float
-    position: np.ndarray  # (2,) m (ground) or rad (gaze)
-    velocity: np.ndarray  # (2,) per second
-    covariance: np.ndarray  # (4, 4) over [px, py, vx, vy]
-
-
-@dataclass(frozen=True)
-class Forecast:
-    """`PredictedState` for N tracks; rows of tracks that do not exist are NaN, valid False."""
-
-    t_s: np.ndarray  # (N,)
-    position: np.ndarray  # (N, 2)
-    velocity: np.ndarray  # (N, 2)
-    covariance: np.ndarray  # (N, 4, 4)
-    valid: np.ndarray  # (N,) bool
 
 
 def _select(mask: np.ndarray) -> slice | np.ndarray:
@@ -197,7 +52,7 @@ def _rows(idx: slice | np.ndarray, n: int) -> np.ndarray:
     return np.arange(n)[idx] if isinstance(idx, slice) else idx
 
 
-class TrackEstimator(ABC):
+class TrackEstimator(ModeFilter):
     """N tracks of one filter mode; see the module docstring for what every mode does."""
 
     filter_name: ClassVar[str]
@@ -523,43 +378,6 @@ class TrackEstimator(ABC):
         self.t_s[idx] = t
         self.t_measured_s[idx] = t
         self.misses[idx] = 0
-
-    # ------------------------------------------------------------------------ the filter part
-
-    @abstractmethod
-    def _initialise(
-        self, idx: np.ndarray, zv: np.ndarray, Rv: np.ndarray, interval_s: np.ndarray
-    ) -> None:
-        """Start the tracks idx from position and velocity zv (K, 4) with covariance Rv;
-        interval_s (K,) is the two-point interval the velocity came from (NaN: measured)."""
-
-    @abstractmethod
-    def _predict(self, idx: slice | np.ndarray, dt: np.ndarray) -> None:
-        """Predict-only step of the tracks idx over dt (K,) > 0, in place."""
-
-    @abstractmethod
-    def _innovate(
-        self, idx: slice | np.ndarray, z: np.ndarray, R: np.ndarray
-    ) -> tuple[np.ndarray, Any]:
-        """Gate statistic (K,) (the smallest NIS over models) and what `_correct` needs."""
-
-    @abstractmethod
-    def _correct(self, idx: slice | np.ndarray, handle: Any, inside: np.ndarray | None) -> None:
-        """Update the tracks idx[inside] (all of idx: None) with the innovations computed by
-        `_innovate`."""
-
-    @abstractmethod
-    def _forecast(self, idx: slice | np.ndarray, dt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Mean [p, v] (K, 4) and covariance (K, 4, 4) of the tracks idx, dt (K,) >= 0 ahead."""
-
-    @abstractmethod
-    def _probabilities(self, idx: slice | np.ndarray) -> np.ndarray:
-        """(K, M) model probabilities of running tracks."""
-
-    def _signature(self, idx: slice | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The most likely model (K,) of the tracks idx and its (ṡ m/s², θ̇ rad/s) (K, 2), for
-        the maneuver events."""
-        raise NotImplementedError(f"{type(self).__name__} has one model and no maneuver events")
 
 
 def _times(t_s: np.ndarray | float, n: int) -> np.ndarray:

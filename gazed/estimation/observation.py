@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from gazed.estimation.estimator import Measurement
+from gazed.estimation.measurement import Measurement
 from gazed.geometry.camera import CameraModel
 from gazed.geometry.ground import GazeSample, GroundGeometry, MeasurementNoise
 from gazed.geometry.kinematics import HeadKinematics

@@ -1,1 +1,1 @@
-"""Offline evaluation: `gazed eval estimator` (and, later, the closed loop)."""
+"""Offline and closed-loop evaluation: `gazed eval estimator` and `gazed eval loop`."""

@@ -41,7 +41,7 @@ class Body:
 def ground_texture(seed: int, size_px: int = 1536) -> np.ndarray:
     """A seeded gravel yard: sums of blurred noise at several scales (features of 4 to 64
     texels, enough for optical flow at every distance, none so fine that it aliases early).
-    Grey uint8: one channel warps three times faster than three."""
+    Grey uint8: one channel warps faster than three."""
     rng = np.random.default_rng([seed, 1])
     height = np.zeros((size_px, size_px), np.float32)
     for octave, weight in ((4, 0.35), (8, 0.3), (16, 0.2), (64, 0.15)):
@@ -123,8 +123,8 @@ class Renderer:
 
     def _paint_court(self, court_m: tuple[float, float, float, float], size: int) -> None:
         """Pave the ground inside the rectangle X0 <= X <= X1, Y0 <= Y <= Y1 (smoother and
-        brighter than the gravel around it): its four sides are straight ground edges at known places, for the line
-        calibration (seed 000 §3.2: the lawn's edges). Texel (tx, ty) lies at
+        brighter than the gravel around it): its four sides are straight ground edges at known
+        places, for the line calibration (seed 000 §3.2: the lawn's edges). Texel (tx, ty) lies at
         X = texel tx - half, Y = half - texel ty (`_texture_to_ground`); a texel the edge crosses
         is paved by the share of it inside, so the rendered edge sits on the line to a small
         fraction of a texel."""

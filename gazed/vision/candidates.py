@@ -8,10 +8,9 @@ region's centroid, area and energy (summed |L0| in grey levels, per level-0 pixe
 velocity: each region is matched to the nearest region of the previous frame (that frame's
 regions moved by the head's rotation) and inherits its recent centroids, whose least-squares
 slope over up to `VELOCITY_POINTS` frames is the velocity (`PositionHistory`). A coarse level's
-centroid wobbles by a pixel or two from frame to frame: from the last two frames alone, the sim
-rig's target at 4.5-4.8°/s came out at 1.6-11.6°/s at its first saccades
-(`tests/bench/saccade_aim.py`), and a saccade, aimed with it over the visual latency and the
-move (about 0.45 s), missed by that error times 0.45 s.
+centroid wobbles by a pixel or two from frame to frame, so a velocity from the last two frames
+alone is far off; a saccade aims with it over the visual latency and the move, and misses by
+that error times their duration (`tests/bench/saccade_aim.py` measures the aim).
 
 The interest value is hand-coded, as in the paper: each region's share of the frame's total
 energy, area and speed, averaged — `score = (e/Σe + a/Σa + s/Σs) / 3` over the terms with a
@@ -29,7 +28,7 @@ from gazed.vision.detector import FramePair
 from gazed.vision.motion_energy import UNITS_PER_GREY
 from gazed.vision.position_history import PositionHistory
 
-VELOCITY_POINTS = 6  # a region's centroids its velocity is fitted to (~0.2 s at 25 Hz)
+VELOCITY_POINTS = 6  # a region's centroids its velocity is fitted to
 
 
 @dataclass(frozen=True)

@@ -10,8 +10,8 @@ edgels near the centre (a long boundary, not a blob of texture). A total least s
 through those edgels places the edge point nearest the centre to sub-pixel precision and gives
 the points `step_px` ahead and behind along it; the line is then refined to sub-pixel
 precision on the gradient magnitude's peaks across it. The angle between the lines fitted to
-the two halves of the Canny string is the turn, large at a corner. Which way is "ahead" is arbitrary: the tracer keeps
-its own direction.
+the two halves of the Canny string is the turn, large at a corner. Which way is "ahead" is
+arbitrary: the tracer keeps its own direction.
 """
 
 from __future__ import annotations

@@ -149,7 +149,7 @@ class HeadStep:
     @cached_property
     def H_inverse(self) -> np.ndarray:
         """Current pixels -> previous ones."""
-        return cv2.invert(self.H)[1]  # a 3x3 in closed form: a tenth of np.linalg.inv's time
+        return cv2.invert(self.H)[1]  # one 3x3: cheaper than np.linalg.inv's call
 
     def transport(self, u_px: float, v_px: float) -> tuple[float, float]:
         """Where a static point at (u, v) in the previous frame appears in the current one."""

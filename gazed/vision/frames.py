@@ -3,6 +3,7 @@
 A frame that cannot be used — empty, of the wrong element type, of a size other than the rig's
 camera, or with a channel count its encoding does not have — raises `FrameError`, whose `reason`
 names the counter the vision process increments; the frame is dropped and nothing else happens.
+A live stream also drops a frame that is not newer than the last one taken (`FrameIntake`).
 """
 
 from __future__ import annotations
@@ -20,7 +21,8 @@ _TO_GRAY = {"bgr8": cv2.COLOR_BGR2GRAY, "rgb8": cv2.COLOR_RGB2GRAY}
 
 
 class FrameError(ValueError):
-    """A frame that is dropped; `reason` is one of: empty, dtype, size, channels, encoding."""
+    """A frame that is dropped; `reason` is one of: empty, dtype, size, channels, encoding,
+    stale."""
 
     def __init__(self, reason: str, message: str) -> None:
         super().__init__(message)
@@ -62,3 +64,20 @@ def gray_frame(frame: CapturedFrame, width_px: int, height_px: int) -> np.ndarra
             "channels", f"{frame.encoding} frame {frame.seq} has {channels} channels, expected 3"
         )
     return cv2.cvtColor(pixels, _TO_GRAY[frame.encoding])
+
+
+class FrameIntake:
+    """The frames of a live stream as grey: each newer than the last one taken, and valid."""
+
+    def __init__(self, width_px: int, height_px: int) -> None:
+        self.width_px = width_px
+        self.height_px = height_px
+        self._last_t_ns: int | None = None
+
+    def take(self, frame: CapturedFrame) -> np.ndarray:
+        """The frame as uint8 grey, or FrameError saying why it is dropped."""
+        if self._last_t_ns is not None and frame.t_capture_ns <= self._last_t_ns:
+            raise FrameError("stale", f"frame {frame.seq} is not newer than the last one processed")
+        gray = gray_frame(frame, self.width_px, self.height_px)
+        self._last_t_ns = frame.t_capture_ns
+        return gray

@@ -54,9 +54,6 @@ class OdometryHistory:
         del self._times[:cut], self._samples[:cut]
         return True
 
-    def newest_ns(self) -> int | None:
-        return self._times[-1] if self._times else None
-
     def extrapolation_ns(self) -> int:
         """How far past the newest sample a pose is still given."""
         if not self._intervals:

@@ -26,7 +26,7 @@ from gazed.config import load_rig
 from gazed.geometry.camera import CameraModel
 from gazed.geometry.pose import CameraPose
 from gazed.messages import Detection, HeadPose
-from gazed.sim.trajectories import make_trajectory
+from gazed.sim.world import trajectories
 from services.estimator import EstimatorService
 from services.runtime import Now
 
@@ -40,15 +40,7 @@ RATE_STEP_S = 1e-3
 
 def detections(rig_path: Path, n: int) -> list[Detection]:
     rig = load_rig(rig_path)
-    sim = rig.sim
-    trajectory = make_trajectory(
-        sim.trajectory,
-        seed=sim.seed,
-        speed_m_s=sim.trajectory_speed_m_s,
-        scale=sim.trajectory_scale,
-        centre_xy_m=sim.area_centre_xy_m,
-        base_dir=rig_path.parent,
-    )
+    trajectory, _ = trajectories(rig)
     pose, camera = CameraPose.from_rig(rig), CameraModel.from_section(rig.camera)
     height = rig.calibration.target_height_m
     period_s = rig.camera.frame_period_s
@@ -110,11 +102,11 @@ def main() -> None:
     print(f"estimator step per detection, {args.rig.name}, {args.detections} detections:")
     for _ in range(args.repeats):
         times, service = step_us(args.rig, stream[:])
-        counts = service.counts
+        counts = service.tracker.counts
         print(
             f"  median {statistics.median(times):7.0f} µs, p90 {np.percentile(times, 90):7.0f} µs"
             f"  (measured {counts['measured']}, rejected {counts['rejected']},"
-            f" filter {service.filter}, most likely {service.estimator.most_likely()})"
+            f" filter {service.tracker.filter}, most likely {service.tracker.estimator.most_likely()})"
         )
 
 

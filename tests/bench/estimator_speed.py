@@ -4,8 +4,8 @@ same three 6-state linear models as our IMM core), and track-steps per second in
     python tests/bench/estimator_speed.py [--repeats 7]
 
 Prints the median (and the best) of the wall time over repeats, and the load average before
-and after: other work on the machine makes single runs noisy, and a loaded 2-core machine
-runs the same code two to three times slower than an idle one.
+and after: other work on the machine makes single runs noisy and slow, so figures compare
+only between runs at a similar load.
 """
 
 from __future__ import annotations

@@ -8,7 +8,7 @@ Each run starts the rig's loop in the simulator (`gazed eval loop`'s private cop
 best candidate of the newest frame published before the gaze decided, its position and angular
 rate against the target's at that frame's capture (degrees, in joint angles). The saccade aims
 at where the candidate says the target will be after the visual latency and the move, so a
-rate error counts about half a second over.
+rate error counts over both.
 """
 
 from __future__ import annotations

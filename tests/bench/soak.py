@@ -2,7 +2,7 @@
 
     python tests/bench/soak.py --minutes 30 [--rig configs/sim.toml] [--scenario oval] [--json]
 
-Reports (issue 9 item 4):
+Reports:
 - resident memory (RSS) of the supervisor and of every process when all are up, after the first
   minute (imports, caches and buffers settled) and at the end; the growth from the first minute
   to the end, and the slope of a straight line fitted over the second half of the run;
