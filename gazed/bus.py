@@ -20,17 +20,17 @@ clients leave to the router.
 Subscriptions decode and validate each sample as it arrives (in zenoh's receive thread, so no
 hidden queue builds up behind a slow process) into a bounded deque; frame topics keep only the
 newest frame. A payload that fails validation is dropped and counted, never raised. A sample
-then wakes the process's loop (`wait`), or, on an `immediate` subscription, asks the process to
-run its step in the receive thread right away (`run_immediately`; the loop is woken if it
-cannot).
+then tells the bus's owner (`on_arrival`): it wakes the owner's loop, or, on an `immediate`
+subscription, first offers the owner to step right away in the receive thread.
+
+The bus records the topics its process subscribes and publishes (`subscribes`, `publishes`):
+each process reports them in its health, and a test checks them against `gazed.topics`.
 """
 
 from __future__ import annotations
 
 import contextlib
 import json
-import os
-import select
 import threading
 import time
 from collections import Counter, deque
@@ -215,8 +215,7 @@ class Subscription(Generic[M]):
             self._bus.stats.count("replaced" if self.topic.frames else "dropped")
         self._items.append(item)
         self._bus.stats.receive(self.topic.suffix)
-        if not (self.immediate and self._bus.step_now()):
-            self._bus.notify()
+        self._bus._arrived(self.immediate)
 
     def take(self) -> list[Any]:
         items = []
@@ -321,15 +320,12 @@ class Bus:
         self.process = process
         self.router = router
         self.stats = Stats()
+        self.subscribes: set[str] = set()  # key suffixes subscribed
+        self.publishes: set[str] = set()  # key suffixes with a declared publisher
         self._session: zenoh.Session | None = None
-        # wake-ups through a pipe, not a threading.Event: `notify()` is then safe from zenoh's
-        # threads and from signal handlers alike (an Event's lock taken in a handler can
-        # deadlock the very thread that waits on it)
-        self._wake_read, self._wake_write = -1, -1
         self._closables: list[Any] = []
+        self._notify: Callable[[], None] | None = None
         self._step_now: Callable[[], bool] | None = None
-        self.wakeups = 0  # `notify()` calls: news for the loop (`reschedule()` is not)
-        self.started_monotonic_s = time.monotonic()
 
     def __enter__(self) -> Bus:
         self.open()
@@ -343,10 +339,6 @@ class Bus:
             self._session = open_session(
                 self.rig.bus, router=self.router, identity=identity_of(self.process)
             )
-        if self._wake_read < 0:
-            self._wake_read, self._wake_write = os.pipe()
-            os.set_blocking(self._wake_read, False)
-            os.set_blocking(self._wake_write, False)
 
     def close(self) -> None:
         for item in reversed(self._closables):
@@ -356,10 +348,6 @@ class Bus:
         if self._session is not None:
             self._session.close()
             self._session = None
-        for fd in (self._wake_read, self._wake_write):
-            if fd >= 0:
-                os.close(fd)
-        self._wake_read, self._wake_write = -1, -1
 
     @property
     def session(self) -> zenoh.Session:
@@ -367,30 +355,40 @@ class Bus:
             raise BusError("the bus session is not open (use `with Bus(...)`)")
         return self._session
 
-    def key(self, topic: Topic) -> str:
-        return topic.key(self.rig.name)
-
     def publisher(self, topic: Topic) -> Publisher[Any]:
         publisher: Publisher[Any] = Publisher(self, topic)
         self._closables.append(publisher)
+        self.publishes.add(topic.suffix)
         return publisher
 
     def subscribe(
         self, topic: Topic, *, capacity: int = 256, immediate: bool = False
     ) -> Subscription[Any]:
         """Messages of `topic` as they arrive (see `Subscription`); with `immediate`, each
-        sample also asks for the process's step at once (`run_immediately`)."""
+        sample first offers the owner's `step_now` (see `on_arrival`)."""
         subscription: Subscription[Any] = Subscription(self, topic, capacity, immediate)
         self._closables.append(subscription)
+        self.subscribes.add(topic.suffix)
         return subscription
 
-    def subscribe_raw(self, key_expr: str, callback: Callable[[zenoh.Sample], None]) -> None:
-        """Every sample on a key expression, undecoded (for the bus tools)."""
-        self._closables.append(
-            self.session.declare_subscriber(
-                key_expr, zenoh.handlers.Callback(callback, indirect=False)
-            )
-        )
+    def on_arrival(
+        self, notify: Callable[[], None], step_now: Callable[[], bool] | None = None
+    ) -> None:
+        """What a sample (or a liveliness change) does once it is kept: call `notify()`, which
+        wakes the owner's loop (`gazed.wakeup.Wakeup.notify`). A sample of an `immediate`
+        subscription first calls `step_now()` in the receive thread, and wakes the loop only
+        if that returns False (it could not step)."""
+        self._notify, self._step_now = notify, step_now
+
+    def notify(self) -> None:
+        """Wake the owner's loop (the `notify` given to `on_arrival`) with news that came
+        another way, such as a camera's frame; safe from any thread."""
+        if self._notify is not None:
+            self._notify()
+
+    def _arrived(self, immediate: bool) -> None:
+        if not (immediate and self._step_now is not None and self._step_now()):
+            self.notify()
 
     def declare_alive(self) -> None:
         """Declare `gazed/<rig>/alive/<process>`; it vanishes when the session closes or dies."""
@@ -426,37 +424,3 @@ class Bus:
     def peer(self) -> bool:
         """True when this session links directly to the rig's other processes (`is_peer`)."""
         return is_peer(self.rig.bus, router=self.router, identity=identity_of(self.process))
-
-    def run_immediately(self, step_now: Callable[[], bool]) -> None:
-        """Have a sample of an `immediate` subscription call `step_now()` in the receive
-        thread; it returns False when it could not step (one is running), and the sample then
-        wakes `wait()` instead. Without it, every sample just wakes `wait()`."""
-        self._step_now = step_now
-
-    def step_now(self) -> bool:
-        return self._step_now is not None and self._step_now()
-
-    def notify(self) -> None:
-        """Wake `wait()` with news (counted in `wakeups`); safe from any thread and from a
-        signal handler."""
-        self.wakeups += 1
-        self.reschedule()
-
-    def reschedule(self) -> None:
-        """Wake `wait()` without news: its caller's deadline moved earlier."""
-        with contextlib.suppress(
-            OSError
-        ):  # full: a wake-up is pending anyway; closed: no one waits
-            os.write(self._wake_write, b"\0")
-
-    def wait(self, timeout_s: float) -> bool:
-        """Block until something arrives on any subscription (or `notify()`), at most `timeout_s`."""
-        if self._wake_read < 0:
-            raise BusError("the bus session is not open (use `with Bus(...)`)")
-        ready, _, _ = select.select([self._wake_read], [], [], max(0.0, timeout_s))
-        if not ready:
-            return False
-        with contextlib.suppress(BlockingIOError):
-            while os.read(self._wake_read, 4096):
-                pass
-        return True

@@ -16,6 +16,7 @@ from gazed.bus import Bus, BusError, session_config
 from gazed.config import BusSection, load_rig
 from gazed.messages import Detection, FrameHeader, Odometry
 from gazed.topics import SERVO_ODOMETRY, SIM_FRAME, VISION_DETECTION
+from gazed.wakeup import Wakeup
 
 
 @pytest.fixture
@@ -134,14 +135,19 @@ def test_liveliness_appears_and_vanishes(rig) -> None:
         assert bus.alive() == set()
 
 
-def test_wait_wakes_on_arrival(rig) -> None:
-    with Bus(rig, "test", router=True) as bus, Bus(rig, "servo") as servo:
+def test_an_arrival_wakes_the_owner(rig) -> None:
+    with (
+        Bus(rig, "test", router=True) as bus,
+        Bus(rig, "servo") as servo,
+        Wakeup() as wakeup,
+    ):
+        bus.on_arrival(wakeup.notify)
         odometry = bus.subscribe(SERVO_ODOMETRY)
         publisher = servo.publisher(SERVO_ODOMETRY)
         poll_until(publisher.matched, 5.0)
-        assert bus.wait(0.0) is False or odometry.take() == []
+        assert wakeup.wait(0.0) is False or odometry.take() == []
         publisher.put(Odometry(t_capture_ns=1, pan_rad=0.25, tilt_rad=0))
-        assert bus.wait(5.0) is True
+        assert wakeup.wait(5.0) is True
         assert [o.pan_rad for o in odometry.take()] == [0.25]
 
 

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 from conftest import FAKE, PYTHON, SUPPORT, RunningSupervisor, child_env, write_rig
 
-from gazed.bustools import latency_report
+from gazed.bustools.latency import latency_report
 from gazed.config import SERVICE_NAMES
 from gazed.messages import Detection
 

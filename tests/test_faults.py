@@ -45,7 +45,7 @@ class Watch:
         self.events: list[tuple[int, str]] = []  # gaze transitions and servo link changes
 
     def pump(self) -> None:
-        self.supervisor.bus.wait(0.2)
+        self.supervisor.wakeup.wait(0.2)
         self.truth.extend(self._truth.take())
         for status in self._status.take():
             if status.holding:

@@ -38,7 +38,7 @@ def test_sim_rig_tracks_and_stops_parked(tmp_path: Path) -> None:
         assert set(pids) == {"sim", "servo", "vision", "estimator", "gaze"}
         started = time.monotonic()
         while time.monotonic() - started < RUN_S:  # record what the loop publishes
-            bus.wait(0.5)
+            supervisor.wakeup.wait(0.5)
             record.truth.extend(truth.take())
             record.states.extend(states.take())
             record.commands.extend(commands.take())

@@ -45,6 +45,7 @@ def observe(rig_path: Path) -> None:
     from gazed.eval.loop_metrics import gaze_errors_rad
     from gazed.geometry.pose import CameraPose
     from gazed.topics import SIM_TRUTH
+    from gazed.wakeup import Wakeup
 
     rig = load_rig(rig_path)
     pose = CameraPose.from_rig(rig)
@@ -57,15 +58,18 @@ def observe(rig_path: Path) -> None:
             break
         except BusError:
             stop.wait(0.2)  # the router is not up yet
+    wakeup = Wakeup()
+    bus.on_arrival(wakeup.notify)
     truth = bus.subscribe(SIM_TRUTH, capacity=10_000)
     try:
         while not stop.is_set():
-            bus.wait(0.5)
+            wakeup.wait(0.5)
             for frame in truth.take():
                 error = math.degrees(float(gaze_errors_rad([frame], pose)[0]))
                 print(json.dumps({"t": frame.t_capture_ns, "error_deg": error}), flush=True)
     finally:
         bus.close()
+        wakeup.close()
 
 
 # --- the test ------------------------------------------------------------------------------

@@ -40,6 +40,7 @@ from gazed.topics import (
     SIM_TRUTH,
     SUPERVISOR_STATUS,
 )
+from gazed.wakeup import Wakeup
 
 FILTERS = ("imm", "innovation", "alphabeta", "image-cv", "none")
 COMPARED = ("imm", "image-cv", "none")
@@ -261,6 +262,8 @@ def _record(
     bus = Bus(rig, "eval")
     deadline = time.monotonic() + START_TIMEOUT_S
     open_observer(bus, supervisor, log_path)
+    wakeup = Wakeup()
+    bus.on_arrival(wakeup.notify)
     try:
         truth, states = (
             bus.subscribe(SIM_TRUTH, capacity=100000),
@@ -272,7 +275,7 @@ def _record(
         )
         servo_statuses = bus.subscribe(SERVO_STATUS, capacity=10000)
         status = bus.subscribe(SUPERVISOR_STATUS)
-        pids = _wait_running(bus, status, supervisor, deadline, log_path)
+        pids = _wait_running(wakeup, status, supervisor, deadline, log_path)
         for subscription in (truth, states, commands, estimates, servo_statuses):
             subscription.take()
         processes = {name: psutil.Process(pid) for name, pid in pids.items()}
@@ -281,7 +284,7 @@ def _record(
         record = LoopRecord([], [], [], [])
         servo: list[ServoStatus] = []
         while time.monotonic() - started < seconds:
-            bus.wait(0.5)
+            wakeup.wait(0.5)
             record.truth.extend(truth.take())
             record.states.extend(states.take())
             record.commands.extend(commands.take())
@@ -298,15 +301,20 @@ def _record(
         }
         return record, cpu, servo
     finally:
+        wakeup.close()
         bus.close()
 
 
 def _wait_running(
-    bus: Bus, status: Any, supervisor: subprocess.Popen[bytes], deadline: float, log_path: Path
+    wakeup: Wakeup,
+    status: Any,
+    supervisor: subprocess.Popen[bytes],
+    deadline: float,
+    log_path: Path,
 ) -> dict[str, int]:
     """Pids of the processes once the supervisor reports every one running."""
     while time.monotonic() < deadline:
-        bus.wait(0.5)
+        wakeup.wait(0.5)
         latest = status.latest()
         if latest is not None and latest.state == "running":
             running = {p.name: p.pid for p in latest.processes if p.state == "running" and p.pid}
