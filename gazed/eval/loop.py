@@ -171,14 +171,17 @@ def running(rig_path: Path) -> Iterator[tuple[Rig, subprocess.Popen[bytes], Path
 @contextlib.contextmanager
 def observed(
     rig_path: Path, name: str, timeout_s: float = START_TIMEOUT_S
-) -> Iterator[tuple[Rig, Bus]]:
+) -> Iterator[tuple[Rig, Bus, Wakeup]]:
     """`running(rig_path)` with a bus session called `name` on its bus, opened once the router
-    listens (within timeout_s) and closed on the way out (the benches that watch a rig)."""
+    listens (within timeout_s) and closed on the way out, and a `Wakeup` that every arrival
+    on it wakes (the benches that watch a rig)."""
     with running(rig_path) as (rig, supervisor, log_path):
         bus = Bus(rig, name)
         open_observer(bus, supervisor, log_path, timeout_s)
         try:
-            yield rig, bus
+            with Wakeup() as wakeup:
+                bus.on_arrival(wakeup.notify)
+                yield rig, bus, wakeup
         finally:
             bus.close()
 
