@@ -12,12 +12,15 @@ import time
 from pathlib import Path
 
 import psutil
+import pytest
 from conftest import PYTHON, REPO, RunningSupervisor, child_env, pid_alive, poll_until
 
 from gazed.eval.loop import private_rig
 from gazed.eval.loop_metrics import LoopRecord, score
 from gazed.geometry.pose import CameraPose
 from gazed.topics import ESTIMATOR_STATE, GAZE_STATE, SERVO_COMMAND, SIM_TRUTH
+
+pytestmark = pytest.mark.e2e
 
 RUN_S = 12.0
 

@@ -28,6 +28,8 @@ from pathlib import Path
 
 import pytest
 
+pytestmark = pytest.mark.e2e
+
 REPO = Path(__file__).resolve().parents[1]
 PORT = 17947  # inside the namespaces: no other test can hold it
 ADDRESS_A, ADDRESS_B = "10.231.7.1", "10.231.7.2"

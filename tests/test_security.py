@@ -80,6 +80,7 @@ def _is_loopback(ip: str) -> bool:
     return (mapped or address).is_loopback
 
 
+@pytest.mark.e2e
 def test_every_socket_is_loopback_and_nothing_scouts(tmp_path: Path) -> None:
     rig_path = private_rig(REPO / "configs" / "sim.toml", tmp_path, "oval", None, None, 2, None)
     supervisor = RunningSupervisor(rig_path, tmp_path)
@@ -240,6 +241,7 @@ def stranger_bus(
     return load_rig(copy).bus
 
 
+@pytest.mark.e2e
 def test_a_stranger_cannot_steer_the_head(tmp_path: Path) -> None:
     rig_path, passwords = secured_rig(tmp_path, ("sim", "servo"))
     supervisor = RunningSupervisor(rig_path, tmp_path)
