@@ -10,7 +10,17 @@ from pathlib import Path
 import pytest
 
 from gazed import cli
-from gazed.config import RigError, load_rig, parse_rig
+from gazed.config import (
+    SERVICE_NAMES,
+    Rig,
+    RigError,
+    ServiceSpec,
+    ServicesSection,
+    load_rig,
+    load_rig_or_exit,
+    parse_rig,
+)
+from gazed.topics import PROCESSES
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -239,9 +249,6 @@ def test_endpoints_with_ports_and_sockets_load() -> None:
 def test_the_services_section_has_one_entry_per_declared_process() -> None:
     """[services] names the processes gazed.topics declares, in their start order, and each
     process's sections are sections of the rig (besides [rig] and [bus], read by all)."""
-    from gazed.config import SERVICE_NAMES, Rig, ServicesSection, ServiceSpec
-    from gazed.topics import PROCESSES
-
     entries = [
         name
         for name, field in ServicesSection.model_fields.items()
@@ -256,8 +263,6 @@ def test_the_services_section_has_one_entry_per_declared_process() -> None:
 def test_a_bad_rig_exits_2_from_the_one_loader(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    from gazed.config import load_rig_or_exit
-
     path = tmp_path / "rig.toml"
     path.write_text('[rig]\nname = "x"\n[gaze]\nrate_hz = 0\n')
     with pytest.raises(SystemExit) as info:
