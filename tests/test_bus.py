@@ -12,9 +12,10 @@ import pytest
 import zenoh
 from conftest import PYTHON, SUPPORT, child_env, poll_until, write_rig
 
-from gazed.bus import Bus, BusError, session_config
+from gazed.bus import Bus, BusError
 from gazed.config import BusSection, load_rig
 from gazed.messages import Detection, FrameHeader, Odometry
+from gazed.session import session_config
 from gazed.topics import SERVO_ODOMETRY, SIM_FRAME, VISION_DETECTION
 from gazed.wakeup import Wakeup
 

@@ -31,18 +31,11 @@ import tomlkit
 import zenoh
 from conftest import REPO, RunningSupervisor, poll_until, write_rig
 
-from gazed.bus import (
-    TOOLS_IDENTITY,
-    Bus,
-    BusError,
-    Subscription,
-    identity_of,
-    open_session,
-    session_config,
-)
+from gazed.bus import Bus, Subscription
 from gazed.config import SERVICE_NAMES, BusSection, load_rig
 from gazed.eval.loop import private_rig
 from gazed.messages import Detection, GazeDemand, Health, Odometry
+from gazed.session import TOOLS_IDENTITY, BusError, identity_of, open_session, session_config
 from gazed.topics import (
     GAZE_DEMAND,
     SERVO_COMMAND,

@@ -11,9 +11,9 @@ from pathlib import Path
 
 import zenoh
 
-from gazed.bus import BusError, open_session
 from gazed.config import BusSection, load_rig_or_exit
 from gazed.messages import Message
+from gazed.session import BusError, open_session
 from gazed.topics import split_key, topic_for
 
 DEFAULT_ENDPOINT = "tcp/127.0.0.1:7447"
