@@ -1,4 +1,4 @@
-"""A flood of malformed messages on every key while the simulated rig tracks (issue 9 item 3).
+"""A flood of malformed messages on every key while the simulated rig tracks.
 
 More than 10 000 malformed messages — bad JSON, the wrong schema, wrong types, NaN and infinity,
 oversized payloads (1 MiB of noise, 1 MiB strings, 100 000-deep nesting), frames whose header lies

@@ -1,4 +1,4 @@
-"""A rig spread over two hosts through a zenoh router (issue 9 item 6).
+"""A rig spread over two hosts through a zenoh router.
 
 Two network namespaces joined by a veth pair stand for two machines: host A runs the router
 (`gazed run` of a rig with every process disabled, listening on A's veth address) and a

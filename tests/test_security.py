@@ -1,4 +1,4 @@
-"""The bus closed to strangers (issue 9 item 5).
+"""The bus closed to strangers.
 
 - By default every socket of every process (supervisor included) is TCP on loopback: the
   supervisor's router listens on the rig's loopback endpoint only, each process connects to it
