@@ -20,7 +20,7 @@ from conftest import poll_until, write_rig
 from gazed.bus import Bus, Publisher
 from gazed.config import load_rig
 from gazed.messages import Detection
-from gazed.topics import VISION_DETECTION
+from gazed.topics import VISION_DETECTION, health
 from gazed.wakeup import Wakeup
 from services.runtime import (
     MAX_CONSECUTIVE_STEP_FAILURES,
@@ -223,3 +223,15 @@ def test_steps_stop_at_close(rig) -> None:
         time.sleep(0.1)  # a step would have run inline by now
     assert service.closed and result == [0]
     assert len(service.steps) == steps
+
+
+def test_health_reports_the_keys_the_process_subscribes_and_publishes(rig) -> None:
+    with Bus(rig, "router", router=True) as router:
+        reports = router.subscribe(health("vision"))
+        with Bus(rig, "vision") as bus, Wakeup() as wakeup:
+            service = Recorder(bus, immediate=True)
+            loop, thread, _ = running(bus, service, wakeup)
+            report = poll_until(reports.latest, 5.0)
+            stopped(bus, loop, thread)
+    assert report.subscribes == ("vision/detection",)
+    assert report.publishes == ("vision/health",)
