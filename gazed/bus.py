@@ -1,160 +1,41 @@
-"""The zenoh bus: sessions from the rig's [bus], typed publish/subscribe, liveliness.
+"""The zenoh bus: one process's session, typed publish/subscribe, liveliness.
 
-Topology (DESIGN §3): the supervisor opens a router-mode session listening on the rig's loopback
-endpoint; every tool connects to it as a client, and so does every process of a rig whose bus
-has credentials, a zenoh config or endpoints beyond loopback (the router authenticates and
-filters everything). On a private loopback bus (`[bus] peer_links`, the default) the rig's
-processes are peers instead: each also listens on a loopback port of the system's choosing,
-learns the others' from the router (gossip scouting, on for the router and the peers alone) and
-sends them its messages directly — one hop instead of two through the router. Multicast
-scouting is off everywhere, so nothing is announced beyond the configured endpoints.
-
-Identity (DESIGN §3, README "Security and several hosts"): with `[bus] credentials_path` every
-session authenticates with zenoh's user/password scheme as its own identity: each of the rig's
-processes as its name (`supervisor`, `sim`, `servo`, `vision`, `estimator`, `gaze`), everything
-else (`gazed tail`/`status`/`latency`, observers, evaluations) as `tools`; a router hosted by the
-supervisor checks every connection against the same file. Access control (who may publish what)
-is the router's: the rig's zenoh config may carry `access_control` (deploy/zenoh-rig.json5), which
-clients leave to the router.
+Sessions (`gazed.session`): the supervisor's router, the rig's processes as its clients or
+peers, the tools as clients, each with its own identity.
 
 Subscriptions decode and validate each sample as it arrives (in zenoh's receive thread, so no
 hidden queue builds up behind a slow process) into a bounded deque; frame topics keep only the
 newest frame. A payload that fails validation is dropped and counted, never raised. A sample
-then wakes the process's loop (`wait`), or, on an `immediate` subscription, asks the process to
-run its step in the receive thread right away (`run_immediately`; the loop is woken if it
-cannot).
+then tells the bus's owner (`on_arrival`): it wakes the owner's loop, or, on an `immediate`
+subscription, first offers the owner to step right away in the receive thread.
+
+The bus records the topics its process subscribes and publishes (`subscribes`, `publishes`):
+each process reports them in its health, and a test checks them against `gazed.topics`.
 """
 
 from __future__ import annotations
 
 import contextlib
-import json
-import os
-import select
 import threading
 import time
 from collections import Counter, deque
 from collections.abc import Callable
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any, Generic, TypeVar
 
 import numpy as np
 import zenoh
 from pydantic import ValidationError
 
-from gazed.config import SERVICE_NAMES, BusSection, Rig
+from gazed.config import Rig
 from gazed.messages import FrameHeader, Message
+from gazed.session import BusError, identity_of, is_peer, open_session
 from gazed.topics import Topic, alive_key
 
 M = TypeVar("M", bound=Message)
 
 JSON = "application/json"
 OCTETS = "application/octet-stream"
-
-_log_initialised = False
-
-
-class BusError(ConnectionError):
-    """The bus cannot be reached or a session cannot be opened."""
-
-
-TOOLS_IDENTITY = "tools"
-PROCESS_IDENTITIES = ("supervisor", *SERVICE_NAMES)
-
-
-def identity_of(process: str) -> str:
-    """The identity a session authenticates as: a rig process's own name, else `tools`."""
-    return process if process in PROCESS_IDENTITIES else TOOLS_IDENTITY
-
-
-def read_credentials(path: Path, identity: str) -> str:
-    """`identity`'s password from a file of `NAME:PASSWORD` lines (zenoh's usrpwd dictionary
-    format); raises `BusError` if the file is unreadable, readable by everyone, or lacks it."""
-    try:
-        mode = path.stat().st_mode
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise BusError(f"{path}: cannot read the bus credentials: {exc}") from exc
-    if mode & 0o007:
-        raise BusError(
-            f"{path}: the bus credentials are open to every user (mode {mode & 0o777:o}); "
-            "chmod o-rwx it"
-        )
-    for line in text.splitlines():
-        name, sep, password = line.partition(":")
-        if sep and name == identity and password:
-            return password
-    raise BusError(
-        f"{path}: no credentials for '{identity}' (expected a line '{identity}:PASSWORD')"
-    )
-
-
-def session_config(
-    bus: BusSection, *, router: bool, identity: str = TOOLS_IDENTITY
-) -> zenoh.Config:
-    """A zenoh config for this rig: the router listens on `bus.listen`; clients connect to
-    `bus.client_endpoints`. Scouting is off. `bus.zenoh_config_path` (TLS, access control) is the
-    base; `bus.credentials_path` gives the session its user/password as `identity`, and a router
-    its dictionary of every identity. Access control is enforced by the router alone."""
-    config = _base_config(bus.zenoh_config_path)
-    peer = is_peer(bus, router=router, identity=identity)
-    mode = "router" if router else "peer" if peer else "client"
-    config.insert_json5("mode", json.dumps(mode))
-    config.insert_json5("scouting/multicast/enabled", "false")
-    config.insert_json5("scouting/gossip/enabled", json.dumps(bus.direct and (router or peer)))
-    listen = list(bus.listen) if router else [bus.peer_listen] if peer else []
-    config.insert_json5("listen/endpoints", json.dumps(listen))
-    if peer:  # like a client, fail to open without the router (a peer would run on alone)
-        config.insert_json5("connect/timeout_ms", "0")
-        config.insert_json5("connect/exit_on_failure", "true")
-    config.insert_json5("connect/endpoints", json.dumps([] if router else bus.client_endpoints))
-    config.insert_json5("transport/link/tx/lease", str(bus.lease_ms))
-    config.insert_json5("adminspace/enabled", "false")
-    if bus.credentials_path is not None:
-        password = read_credentials(bus.credentials_path, identity)
-        config.insert_json5("transport/auth/usrpwd/user", json.dumps(identity))
-        config.insert_json5("transport/auth/usrpwd/password", json.dumps(password))
-        if router:
-            dictionary = json.dumps(str(bus.credentials_path))
-            config.insert_json5("transport/auth/usrpwd/dictionary_file", dictionary)
-    if not router:
-        config.insert_json5("access_control/enabled", "false")
-    return config
-
-
-def is_peer(bus: BusSection, *, router: bool, identity: str) -> bool:
-    """A rig process on a private loopback bus is a peer: it listens on loopback, learns the
-    other processes' endpoints from the router (gossip) and sends them its messages directly;
-    everything else is the router or its client."""
-    return not router and bus.direct and identity in SERVICE_NAMES
-
-
-def _base_config(path: Path | None) -> zenoh.Config:
-    if path is None:
-        return zenoh.Config()
-    try:
-        return zenoh.Config.from_file(str(path))
-    except (zenoh.ZError, OSError) as exc:
-        raise BusError(f"{path}: not a usable zenoh config: {exc}") from exc
-
-
-def open_session(
-    bus: BusSection, *, router: bool = False, identity: str = TOOLS_IDENTITY
-) -> zenoh.Session:
-    """Open a session or raise `BusError` saying which endpoints did not answer."""
-    global _log_initialised
-    if not _log_initialised:
-        zenoh.init_log_from_env_or("error")
-        _log_initialised = True
-    config = session_config(bus, router=router, identity=identity)
-    try:
-        return zenoh.open(config)
-    except zenoh.ZError as exc:
-        where = ", ".join(bus.listen if router else bus.client_endpoints)
-        verb = "listen on" if router else "reach the rig's bus at"
-        who = f" as '{identity}'" if bus.credentials_path is not None else ""
-        raise BusError(f"cannot {verb} {where}{who}: {exc}") from exc
 
 
 @dataclass(frozen=True)
@@ -215,8 +96,7 @@ class Subscription(Generic[M]):
             self._bus.stats.count("replaced" if self.topic.frames else "dropped")
         self._items.append(item)
         self._bus.stats.receive(self.topic.suffix)
-        if not (self.immediate and self._bus.step_now()):
-            self._bus.notify()
+        self._bus._arrived(self.immediate)
 
     def take(self) -> list[Any]:
         items = []
@@ -321,15 +201,12 @@ class Bus:
         self.process = process
         self.router = router
         self.stats = Stats()
+        self.subscribes: set[str] = set()  # key suffixes subscribed
+        self.publishes: set[str] = set()  # key suffixes with a declared publisher
         self._session: zenoh.Session | None = None
-        # wake-ups through a pipe, not a threading.Event: `notify()` is then safe from zenoh's
-        # threads and from signal handlers alike (an Event's lock taken in a handler can
-        # deadlock the very thread that waits on it)
-        self._wake_read, self._wake_write = -1, -1
         self._closables: list[Any] = []
+        self._notify: Callable[[], None] | None = None
         self._step_now: Callable[[], bool] | None = None
-        self.wakeups = 0  # `notify()` calls: news for the loop (`reschedule()` is not)
-        self.started_monotonic_s = time.monotonic()
 
     def __enter__(self) -> Bus:
         self.open()
@@ -343,10 +220,6 @@ class Bus:
             self._session = open_session(
                 self.rig.bus, router=self.router, identity=identity_of(self.process)
             )
-        if self._wake_read < 0:
-            self._wake_read, self._wake_write = os.pipe()
-            os.set_blocking(self._wake_read, False)
-            os.set_blocking(self._wake_write, False)
 
     def close(self) -> None:
         for item in reversed(self._closables):
@@ -356,10 +229,6 @@ class Bus:
         if self._session is not None:
             self._session.close()
             self._session = None
-        for fd in (self._wake_read, self._wake_write):
-            if fd >= 0:
-                os.close(fd)
-        self._wake_read, self._wake_write = -1, -1
 
     @property
     def session(self) -> zenoh.Session:
@@ -367,30 +236,40 @@ class Bus:
             raise BusError("the bus session is not open (use `with Bus(...)`)")
         return self._session
 
-    def key(self, topic: Topic) -> str:
-        return topic.key(self.rig.name)
-
     def publisher(self, topic: Topic) -> Publisher[Any]:
         publisher: Publisher[Any] = Publisher(self, topic)
         self._closables.append(publisher)
+        self.publishes.add(topic.suffix)
         return publisher
 
     def subscribe(
         self, topic: Topic, *, capacity: int = 256, immediate: bool = False
     ) -> Subscription[Any]:
         """Messages of `topic` as they arrive (see `Subscription`); with `immediate`, each
-        sample also asks for the process's step at once (`run_immediately`)."""
+        sample first offers the owner's `step_now` (see `on_arrival`)."""
         subscription: Subscription[Any] = Subscription(self, topic, capacity, immediate)
         self._closables.append(subscription)
+        self.subscribes.add(topic.suffix)
         return subscription
 
-    def subscribe_raw(self, key_expr: str, callback: Callable[[zenoh.Sample], None]) -> None:
-        """Every sample on a key expression, undecoded (for the bus tools)."""
-        self._closables.append(
-            self.session.declare_subscriber(
-                key_expr, zenoh.handlers.Callback(callback, indirect=False)
-            )
-        )
+    def on_arrival(
+        self, notify: Callable[[], None], step_now: Callable[[], bool] | None = None
+    ) -> None:
+        """What a sample (or a liveliness change) does once it is kept: call `notify()`, which
+        wakes the owner's loop (`gazed.wakeup.Wakeup.notify`). A sample of an `immediate`
+        subscription first calls `step_now()` in the receive thread, and wakes the loop only
+        if that returns False (it could not step)."""
+        self._notify, self._step_now = notify, step_now
+
+    def notify(self) -> None:
+        """Wake the owner's loop (the `notify` given to `on_arrival`) with news that came
+        another way, such as a camera's frame; safe from any thread."""
+        if self._notify is not None:
+            self._notify()
+
+    def _arrived(self, immediate: bool) -> None:
+        if not (immediate and self._step_now is not None and self._step_now()):
+            self.notify()
 
     def declare_alive(self) -> None:
         """Declare `gazed/<rig>/alive/<process>`; it vanishes when the session closes or dies."""
@@ -426,37 +305,3 @@ class Bus:
     def peer(self) -> bool:
         """True when this session links directly to the rig's other processes (`is_peer`)."""
         return is_peer(self.rig.bus, router=self.router, identity=identity_of(self.process))
-
-    def run_immediately(self, step_now: Callable[[], bool]) -> None:
-        """Have a sample of an `immediate` subscription call `step_now()` in the receive
-        thread; it returns False when it could not step (one is running), and the sample then
-        wakes `wait()` instead. Without it, every sample just wakes `wait()`."""
-        self._step_now = step_now
-
-    def step_now(self) -> bool:
-        return self._step_now is not None and self._step_now()
-
-    def notify(self) -> None:
-        """Wake `wait()` with news (counted in `wakeups`); safe from any thread and from a
-        signal handler."""
-        self.wakeups += 1
-        self.reschedule()
-
-    def reschedule(self) -> None:
-        """Wake `wait()` without news: its caller's deadline moved earlier."""
-        with contextlib.suppress(
-            OSError
-        ):  # full: a wake-up is pending anyway; closed: no one waits
-            os.write(self._wake_write, b"\0")
-
-    def wait(self, timeout_s: float) -> bool:
-        """Block until something arrives on any subscription (or `notify()`), at most `timeout_s`."""
-        if self._wake_read < 0:
-            raise BusError("the bus session is not open (use `with Bus(...)`)")
-        ready, _, _ = select.select([self._wake_read], [], [], max(0.0, timeout_s))
-        if not ready:
-            return False
-        with contextlib.suppress(BlockingIOError):
-            while os.read(self._wake_read, 4096):
-                pass
-        return True

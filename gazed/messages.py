@@ -310,9 +310,10 @@ class SimTruth(Message):
 
 
 class Health(Message):
-    """About once a second from every process."""
+    """About once a second from every process. Version 2 adds `subscribes` and `publishes`."""
 
     SCHEMA: ClassVar[str] = "gazed.Health"
+    VERSION: ClassVar[int] = 2
     process: str
     pid: int = Field(ge=0)
     uptime_s: float = Field(ge=0)
@@ -326,6 +327,12 @@ class Health(Message):
         default_factory=dict, description="Time spent in this process's stage."
     )
     notes: dict[str, str] = Field(default_factory=dict, description="State worth a person's eye.")
+    subscribes: tuple[str, ...] = Field(
+        default=(), description="Key suffixes the process subscribes (below gazed/<rig>/)."
+    )
+    publishes: tuple[str, ...] = Field(
+        default=(), description="Key suffixes the process declares publishers for."
+    )
 
 
 class ProcessStatus(BaseModel):

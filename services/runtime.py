@@ -8,13 +8,15 @@ A service is a small object built from the rig and the open bus:
         def health(self) -> HealthReport: ...    # its own counters, notes and stage timings
         def close(self) -> None: ...             # orderly stop (the servo parks here)
 
-The loop wakes when a subscribed message arrives or when the service asked to run again, and
-publishes `<process>/health` about once a second. A sample of the process's main input (a
-subscription made with `immediate=True`) runs the step at once in the bus's receive thread
-instead, when no step is running: one thread switch less per hop of the loop (`ServiceLoop`).
-SIGTERM and SIGINT stop it; the liveliness token `gazed/<rig>/alive/<process>` is declared once
-the service is built (so "alive" means "ready") and vanishes when the session closes. An exception in `step` is logged and counted;
-a process whose step fails persistently exits non-zero so the supervisor restarts it.
+The loop (`ServiceLoop`) wakes when a subscribed message arrives or when the service asked to
+run again, and publishes `<process>/health` about once a second, with the keys the process
+subscribes and publishes. A sample of the process's main input (a subscription made with
+`immediate=True`) runs the step at once in the bus's receive thread instead, when no step is
+running: one thread switch less per hop of the loop. SIGTERM and SIGINT stop it; the
+liveliness token `gazed/<rig>/alive/<process>` is declared once the service is built (so
+"alive" means "ready") and vanishes when the session closes. An exception in `step` is logged
+and counted; a process whose step fails persistently exits non-zero so the supervisor restarts
+it.
 """
 
 from __future__ import annotations
@@ -33,10 +35,11 @@ from pathlib import Path
 from typing import Protocol
 
 from gazed.bus import Bus, BusError
-from gazed.config import Rig, RigError, load_rig
+from gazed.config import Rig, load_rig_or_exit
 from gazed.messages import Health
-from gazed.supervisor import ENV_SUPERVISOR_PID
+from gazed.supervisor.child import ENV_SUPERVISOR_PID
 from gazed.topics import health as health_topic
+from gazed.wakeup import Wakeup
 
 HEALTH_PERIOD_S = 1.0
 PR_SET_PDEATHSIG = 1  # linux/prctl.h
@@ -90,17 +93,13 @@ def main(name: str, build: Callable[[Rig, Bus], Service], argv: list[str] | None
     """Entry point of a process: exit 2 on a bad rig, 1 on a bus or persistent step failure."""
     logging.basicConfig(level=logging.INFO, format=f"%(levelname)s {name}: %(message)s")
     die_with_supervisor()
-    args = parse_args(name, argv)
-    try:
-        rig = load_rig(args.rig)
-    except RigError as exc:
-        print(exc, file=sys.stderr)
-        return 2
+    rig = load_rig_or_exit(parse_args(name, argv).rig)
     stop = StopFlag()
     try:
-        with Bus(rig, name) as bus:
-            _install_signals(stop, bus)
-            return run(name, rig, bus, build(rig, bus), stop)
+        with Bus(rig, name) as bus, Wakeup() as wakeup:
+            bus.on_arrival(wakeup.notify)
+            _install_signals(stop, wakeup)
+            return ServiceLoop(name, bus, build(rig, bus), stop, wakeup).run()
     except BusError as exc:
         print(f"{name}: {exc}", file=sys.stderr)
         return 1
@@ -135,33 +134,30 @@ class StopFlag:
         return self.raised
 
 
-def _install_signals(stop: StopFlag, bus: Bus) -> None:
+def _install_signals(stop: StopFlag, wakeup: Wakeup) -> None:
     def on_signal(_signum: int, _frame: object) -> None:
         stop.set()
-        bus.notify()
+        wakeup.notify()
 
     signal.signal(signal.SIGTERM, on_signal)
     signal.signal(signal.SIGINT, on_signal)
     signal.signal(signal.SIGHUP, signal.SIG_IGN)  # the supervisor reloads, not its children
 
 
-def run(name: str, rig: Rig, bus: Bus, service: Service, stop: StopFlag) -> int:
-    """The process loop: step on arrivals and when asked, health once a second, orderly close."""
-    return ServiceLoop(name, bus, service, stop).run()
-
-
 class ServiceLoop:
-    """Runs one service's steps, one at a time: in the main thread when it wakes (an arrival, a
-    signal, the time the service asked for, health), and — for a sample of a subscription made
-    with `immediate=True`, the input the process exists to answer — at once in the bus's
-    receive thread, unless a step is running already (then the sample wakes the main thread
-    as any other). Only a peer on the rig's private bus steps immediately (`Bus.peer`). The
-    wake-up costs a thread switch, about 0.1 ms a hop on the sim rig's 2 cores, once per hop
-    of the loop's processing latency."""
+    """Runs one service's steps, one at a time: in the main thread when `wakeup` wakes it (an
+    arrival, a signal, the time the service asked for, health), and — for a sample of a
+    subscription made with `immediate=True`, the input the process exists to answer — at once
+    in the bus's receive thread, unless a step is running already (then the sample wakes the
+    main thread as any other). Only a peer on the rig's private bus steps immediately
+    (`Bus.peer`): the wake-up it saves is a thread switch per hop of the loop."""
 
-    def __init__(self, name: str, bus: Bus, service: Service, stop: StopFlag) -> None:
+    def __init__(
+        self, name: str, bus: Bus, service: Service, stop: StopFlag, wakeup: Wakeup
+    ) -> None:
         self.service = service
         self.stop = stop
+        self.wakeup = wakeup
         self.reporter = HealthReporter(name, bus)
         self._bus = bus
         self._lock = threading.Lock()  # held by the one step (or health, or close) running
@@ -173,26 +169,26 @@ class ServiceLoop:
     def run(self) -> int:
         """Step until stopped (0), or until the step failed MAX_CONSECUTIVE_STEP_FAILURES times
         in a row (1); close the service either way."""
-        if self._bus.peer:
-            # with its own link to each process, a step holds up only its sender's link; a
-            # client's one link to the router carries everything, and blocking it in a step
-            # (a slow frame, a put that waits) would hold up the router for everyone
-            self._bus.run_immediately(self._step_now)
+        # a peer steps immediately: with its own link to each process, a step holds up only
+        # its sender's link; a client's one link to the router carries everything, and
+        # blocking it in a step (a slow frame, a put that waits) would hold up the router for
+        # everyone
+        self._bus.on_arrival(self.wakeup.notify, self._step_now if self._bus.peer else None)
         self._bus.declare_alive()
         next_health_s = time.monotonic()
         try:
-            stepped_after = -1  # the bus's wake-up count when the loop last stepped
+            stepped_after = -1  # the wake-up count when the loop last stepped
             while not self.stop.is_set():
                 wake_s = min(self._due_s, next_health_s)
-                self._bus.wait(max(0.0, wake_s - time.monotonic()))
+                self.wakeup.wait(max(0.0, wake_s - time.monotonic()))
                 if self.stop.is_set():
                     break
                 with self._lock:
                     now = Now.read()
                     # step on news (a sample, a frame, a signal) or when due; a wake-up that
                     # only moved the deadline earlier (`_step_now`) waits for it
-                    if self._bus.wakeups != stepped_after or now.mono_s >= self._due_s:
-                        stepped_after = self._bus.wakeups
+                    if self.wakeup.wakeups != stepped_after or now.mono_s >= self._due_s:
+                        stepped_after = self.wakeup.wakeups
                         self._step(now)
                     if now.mono_s >= next_health_s:
                         next_health_s = now.mono_s + HEALTH_PERIOD_S
@@ -213,7 +209,7 @@ class ServiceLoop:
             planned_s = self._due_s  # the main thread may sleep until then
             self._step(Now.read(immediate=True))
             if self._due_s < planned_s or self._failed:
-                self._bus.reschedule()
+                self.wakeup.reschedule()
             return True
         finally:
             self._lock.release()
@@ -234,7 +230,7 @@ class ServiceLoop:
 
 class HealthReporter:
     """Publishes `<process>/health`: bus counters, the service's report, receive rates per key
-    over the last period."""
+    over the last period, and the keys the process subscribes and publishes."""
 
     def __init__(self, name: str, bus: Bus) -> None:
         self.name = name
@@ -265,5 +261,7 @@ class HealthReporter:
                 rates_hz=rates,
                 stage_ms=report.stage_ms,
                 notes=notes,
+                subscribes=tuple(sorted(self._bus.subscribes)),
+                publishes=tuple(sorted(self._bus.publishes)),
             )
         )

@@ -20,6 +20,7 @@ from gazed.bus import Bus
 from gazed.config import load_rig
 from gazed.messages import SupervisorStatus
 from gazed.topics import SUPERVISOR_STATUS
+from gazed.wakeup import Wakeup
 
 T = TypeVar("T")
 
@@ -164,6 +165,8 @@ class RunningSupervisor:
         self.alive_events: list[tuple[float, str, bool]] = []
         self.statuses: list[SupervisorStatus] = []
         self.bus = Bus(self.rig, "observer")
+        self.wakeup = Wakeup()  # every arrival on the observer's bus wakes it
+        self.bus.on_arrival(self.wakeup.notify)
         poll_until(self._connect, 20.0, 0.05)
         self.bus.watch_alive(
             lambda name, alive: self.alive_events.append((time.monotonic(), name, alive))
@@ -205,4 +208,5 @@ class RunningSupervisor:
             return self.process.wait(timeout=30)
         finally:
             self.bus.close()
+            self.wakeup.close()
             self.notify.close()

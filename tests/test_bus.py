@@ -12,10 +12,12 @@ import pytest
 import zenoh
 from conftest import PYTHON, SUPPORT, child_env, poll_until, write_rig
 
-from gazed.bus import Bus, BusError, session_config
+from gazed.bus import Bus, BusError
 from gazed.config import BusSection, load_rig
 from gazed.messages import Detection, FrameHeader, Odometry
+from gazed.session import session_config
 from gazed.topics import SERVO_ODOMETRY, SIM_FRAME, VISION_DETECTION
+from gazed.wakeup import Wakeup
 
 
 @pytest.fixture
@@ -29,6 +31,7 @@ def detection(seq: int) -> Detection:
     )
 
 
+@pytest.mark.e2e
 def test_pub_sub_between_two_processes(tmp_path: Path) -> None:
     path = write_rig(tmp_path)
     rig = load_rig(path)
@@ -134,15 +137,59 @@ def test_liveliness_appears_and_vanishes(rig) -> None:
         assert bus.alive() == set()
 
 
-def test_wait_wakes_on_arrival(rig) -> None:
-    with Bus(rig, "test", router=True) as bus, Bus(rig, "servo") as servo:
+def test_an_arrival_wakes_the_owner(rig) -> None:
+    with (
+        Bus(rig, "test", router=True) as bus,
+        Bus(rig, "servo") as servo,
+        Wakeup() as wakeup,
+    ):
+        bus.on_arrival(wakeup.notify)
         odometry = bus.subscribe(SERVO_ODOMETRY)
         publisher = servo.publisher(SERVO_ODOMETRY)
         poll_until(publisher.matched, 5.0)
-        assert bus.wait(0.0) is False or odometry.take() == []
+        assert wakeup.wait(0.0) is False or odometry.take() == []
         publisher.put(Odometry(t_capture_ns=1, pan_rad=0.25, tilt_rad=0))
-        assert bus.wait(5.0) is True
+        assert wakeup.wait(5.0) is True
         assert [o.pan_rad for o in odometry.take()] == [0.25]
+
+
+def test_an_immediate_sample_first_offers_the_owner_a_step(rig) -> None:
+    """`on_arrival(notify, step_now)`: a sample of an immediate subscription calls `step_now`
+    and wakes the owner only when that could not step; any other sample, a liveliness change
+    and `Bus.notify()` wake the owner."""
+    calls: list[str] = []
+    can_step = [True]
+
+    def step_now() -> bool:
+        calls.append("step")
+        return can_step[0]
+
+    with Bus(rig, "test", router=True) as bus, Bus(rig, "vision") as vision:
+        bus.on_arrival(lambda: calls.append("notify"), step_now)
+        detections = bus.subscribe(VISION_DETECTION, immediate=True)
+        odometry = bus.subscribe(SERVO_ODOMETRY)
+        publishers = vision.publisher(VISION_DETECTION), vision.publisher(SERVO_ODOMETRY)
+        poll_until(lambda: all(p.matched() for p in publishers), 5.0)
+        publishers[0].put(detection(0))
+        poll_until(lambda: calls == ["step"], 5.0)
+        can_step[0] = False
+        publishers[0].put(detection(1))
+        poll_until(lambda: calls == ["step", "step", "notify"], 5.0)
+        publishers[1].put(Odometry(t_capture_ns=1, pan_rad=0.0, tilt_rad=0.0))
+        poll_until(lambda: len(calls) == 4, 5.0)
+        bus.notify()
+        assert calls == ["step", "step", "notify", "notify", "notify"]
+        assert [d.seq for d in detections.take()] == [0, 1] and len(odometry.take()) == 1
+
+
+def test_the_bus_records_what_its_process_subscribes_and_publishes(rig) -> None:
+    with Bus(rig, "test", router=True) as bus:
+        bus.subscribe(SERVO_ODOMETRY)
+        bus.subscribe(SIM_FRAME, immediate=True)
+        bus.publisher(VISION_DETECTION)
+        bus.subscribe(SERVO_ODOMETRY, capacity=4)
+        assert bus.subscribes == {"servo/odometry", "sim/frame"}
+        assert bus.publishes == {"vision/detection"}
 
 
 def test_client_without_router_is_a_clear_error(tmp_path: Path) -> None:

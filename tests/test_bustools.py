@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 from conftest import FAKE, PYTHON, SUPPORT, RunningSupervisor, child_env, write_rig
 
-from gazed.bustools import latency_report
+from gazed.bustools.latency import latency_report
 from gazed.config import SERVICE_NAMES
 from gazed.messages import Detection
 
@@ -60,6 +60,7 @@ def publish(rig_path: Path, count: int) -> None:
     )
 
 
+@pytest.mark.e2e
 def test_status_reports_processes_and_rates(running: RunningSupervisor) -> None:
     result = gazed("status", "--rig", str(running.rig_path), "--json", "--seconds", "2.5")
     assert result.returncode == 0, result.stderr
@@ -73,6 +74,7 @@ def test_status_reports_processes_and_rates(running: RunningSupervisor) -> None:
     assert 0.3 <= rig["rates_hz"]["vision/health"] <= 3.0
 
 
+@pytest.mark.e2e
 def test_status_text_is_readable(running: RunningSupervisor) -> None:
     result = gazed("status", "--rig", str(running.rig_path), "--seconds", "1.5")
     assert result.returncode == 0, result.stderr
@@ -80,6 +82,7 @@ def test_status_text_is_readable(running: RunningSupervisor) -> None:
     assert "vision     running   alive     restarts=0" in result.stdout
 
 
+@pytest.mark.e2e
 def test_tail_prints_one_line_per_message(running: RunningSupervisor) -> None:
     tail = start_gazed("tail", "vision/detection", "--rig", str(running.rig_path), "--count", "3")
     publish(running.rig_path, 3)
@@ -93,6 +96,7 @@ def test_tail_prints_one_line_per_message(running: RunningSupervisor) -> None:
         assert f'"seq":{seq},' in line and '"detector":"test"' in line
 
 
+@pytest.mark.e2e
 def test_tail_json(running: RunningSupervisor) -> None:
     tail = start_gazed(
         "tail", "vision/detection", "--rig", str(running.rig_path), "--count", "2", "--json"
@@ -105,6 +109,7 @@ def test_tail_json(running: RunningSupervisor) -> None:
     assert all(r["schema"] == "gazed.Detection/1" and r["age_ms"] >= 0 for r in records)
 
 
+@pytest.mark.e2e
 def test_latency_from_stamps(running: RunningSupervisor) -> None:
     latency = start_gazed("latency", "--rig", str(running.rig_path), "--seconds", "4", "--json")
     publish(running.rig_path, 100)
@@ -136,6 +141,7 @@ def test_latency_report_arithmetic() -> None:
     assert entry["end_to_end_ms"]["p50"] == 3.0
 
 
+@pytest.mark.e2e
 @pytest.mark.parametrize("command", ["status", "latency", "tail"])
 def test_nothing_answers(tmp_path: Path, command: str) -> None:
     result = gazed(command, "--rig", str(write_rig(tmp_path)), "--seconds", "0.5")
@@ -143,6 +149,7 @@ def test_nothing_answers(tmp_path: Path, command: str) -> None:
     assert "no bus answers" in result.stderr and "is `gazed run RIG` running?" in result.stderr
 
 
+@pytest.mark.e2e
 def test_silent_rig_is_reported(running: RunningSupervisor) -> None:
     result = gazed("tail", "nothing/here", "--rig", str(running.rig_path), "--seconds", "1")
     assert result.returncode == 1

@@ -306,22 +306,22 @@ def test_an_unreadable_file_and_a_bad_rig_exit_2(
     assert code == 2 and "cannot read" in err
     bad_rig = tmp_path / "bad.toml"
     bad_rig.write_text('[rig]\nname = "x"\n[head]\npan_max_dg = 3\n')
-    with pytest.raises(SystemExit) as exit_info:
-        cli.main(["calibrate", "points", str(LAWN_POINTS), "--write", str(bad_rig)])
-    assert exit_info.value.code == 2
+    code = cli.main(["calibrate", "points", str(LAWN_POINTS), "--write", str(bad_rig)])
+    assert code == 2
     assert "head.pan_max_dg: unknown key" in capsys.readouterr().err
 
 
-def test_a_new_method_is_one_entry_in_subcommands(
-    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
-) -> None:
-    """How `trace` will plug in: its own arguments, a solve step, shared output and --write."""
+def replay_arguments(parser) -> None:
+    """The arguments of the `replay` method below."""
+    parser.add_argument("--marks", type=Path, required=True)
+    calibrate_cli.calibrate_options(parser)
+
+
+def replay_command(args) -> int:
+    """A method made of a solve step; output and --write are calibrate_cli's."""
     from gazed.geometry.calibration_file import read_calibration_file
     from gazed.geometry.kinematics import HeadKinematics
     from gazed.geometry.point_calibration import calibrate_points
-
-    def add_arguments(parser) -> None:
-        parser.add_argument("--marks", type=Path, required=True)
 
     def solve(args, rig) -> calibrate_cli.Solved:
         points = read_calibration_file(args.marks).points
@@ -329,11 +329,19 @@ def test_a_new_method_is_one_entry_in_subcommands(
         rows = tuple((p.label,) for p in points)
         return calibrate_cli.Solved(result, "live", ("mark",), rows)
 
-    extended = {
-        **calibrate_cli.SUBCOMMANDS,
-        "replay": calibrate_cli.Subcommand("replay marks", add_arguments, solve),
-    }
-    monkeypatch.setattr(calibrate_cli, "SUBCOMMANDS", extended)
+    return calibrate_cli.calibrate(args, "replay", solve)
+
+
+def test_a_new_method_is_one_entry_in_the_calibrate_group(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """How a method plugs in: its own arguments, a solve step, shared output and --write."""
+    group = cli.COMMANDS["calibrate"]
+    assert isinstance(group, cli.Group)
+    extended = cli.Group(
+        group.help, {**group.commands, "replay": cli.Command(__name__, "replay marks")}
+    )
+    monkeypatch.setitem(cli.COMMANDS, "calibrate", extended)
     code, out, _ = run(["replay", "--marks", str(LAWN_POINTS)], capsys)
     assert code == 0 and out.startswith("live: 8 marks") and "point 8 (H)" in out
 

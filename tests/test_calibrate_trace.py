@@ -18,6 +18,7 @@ from gazed.geometry.calibration_file import CalibrationFileError
 TRACE_FILE = REPO / "configs" / "calibration" / "sim_trace.toml"
 
 
+@pytest.mark.e2e
 @pytest.mark.slow
 def test_trace_calibrates_the_simulated_rig(tmp_path: Path) -> None:
     rig_path = private_rig(REPO / "configs" / "sim.toml", tmp_path, "oval", None, None, 2, None)

@@ -10,7 +10,17 @@ from pathlib import Path
 import pytest
 
 from gazed import cli
-from gazed.config import RigError, load_rig, parse_rig
+from gazed.config import (
+    SERVICE_NAMES,
+    Rig,
+    RigError,
+    ServiceSpec,
+    ServicesSection,
+    load_rig,
+    load_rig_or_exit,
+    parse_rig,
+)
+from gazed.topics import PROCESSES
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -234,3 +244,30 @@ def test_endpoints_with_ports_and_sockets_load() -> None:
         '"unixsock-stream//tmp/gazed.sock"]\nconnect = ["tcp/10.0.0.2:0"]\n'
     )
     assert len(rig.bus.listen) == 3
+
+
+def test_the_services_section_has_one_entry_per_declared_process() -> None:
+    """[services] names the processes gazed.topics declares, in their start order, and each
+    process's sections are sections of the rig (besides [rig] and [bus], read by all)."""
+    entries = [
+        name
+        for name, field in ServicesSection.model_fields.items()
+        if field.annotation is ServiceSpec
+    ]
+    assert entries == [p.name for p in PROCESSES] == list(SERVICE_NAMES)
+    sections = set(Rig.model_fields) - {"rig", "bus", "services"}
+    for process in PROCESSES:
+        assert process.sections and set(process.sections) <= sections, process.name
+
+
+def test_a_bad_rig_exits_2_from_the_one_loader(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = tmp_path / "rig.toml"
+    path.write_text('[rig]\nname = "x"\n[gaze]\nrate_hz = 0\n')
+    with pytest.raises(SystemExit) as info:
+        load_rig_or_exit(path)
+    assert info.value.code == 2
+    assert f"{path}: gaze.rate_hz: input should be greater than 0" in capsys.readouterr().err
+    path.write_text('[rig]\nname = "x"\n')
+    assert load_rig_or_exit(path).name == "x"

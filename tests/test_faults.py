@@ -14,6 +14,7 @@ from functools import partial
 from pathlib import Path
 
 import numpy as np
+import pytest
 from conftest import REPO, RunningSupervisor, poll_until
 
 from gazed.eval.loop import private_rig
@@ -21,6 +22,8 @@ from gazed.eval.loop_metrics import gaze_errors_rad
 from gazed.geometry.pose import CameraPose
 from gazed.messages import GazeStateName, SimTruth
 from gazed.topics import GAZE_STATE, SERVO_STATUS, SIM_TRUTH
+
+pytestmark = pytest.mark.e2e
 
 IN_FOVEA_FRAMES = 10  # tracking = the target inside the fovea for this many frames in a row
 # the first fault comes once tracking is established (1 s in the fovea), not in the first
@@ -45,7 +48,7 @@ class Watch:
         self.events: list[tuple[int, str]] = []  # gaze transitions and servo link changes
 
     def pump(self) -> None:
-        self.supervisor.bus.wait(0.2)
+        self.supervisor.wakeup.wait(0.2)
         self.truth.extend(self._truth.take())
         for status in self._status.take():
             if status.holding:

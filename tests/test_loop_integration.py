@@ -12,12 +12,15 @@ import time
 from pathlib import Path
 
 import psutil
+import pytest
 from conftest import PYTHON, REPO, RunningSupervisor, child_env, pid_alive, poll_until
 
 from gazed.eval.loop import private_rig
 from gazed.eval.loop_metrics import LoopRecord, score
 from gazed.geometry.pose import CameraPose
 from gazed.topics import ESTIMATOR_STATE, GAZE_STATE, SERVO_COMMAND, SIM_TRUTH
+
+pytestmark = pytest.mark.e2e
 
 RUN_S = 12.0
 
@@ -38,7 +41,7 @@ def test_sim_rig_tracks_and_stops_parked(tmp_path: Path) -> None:
         assert set(pids) == {"sim", "servo", "vision", "estimator", "gaze"}
         started = time.monotonic()
         while time.monotonic() - started < RUN_S:  # record what the loop publishes
-            bus.wait(0.5)
+            supervisor.wakeup.wait(0.5)
             record.truth.extend(truth.take())
             record.states.extend(states.take())
             record.commands.extend(commands.take())

@@ -84,7 +84,15 @@ SAMPLES: list[m.Message] = [
         target_height_m=1.0,
         head=HEAD,
     ),
-    m.Health(t_capture_ns=12, process="vision", pid=1, uptime_s=3.0, counters={"malformed": 1}),
+    m.Health(
+        t_capture_ns=12,
+        process="vision",
+        pid=1,
+        uptime_s=3.0,
+        counters={"malformed": 1},
+        subscribes=("servo/odometry", "sim/frame"),
+        publishes=("vision/detection", "vision/health"),
+    ),
     m.GazeCommand(
         t_capture_ns=14,
         command="trace",
@@ -129,6 +137,7 @@ def test_every_topic_model_has_a_sample() -> None:
 
 def test_schema_id_names_model_and_version() -> None:
     assert m.Detection.schema_id() == "gazed.Detection/1"
+    assert m.Health.schema_id() == "gazed.Health/2"  # subscribes and publishes added
 
 
 def test_stamped_uses_now_by_default() -> None:

@@ -1,4 +1,4 @@
-"""A rig spread over two hosts through a zenoh router (issue 9 item 6).
+"""A rig spread over two hosts through a zenoh router.
 
 Two network namespaces joined by a veth pair stand for two machines: host A runs the router
 (`gazed run` of a rig with every process disabled, listening on A's veth address) and a
@@ -28,6 +28,8 @@ from pathlib import Path
 
 import pytest
 
+pytestmark = pytest.mark.e2e
+
 REPO = Path(__file__).resolve().parents[1]
 PORT = 17947  # inside the namespaces: no other test can hold it
 ADDRESS_A, ADDRESS_B = "10.231.7.1", "10.231.7.2"
@@ -45,6 +47,7 @@ def observe(rig_path: Path) -> None:
     from gazed.eval.loop_metrics import gaze_errors_rad
     from gazed.geometry.pose import CameraPose
     from gazed.topics import SIM_TRUTH
+    from gazed.wakeup import Wakeup
 
     rig = load_rig(rig_path)
     pose = CameraPose.from_rig(rig)
@@ -57,15 +60,18 @@ def observe(rig_path: Path) -> None:
             break
         except BusError:
             stop.wait(0.2)  # the router is not up yet
+    wakeup = Wakeup()
+    bus.on_arrival(wakeup.notify)
     truth = bus.subscribe(SIM_TRUTH, capacity=10_000)
     try:
         while not stop.is_set():
-            bus.wait(0.5)
+            wakeup.wait(0.5)
             for frame in truth.take():
                 error = math.degrees(float(gaze_errors_rad([frame], pose)[0]))
                 print(json.dumps({"t": frame.t_capture_ns, "error_deg": error}), flush=True)
     finally:
         bus.close()
+        wakeup.close()
 
 
 # --- the test ------------------------------------------------------------------------------

@@ -1,4 +1,4 @@
-"""The rig loader under random input (issue 9 item 3): any text, any TOML document and any value
+"""The rig loader under random input: any text, any TOML document and any value
 for any key of any section either loads or raises `RigError` — never another exception — and
 every problem line names the file and then a key (one in the document, or a field of the section
 it sits in: a missing key, a cross-field check). Only document-level problems (TOML syntax,

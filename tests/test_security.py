@@ -1,4 +1,4 @@
-"""The bus closed to strangers (issue 9 item 5).
+"""The bus closed to strangers.
 
 - By default every socket of every process (supervisor included) is TCP on loopback: the
   supervisor's router listens on the rig's loopback endpoint only, each process connects to it
@@ -31,18 +31,11 @@ import tomlkit
 import zenoh
 from conftest import REPO, RunningSupervisor, poll_until, write_rig
 
-from gazed.bus import (
-    TOOLS_IDENTITY,
-    Bus,
-    BusError,
-    Subscription,
-    identity_of,
-    open_session,
-    session_config,
-)
+from gazed.bus import Bus, Subscription
 from gazed.config import SERVICE_NAMES, BusSection, load_rig
 from gazed.eval.loop import private_rig
 from gazed.messages import Detection, GazeDemand, Health, Odometry
+from gazed.session import TOOLS_IDENTITY, BusError, identity_of, open_session, session_config
 from gazed.topics import (
     GAZE_DEMAND,
     SERVO_COMMAND,
@@ -80,6 +73,7 @@ def _is_loopback(ip: str) -> bool:
     return (mapped or address).is_loopback
 
 
+@pytest.mark.e2e
 def test_every_socket_is_loopback_and_nothing_scouts(tmp_path: Path) -> None:
     rig_path = private_rig(REPO / "configs" / "sim.toml", tmp_path, "oval", None, None, 2, None)
     supervisor = RunningSupervisor(rig_path, tmp_path)
@@ -240,6 +234,7 @@ def stranger_bus(
     return load_rig(copy).bus
 
 
+@pytest.mark.e2e
 def test_a_stranger_cannot_steer_the_head(tmp_path: Path) -> None:
     rig_path, passwords = secured_rig(tmp_path, ("sim", "servo"))
     supervisor = RunningSupervisor(rig_path, tmp_path)

@@ -20,7 +20,8 @@ from conftest import poll_until, write_rig
 from gazed.bus import Bus, Publisher
 from gazed.config import load_rig
 from gazed.messages import Detection
-from gazed.topics import VISION_DETECTION
+from gazed.topics import VISION_DETECTION, health
+from gazed.wakeup import Wakeup
 from services.runtime import (
     MAX_CONSECUTIVE_STEP_FAILURES,
     STEP_RETRY_S,
@@ -83,8 +84,10 @@ class Recorder:
         self.closed = True
 
 
-def running(bus: Bus, service: Recorder) -> tuple[ServiceLoop, threading.Thread, list[int]]:
-    loop = ServiceLoop("vision", bus, service, StopFlag())
+def running(
+    bus: Bus, service: Recorder, wakeup: Wakeup
+) -> tuple[ServiceLoop, threading.Thread, list[int]]:
+    loop = ServiceLoop("vision", bus, service, StopFlag(), wakeup)
     result: list[int] = []
 
     def body() -> None:
@@ -113,11 +116,16 @@ def running_on_a_rig(
 ) -> Iterator[Running]:
     """A router, `process`'s session running a Recorder's loop, and a tool's publisher of
     detections; `settings` set on the Recorder before its loop starts."""
-    with Bus(rig, "router", router=True), Bus(rig, process) as bus, Bus(rig, "tool") as sender:
+    with (
+        Bus(rig, "router", router=True),
+        Bus(rig, process) as bus,
+        Bus(rig, "tool") as sender,
+        Wakeup() as wakeup,
+    ):
         service = Recorder(bus, immediate)
         for name, value in settings.items():
             setattr(service, name, value)
-        loop, thread, result = running(bus, service)
+        loop, thread, result = running(bus, service, wakeup)
         publisher = sender.publisher(VISION_DETECTION)
         poll_until(publisher.matched, 5.0)
         yield Running(bus, service, loop, thread, result, publisher)
@@ -215,3 +223,15 @@ def test_steps_stop_at_close(rig) -> None:
         time.sleep(0.1)  # a step would have run inline by now
     assert service.closed and result == [0]
     assert len(service.steps) == steps
+
+
+def test_health_reports_the_keys_the_process_subscribes_and_publishes(rig) -> None:
+    with Bus(rig, "router", router=True) as router:
+        reports = router.subscribe(health("vision"))
+        with Bus(rig, "vision") as bus, Wakeup() as wakeup:
+            service = Recorder(bus, immediate=True)
+            loop, thread, _ = running(bus, service, wakeup)
+            report = poll_until(reports.latest, 5.0)
+            stopped(bus, loop, thread)
+    assert report.subscribes == ("vision/detection",)
+    assert report.publishes == ("vision/health",)

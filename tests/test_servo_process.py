@@ -25,6 +25,7 @@ from gazed.servo import make_codec
 from gazed.servo.transport import BITS_PER_BYTE
 from gazed.sim.head_emulator import HeadEmulator
 from gazed.topics import GAZE_DEMAND, SERVO_COMMAND, SERVO_ODOMETRY, SERVO_STATUS, health
+from gazed.wakeup import Wakeup
 
 PORTS = {"pelco-d": 17511, "visca": 17512, "flir-ptu": 17513, "dynamixel": 17514}
 SERVO_KEYS = {
@@ -75,6 +76,8 @@ class Loop:
 
     def __init__(self, bus: Bus) -> None:
         self.bus = bus
+        self.wakeup = Wakeup()  # its pipe lives as long as the test
+        bus.on_arrival(self.wakeup.notify)
         self.demands = bus.publisher(GAZE_DEMAND)
         self._odometry = bus.subscribe(SERVO_ODOMETRY)
         self._status = bus.subscribe(SERVO_STATUS)
@@ -106,7 +109,7 @@ class Loop:
         def check():
             if keep_demanding is not None:
                 self.demand(*keep_demanding)
-            self.bus.wait(0.02)
+            self.wakeup.wait(0.02)
             return predicate(self.update())
 
         return poll_until(check, timeout_s, interval_s=0.0)

@@ -13,6 +13,7 @@ from gazed.bus import Bus
 from gazed.config import load_rig
 from gazed.messages import SimTruth
 from gazed.topics import SIM_FRAME, SIM_TRUTH
+from gazed.wakeup import Wakeup
 
 
 def test_frames_truth_and_the_head_port(tmp_path: Path) -> None:
@@ -25,7 +26,8 @@ def test_frames_truth_and_the_head_port(tmp_path: Path) -> None:
     )
     rig_path = write_rig(tmp_path, body)
     rig = load_rig(rig_path)
-    with Bus(rig, "test", router=True) as bus:
+    with Bus(rig, "test", router=True) as bus, Wakeup() as wakeup:
+        bus.on_arrival(wakeup.notify)
         frames = bus.subscribe(SIM_FRAME)
         truths = bus.subscribe(SIM_TRUTH)
         sim = subprocess.Popen(
@@ -36,7 +38,7 @@ def test_frames_truth_and_the_head_port(tmp_path: Path) -> None:
             truth: dict[int, SimTruth] = {}
 
             def enough() -> bool:
-                bus.wait(0.1)
+                wakeup.wait(0.1)
                 if (frame := frames.latest()) is not None:
                     received.append(frame)
                 truth.update({t.seq: t for t in truths.take()})

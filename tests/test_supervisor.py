@@ -16,6 +16,8 @@ from conftest import FAKE, PYTHON, RunningSupervisor, child_env, pid_alive, poll
 
 from gazed.config import SERVICE_NAMES
 
+pytestmark = pytest.mark.e2e
+
 
 @pytest.fixture
 def running(tmp_path: Path) -> Iterator[RunningSupervisor]:

@@ -40,6 +40,7 @@ from gazed.topics import (
     SIM_TRUTH,
     SUPERVISOR_STATUS,
 )
+from gazed.wakeup import Wakeup
 
 FILTERS = ("imm", "innovation", "alphabeta", "image-cv", "none")
 COMPARED = ("imm", "image-cv", "none")
@@ -170,14 +171,17 @@ def running(rig_path: Path) -> Iterator[tuple[Rig, subprocess.Popen[bytes], Path
 @contextlib.contextmanager
 def observed(
     rig_path: Path, name: str, timeout_s: float = START_TIMEOUT_S
-) -> Iterator[tuple[Rig, Bus]]:
+) -> Iterator[tuple[Rig, Bus, Wakeup]]:
     """`running(rig_path)` with a bus session called `name` on its bus, opened once the router
-    listens (within timeout_s) and closed on the way out (the benches that watch a rig)."""
+    listens (within timeout_s) and closed on the way out, and a `Wakeup` that every arrival
+    on it wakes (the benches that watch a rig)."""
     with running(rig_path) as (rig, supervisor, log_path):
         bus = Bus(rig, name)
         open_observer(bus, supervisor, log_path, timeout_s)
         try:
-            yield rig, bus
+            with Wakeup() as wakeup:
+                bus.on_arrival(wakeup.notify)
+                yield rig, bus, wakeup
         finally:
             bus.close()
 
@@ -261,6 +265,8 @@ def _record(
     bus = Bus(rig, "eval")
     deadline = time.monotonic() + START_TIMEOUT_S
     open_observer(bus, supervisor, log_path)
+    wakeup = Wakeup()
+    bus.on_arrival(wakeup.notify)
     try:
         truth, states = (
             bus.subscribe(SIM_TRUTH, capacity=100000),
@@ -272,7 +278,7 @@ def _record(
         )
         servo_statuses = bus.subscribe(SERVO_STATUS, capacity=10000)
         status = bus.subscribe(SUPERVISOR_STATUS)
-        pids = _wait_running(bus, status, supervisor, deadline, log_path)
+        pids = _wait_running(wakeup, status, supervisor, deadline, log_path)
         for subscription in (truth, states, commands, estimates, servo_statuses):
             subscription.take()
         processes = {name: psutil.Process(pid) for name, pid in pids.items()}
@@ -281,7 +287,7 @@ def _record(
         record = LoopRecord([], [], [], [])
         servo: list[ServoStatus] = []
         while time.monotonic() - started < seconds:
-            bus.wait(0.5)
+            wakeup.wait(0.5)
             record.truth.extend(truth.take())
             record.states.extend(states.take())
             record.commands.extend(commands.take())
@@ -298,15 +304,20 @@ def _record(
         }
         return record, cpu, servo
     finally:
+        wakeup.close()
         bus.close()
 
 
 def _wait_running(
-    bus: Bus, status: Any, supervisor: subprocess.Popen[bytes], deadline: float, log_path: Path
+    wakeup: Wakeup,
+    status: Any,
+    supervisor: subprocess.Popen[bytes],
+    deadline: float,
+    log_path: Path,
 ) -> dict[str, int]:
     """Pids of the processes once the supervisor reports every one running."""
     while time.monotonic() < deadline:
-        bus.wait(0.5)
+        wakeup.wait(0.5)
         latest = status.latest()
         if latest is not None and latest.state == "running":
             running = {p.name: p.pid for p in latest.processes if p.state == "running" and p.pid}

@@ -28,22 +28,21 @@ import time
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
-from gazed.bus import Bus, BusError
+from gazed.bus import Bus, BusError, Subscription
 from gazed.config import Rig
+from gazed.geometry.calibrate_cli import Solved, calibrate, calibrate_options
+from gazed.geometry.calibration import CalibrationError
 from gazed.geometry.calibration_file import CalibrationFileError
 from gazed.geometry.homography import GroundHomography
 from gazed.geometry.kinematics import HeadKinematics
-from gazed.geometry.line_calibration import CalibrationLine
+from gazed.geometry.line_calibration import CalibrationLine, calibrate_lines
 from gazed.geometry.pose import CameraPose
 from gazed.messages import GazeCommand, TraceResult
 from gazed.topics import GAZE_COMMAND, GAZE_TRACE
-
-if TYPE_CHECKING:
-    from gazed.geometry.calibrate_cli import Solved
+from gazed.wakeup import Wakeup
 
 GAZE_WAIT_S = 10.0
 LINE_TIMEOUT_S = 120.0
@@ -113,41 +112,45 @@ def trace_lines(rig: Rig, lines: list[TraceLine]) -> list[tuple[TraceLine, Trace
             f"no bus answers for rig '{rig.name}': {exc} (is `gazed run` running?)"
         ) from exc
     try:
-        commands = bus.publisher(GAZE_COMMAND)
-        results = bus.subscribe(GAZE_TRACE)
-        deadline = time.monotonic() + GAZE_WAIT_S
-        while not commands.matched():
-            if time.monotonic() > deadline:
-                raise CalibrationFileError(
-                    f"rig '{rig.name}': no gaze process reads {GAZE_COMMAND.suffix}"
+        with Wakeup() as wakeup:
+            bus.on_arrival(wakeup.notify)
+            commands = bus.publisher(GAZE_COMMAND)
+            results = bus.subscribe(GAZE_TRACE)
+            deadline = time.monotonic() + GAZE_WAIT_S
+            while not commands.matched():
+                if time.monotonic() > deadline:
+                    raise CalibrationFileError(
+                        f"rig '{rig.name}': no gaze process reads {GAZE_COMMAND.suffix}"
+                    )
+                wakeup.wait(0.1)
+            traced = []
+            for k, line in enumerate(lines):
+                request_id = f"trace-{k + 1}-{time.time_ns()}"
+                pan, tilt = line.start_rad
+                commands.put(
+                    GazeCommand(
+                        t_capture_ns=time.time_ns(),
+                        command="trace",
+                        request_id=request_id,
+                        pan_rad=pan,
+                        tilt_rad=tilt,
+                        max_samples=line.max_samples,
+                    )
                 )
-            bus.wait(0.1)
-        traced = []
-        for k, line in enumerate(lines):
-            request_id = f"trace-{k + 1}-{time.time_ns()}"
-            pan, tilt = line.start_rad
-            commands.put(
-                GazeCommand(
-                    t_capture_ns=time.time_ns(),
-                    command="trace",
-                    request_id=request_id,
-                    pan_rad=pan,
-                    tilt_rad=tilt,
-                    max_samples=line.max_samples,
-                )
-            )
-            print(f"tracing {line.label} ...", file=sys.stderr, flush=True)
-            traced.append((line, _wait_result(bus, results, request_id, line)))
-        return traced
+                print(f"tracing {line.label} ...", file=sys.stderr, flush=True)
+                traced.append((line, _wait_result(wakeup, results, request_id, line)))
+            return traced
     finally:
         bus.close()
 
 
-def _wait_result(bus: Bus, results: object, request_id: str, line: TraceLine) -> TraceResult:
+def _wait_result(
+    wakeup: Wakeup, results: Subscription[TraceResult], request_id: str, line: TraceLine
+) -> TraceResult:
     deadline = time.monotonic() + LINE_TIMEOUT_S
     while time.monotonic() < deadline:
-        bus.wait(0.5)
-        for result in results.take():  # type: ignore[attr-defined]
+        wakeup.wait(0.5)
+        for result in results.take():
             if result.request_id == request_id:
                 print(
                     f"  {len(result.samples_rad)} samples, ended by {result.reason}",
@@ -189,14 +192,15 @@ def trace_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--lines", type=Path, required=True, help="ground lines and a start gaze near each (TOML)"
     )
+    calibrate_options(parser)
+
+
+def trace_command(args: argparse.Namespace) -> int:
+    return calibrate(args, "trace", solve_trace)
 
 
 def solve_trace(args: argparse.Namespace, rig: Rig | None) -> Solved:
     """The `trace` method of `gazed calibrate`: trace, then the line calibration."""
-    from gazed.geometry.calibrate_cli import Solved  # the command's module imports this one
-    from gazed.geometry.calibration import CalibrationError
-    from gazed.geometry.line_calibration import calibrate_lines
-
     if rig is None:
         raise CalibrationFileError("trace needs the running rig: --rig RIG")
     traced = trace_lines(rig, read_trace_file(args.lines))

@@ -18,9 +18,10 @@ position it implies. `--json` prints exactly
 Exit 0 on success, 2 on a bad file, degenerate input or a bad rig (the message names the
 line or entry at fault).
 
-A subcommand is one `Subcommand` in SUBCOMMANDS: it adds its own arguments and turns the parsed
-arguments into a `Solved`; output and --write are shared, so another method (live tracing) is
-one more entry.
+A method is a command of the `calibrate` group in `gazed.cli.COMMANDS`: its
+`NAME_arguments` adds its own arguments and `calibrate_options`, and its `NAME_command` is
+`calibrate(args, NAME, solve)`, where `solve` turns the parsed arguments into a `Solved`;
+output and --write are shared.
 """
 
 from __future__ import annotations
@@ -34,13 +35,11 @@ import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from types import ModuleType
 
 import numpy as np
 import tomlkit
 
-from gazed.cli import load_rig_or_exit
-from gazed.config import HeadSection, Rig, RigError, parse_rig
+from gazed.config import HeadSection, Rig, RigError, load_rig_or_exit, parse_rig
 from gazed.geometry.calibration import CalibrationError, CalibrationResult
 from gazed.geometry.calibration_file import (
     CalibrationFile,
@@ -62,45 +61,39 @@ class Solved:
     rows: tuple[tuple[str, ...], ...]
 
 
-@dataclass(frozen=True)
-class Subcommand:
-    help: str
-    add_arguments: Callable[[argparse.ArgumentParser], None]
-    solve: Callable[[argparse.Namespace, Rig | None], Solved]
+Solve = Callable[[argparse.Namespace, Rig | None], Solved]
 
 
-def calibrate_arguments(parser: argparse.ArgumentParser) -> None:
-    methods = parser.add_subparsers(dest="method", required=True, metavar="METHOD")
-    for name, subcommand in SUBCOMMANDS.items():
-        sub = methods.add_parser(name, help=subcommand.help, description=subcommand.help)
-        subcommand.add_arguments(sub)
-        sub.add_argument(
-            "--rig",
-            type=Path,
-            help="rig whose [head] gives the kinematics and joint limits (default: the --write rig)",
-        )
-        sub.add_argument("--json", action="store_true", help="print the result as one JSON object")
-        sub.add_argument(
-            "--write",
-            type=Path,
-            metavar="RIG",
-            help="store the homography in this rig's [calibration], keeping its comments",
-        )
+def calibrate_options(parser: argparse.ArgumentParser) -> None:
+    """The options every method shares: the rig, JSON output, writing the result."""
+    parser.add_argument(
+        "--rig",
+        type=Path,
+        help="rig whose [head] gives the kinematics and joint limits (default: the --write rig)",
+    )
+    parser.add_argument("--json", action="store_true", help="print the result as one JSON object")
+    parser.add_argument(
+        "--write",
+        type=Path,
+        metavar="RIG",
+        help="store the homography in this rig's [calibration], keeping its comments",
+    )
 
 
-def calibrate_command(args: argparse.Namespace) -> int:
+def calibrate(args: argparse.Namespace, method: str, solve: Solve) -> int:
+    """Solve with `method`, print the result, and store it with --write."""
     rig_path = args.rig or args.write
     rig = load_rig_or_exit(rig_path) if rig_path is not None else None
     try:
-        solved = SUBCOMMANDS[args.method].solve(args, rig)
+        solved = solve(args, rig)
     except CalibrationFileError as exc:
-        print(f"gazed calibrate {args.method}: {exc}", file=sys.stderr)
+        print(f"gazed calibrate {method}: {exc}", file=sys.stderr)
         return 2
     result = solved.result
     print(_json(result) if args.json else _report(solved))
     if args.write is not None:
         note = (
-            f"gazed calibrate {args.method} {solved.source}: n = {result.n}, "
+            f"gazed calibrate {method} {solved.source}: n = {result.n}, "
             f"rms {result.rms_m:.3f} m, max {result.max_m:.3f} m"
         )
         try:
@@ -110,6 +103,24 @@ def calibrate_command(args: argparse.Namespace) -> int:
             return 2
         print(f"wrote [calibration] homography to {args.write}", file=sys.stderr)
     return 0
+
+
+def points_arguments(parser: argparse.ArgumentParser) -> None:
+    _file_arguments(parser, "TOML with [[point]] tables, or CSV with pan_deg,tilt_deg,x_m,y_m")
+    calibrate_options(parser)
+
+
+def points_command(args: argparse.Namespace) -> int:
+    return calibrate(args, "points", _solve_points)
+
+
+def lines_arguments(parser: argparse.ArgumentParser) -> None:
+    _file_arguments(parser, "TOML with [[line]] tables (phi_deg, d_m, samples_deg)")
+    calibrate_options(parser)
+
+
+def lines_command(args: argparse.Namespace) -> int:
+    return calibrate(args, "lines", _solve_lines)
 
 
 def write_homography(rig_path: Path, matrix: np.ndarray, note: str) -> None:
@@ -141,14 +152,6 @@ def _file_arguments(parser: argparse.ArgumentParser, what: str) -> None:
         choices=("pan-tilt", "tilt-pan"),
         help="the head's axis order (else the file's `kinematics` or the rig's [head])",
     )
-
-
-def _points_arguments(parser: argparse.ArgumentParser) -> None:
-    _file_arguments(parser, "TOML with [[point]] tables, or CSV with pan_deg,tilt_deg,x_m,y_m")
-
-
-def _lines_arguments(parser: argparse.ArgumentParser) -> None:
-    _file_arguments(parser, "TOML with [[line]] tables (phi_deg, d_m, samples_deg)")
 
 
 def _solve_points(args: argparse.Namespace, rig: Rig | None) -> Solved:
@@ -212,32 +215,6 @@ def _head(
         said = ", ".join(f"{name} says {value}" for name, value in given.items())
         raise CalibrationFileError(f"{file.path}: kinematics disagree: {said}")
     return HeadKinematics(next(iter(given.values()))), rig.head if rig is not None else None
-
-
-SUBCOMMANDS: dict[str, Subcommand] = {
-    "points": Subcommand(
-        "homography from 4+ gaze-angle <-> ground-point correspondences (seed 000 §3.1)",
-        _points_arguments,
-        _solve_points,
-    ),
-    "lines": Subcommand(
-        "homography from 4+ traced ground lines, no endpoint matching (seed 000 §3.2)",
-        _lines_arguments,
-        _solve_lines,
-    ),
-    "trace": Subcommand(
-        "trace 4+ ground lines with the running rig, then the line calibration (seed 000 §3.2.1)",
-        lambda parser: _trace().trace_arguments(parser),
-        lambda args, rig: _trace().solve_trace(args, rig),
-    ),
-}
-
-
-def _trace() -> ModuleType:
-    """gazed.gaze.trace_cli, imported only when tracing (it needs the bus)."""
-    from gazed.gaze import trace_cli
-
-    return trace_cli
 
 
 def _json(result: CalibrationResult) -> str:

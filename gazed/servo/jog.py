@@ -19,25 +19,24 @@ import math
 import time
 from pathlib import Path
 
-from gazed.cli import load_rig_or_exit
-from gazed.config import Rig
+from gazed.config import Rig, load_rig_or_exit
 from gazed.geometry.kinematics import device_from_joint, joint_from_device
 from gazed.servo import CodecError, HandshakeError, Reply, make_codec
 from gazed.servo.driver import ServoDriver
 from gazed.servo.transport import LinkError, SerialTransport
 
 
-def servo_arguments(parser: argparse.ArgumentParser) -> None:
-    actions = parser.add_subparsers(dest="action", required=True, metavar="ACTION")
-    jog = actions.add_parser("jog", help="send one command to the head and show the reply decoded")
-    jog.add_argument("--rig", required=True, type=Path, help="rig description (TOML)")
-    what = jog.add_mutually_exclusive_group(required=True)
+def jog_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--rig", required=True, type=Path, help="rig description (TOML)")
+    what = parser.add_mutually_exclusive_group(required=True)
     what.add_argument("--pan-deg", type=float, help="go to this pan (joint angle, with --tilt-deg)")
     what.add_argument("--stop", action="store_true", help="stop both axes where they are")
     what.add_argument("--query", action="store_true", help="read both axes' positions")
-    jog.add_argument("--tilt-deg", type=float, help="go to this tilt (joint angle, with --pan-deg)")
-    jog.add_argument("--port", help="pyserial URL to use instead of the rig's [servo] port")
-    jog.add_argument(
+    parser.add_argument(
+        "--tilt-deg", type=float, help="go to this tilt (joint angle, with --pan-deg)"
+    )
+    parser.add_argument("--port", help="pyserial URL to use instead of the rig's [servo] port")
+    parser.add_argument(
         "--listen-ms",
         type=float,
         default=300.0,
@@ -45,7 +44,7 @@ def servo_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def servo_command(args: argparse.Namespace) -> int:
+def jog_command(args: argparse.Namespace) -> int:
     rig = load_rig_or_exit(args.rig)
     if (args.pan_deg is None) != (args.tilt_deg is None):
         print("gazed servo jog: --pan-deg and --tilt-deg go together")

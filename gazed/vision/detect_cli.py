@@ -29,7 +29,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from gazed.config import Rig, VisionSection
+from gazed.config import Rig, VisionSection, load_rig_or_exit
 from gazed.geometry.camera import CameraModel
 from gazed.geometry.kinematics import HeadKinematics
 from gazed.messages import Odometry
@@ -69,7 +69,7 @@ def detect_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def detect_command(args: argparse.Namespace) -> int:
-    rig = _load_rig(args.rig)
+    rig = load_rig_or_exit(args.rig) if args.rig is not None else None
     capture = cv2.VideoCapture(str(args.video))
     if not capture.isOpened():
         print(f"gazed detect: cannot read video {args.video}", file=sys.stderr)
@@ -81,14 +81,6 @@ def detect_command(args: argparse.Namespace) -> int:
         return 2
     finally:
         capture.release()
-
-
-def _load_rig(path: Path | None) -> Rig | None:
-    if path is None:
-        return None
-    from gazed.cli import load_rig_or_exit
-
-    return load_rig_or_exit(path)
 
 
 def _run(args: argparse.Namespace, rig: Rig | None, capture: cv2.VideoCapture) -> int:

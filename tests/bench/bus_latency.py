@@ -28,6 +28,7 @@ from gazed.bus import Bus
 from gazed.config import load_rig
 from gazed.messages import Detection, FrameHeader, HeadPose
 from gazed.topics import SIM_FRAME, VISION_DETECTION
+from gazed.wakeup import Wakeup
 
 PORT = 17490
 
@@ -86,11 +87,12 @@ def send(rig_path: Path, kind: str, count: int, links: str, detection_rate_hz: f
 def receive(rig_path: Path, kind: str, count: int, links: str) -> None:
     rig = load_rig(rig_path)
     latencies_ms: list[float] = []
-    with Bus(rig, NAMES[links][1]) as bus:
+    with Bus(rig, NAMES[links][1]) as bus, Wakeup() as wakeup:
+        bus.on_arrival(wakeup.notify)
         subscription = bus.subscribe(SIM_FRAME if kind == "frame" else VISION_DETECTION)
         deadline = time.monotonic() + 120
         while len(latencies_ms) < count and time.monotonic() < deadline:
-            bus.wait(1.0)
+            wakeup.wait(1.0)
             for item in subscription.take():
                 t_capture_ns = item.header.t_capture_ns if kind == "frame" else item.t_capture_ns
                 latencies_ms.append((time.time_ns() - t_capture_ns) / 1e6)

@@ -36,13 +36,13 @@ def main() -> None:
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as directory:
         rig_path = private_rig(args.rig, Path(directory), args.scenario, None, None, None, None)
-        with observed(rig_path, "observer") as (rig, bus):
+        with observed(rig_path, "observer") as (rig, bus, wakeup):
             detections = bus.subscribe(VISION_DETECTION, capacity=100000)
             truths = bus.subscribe(SIM_TRUTH, capacity=100000)
             end_s = time.monotonic() + SETTLE_S + args.seconds
             seen, truth = [], {}
             while time.monotonic() < end_s:
-                bus.wait(0.5)
+                wakeup.wait(0.5)
                 seen += detections.take()
                 truth.update((t.t_capture_ns, t) for t in truths.take())
     geometry = GroundGeometry.from_rig(rig)

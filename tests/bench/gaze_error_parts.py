@@ -54,21 +54,21 @@ def record(
 ) -> tuple[Rig, dict[str, list[Any]]]:
     with tempfile.TemporaryDirectory(prefix="gazed-parts-") as directory:
         rig_path = private_rig(rig_file, Path(directory), scenario, None, None, seed, None)
-        with observed(rig_path, "bench") as (rig, bus):
+        with observed(rig_path, "bench") as (rig, bus, wakeup):
             subscriptions = {k: bus.subscribe(t, capacity=100_000) for k, t in TOPICS.items()}
             states = bus.subscribe(GAZE_STATE, capacity=1000)
             deadline_s = time.monotonic() + START_TIMEOUT_S
             while not any(s.state == "pursuit" for s in states.take()):
                 if time.monotonic() > deadline_s:
                     raise SystemExit(f"no pursuit within {START_TIMEOUT_S:g} s")
-                bus.wait(0.1)
+                wakeup.wait(0.1)
             time.sleep(SETTLE_S)  # a bench, not a test
             for subscription in subscriptions.values():
                 subscription.take()
             recorded: dict[str, list] = {k: [] for k in TOPICS}
             end_s = time.monotonic() + seconds
             while time.monotonic() < end_s:
-                bus.wait(0.5)
+                wakeup.wait(0.5)
                 for k, subscription in subscriptions.items():
                     recorded[k].extend(subscription.take())
     return rig, recorded

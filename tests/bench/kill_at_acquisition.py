@@ -46,7 +46,7 @@ def vision_pid(statuses: list[SupervisorStatus]) -> int | None:
 def one_seed(rig_file: Path, scenario: str, seed: int, seconds: float) -> dict[str, Any]:
     with tempfile.TemporaryDirectory(prefix="gazed-kill-") as directory:
         rig_path = private_rig(rig_file, Path(directory), scenario, None, None, seed, None)
-        with observed(rig_path, "bench", START_TIMEOUT_S) as (rig, bus):
+        with observed(rig_path, "bench", START_TIMEOUT_S) as (rig, bus, wakeup):
             truth_sub = bus.subscribe(SIM_TRUTH, capacity=100_000)
             state_sub = bus.subscribe(GAZE_STATE, capacity=1000)
             status_sub = bus.subscribe(SUPERVISOR_STATUS, capacity=100)
@@ -55,7 +55,7 @@ def one_seed(rig_file: Path, scenario: str, seed: int, seconds: float) -> dict[s
             statuses: list[SupervisorStatus] = []
 
             def pump() -> None:
-                bus.wait(0.05)
+                wakeup.wait(0.05)
                 truth.extend(truth_sub.take())
                 states.extend(state_sub.take())
                 statuses.extend(status_sub.take())

@@ -38,17 +38,17 @@ TOPICS = {"truth": SIM_TRUTH, "candidates": VISION_CANDIDATES, "states": GAZE_ST
 def first_saccade(rig_file: Path, scenario: str, seed: int | None) -> str:
     with tempfile.TemporaryDirectory(prefix="gazed-aim-") as directory:
         rig_path = private_rig(rig_file, Path(directory), scenario, None, None, seed, None)
-        with observed(rig_path, "bench") as (rig, bus):
+        with observed(rig_path, "bench") as (rig, bus, wakeup):
             subscriptions = {k: bus.subscribe(t, capacity=100_000) for k, t in TOPICS.items()}
             recorded: dict[str, list] = {k: [] for k in TOPICS}
             deadline_s = time.monotonic() + START_TIMEOUT_S
             while not any(s.state == "saccade" for s in recorded["states"]):
                 if time.monotonic() > deadline_s:
                     return f"no saccade within {START_TIMEOUT_S:g} s"
-                bus.wait(0.1)
+                wakeup.wait(0.1)
                 for k, subscription in subscriptions.items():
                     recorded[k].extend(subscription.take())
-            bus.wait(0.2)  # the truth of the last frames before it
+            wakeup.wait(0.2)  # the truth of the last frames before it
             recorded["truth"].extend(subscriptions["truth"].take())
     saccade = next(s for s in recorded["states"] if s.state == "saccade")
     if saccade.reason != "motion candidate":

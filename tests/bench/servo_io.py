@@ -31,6 +31,7 @@ from gazed.bus import Bus  # noqa: E402
 from gazed.config import load_rig  # noqa: E402
 from gazed.messages import GazeDemand  # noqa: E402
 from gazed.topics import GAZE_DEMAND, SERVO_COMMAND, SERVO_ODOMETRY, SERVO_STATUS  # noqa: E402
+from gazed.wakeup import Wakeup  # noqa: E402
 
 # usual baud rates (PROTOCOLS.md): Pelco-D 2400/9600, VISCA 9600, PTU 9600, Dynamixel 57600
 CASES = [
@@ -82,10 +83,10 @@ def stop(process: subprocess.Popen) -> None:
         process.wait()
 
 
-def wait_connected(bus: Bus, status, timeout_s: float = 20.0) -> None:
+def wait_connected(wakeup: Wakeup, status, timeout_s: float = 20.0) -> None:
     deadline = time.monotonic() + timeout_s
     while time.monotonic() < deadline:
-        bus.wait(0.1)
+        wakeup.wait(0.1)
         if any(s.link == "connected" for s in status.take()):
             return
     raise RuntimeError("the servo process did not connect")
@@ -98,7 +99,8 @@ def run_case(protocol: str, baud: int, extra: str, seconds: float) -> dict[str, 
         for odometry_hz, demands in ((1000.0, False), (50.0, True)):
             rig_path = write_rig(directory, protocol, baud, odometry_hz, extra)
             rig = load_rig(rig_path)
-            with Bus(rig, "bench", router=True) as bus:
+            with Bus(rig, "bench", router=True) as bus, Wakeup() as wakeup:
+                bus.on_arrival(wakeup.notify)
                 odometry = bus.subscribe(SERVO_ODOMETRY, capacity=100000)
                 status = bus.subscribe(SERVO_STATUS)
                 commands = bus.subscribe(SERVO_COMMAND, capacity=100000)
@@ -108,32 +110,36 @@ def run_case(protocol: str, baud: int, extra: str, seconds: float) -> dict[str, 
                     time.sleep(0.05)
                 servo = spawn("-m", "services.servo", "--rig", str(rig_path))
                 try:
-                    wait_connected(bus, status)
+                    wait_connected(wakeup, status)
                     odometry.take()
                     if demands:
-                        results.update(measure_latency(bus, publisher, odometry, commands, seconds))
+                        results.update(
+                            measure_latency(wakeup, publisher, odometry, commands, seconds)
+                        )
                     else:
-                        results["odometry_max_hz"] = measure_rate(bus, odometry, seconds / 2)
+                        results["odometry_max_hz"] = measure_rate(wakeup, odometry, seconds / 2)
                 finally:
                     stop(servo)
                     stop(head)
     return results
 
 
-def measure_rate(bus: Bus, odometry, seconds: float) -> float:
+def measure_rate(wakeup: Wakeup, odometry, seconds: float) -> float:
     counts = []
     for _ in range(max(3, int(seconds))):
         odometry.take()
         started = time.monotonic()
         n = 0
         while time.monotonic() - started < 1.0:
-            bus.wait(0.05)
+            wakeup.wait(0.05)
             n += len(odometry.take())
         counts.append(n / (time.monotonic() - started))
     return statistics.median(counts)
 
 
-def measure_latency(bus: Bus, publisher, odometry, commands, seconds: float) -> dict[str, float]:
+def measure_latency(
+    wakeup: Wakeup, publisher, odometry, commands, seconds: float
+) -> dict[str, float]:
     latencies_ms: dict[int, float] = {}
     received = 0
     period_s = 1.0 / DEMAND_RATE_HZ
@@ -151,7 +157,7 @@ def measure_latency(bus: Bus, publisher, odometry, commands, seconds: float) -> 
             )
             k += 1
             next_s += period_s
-        bus.wait(max(0.0, next_s - time.monotonic()))
+        wakeup.wait(max(0.0, next_s - time.monotonic()))
         received += len(odometry.take())
         for message in commands.take():
             stamps = dict(message.stamps)

@@ -46,6 +46,7 @@ from gazed.topics import (  # noqa: E402
     SUPERVISOR_STATUS,
     health,
 )
+from gazed.wakeup import Wakeup  # noqa: E402
 
 START_TIMEOUT_S = 90.0
 SAMPLE_PERIOD_S = 10.0
@@ -61,6 +62,8 @@ class Soak:
         self.supervisor = supervisor
         self.log_path = log_path
         self.bus = Bus(rig, "soak")
+        self.wakeup = Wakeup()
+        self.bus.on_arrival(self.wakeup.notify)
         self.pose = CameraPose.from_rig(rig)
         self.pids: dict[str, int] = {}
         self.handles: dict[str, psutil.Process] = {}
@@ -94,7 +97,7 @@ class Soak:
         window_start = started
         record = LoopRecord([], [], [], [])
         while (now := time.monotonic()) - started < minutes * 60.0:
-            self.bus.wait(0.5)
+            self.wakeup.wait(0.5)
             self._check_supervisor()
             record.truth.extend(truth.take())
             record.states.extend(states.take())
@@ -125,6 +128,7 @@ class Soak:
 
     def close(self) -> None:
         self.bus.close()
+        self.wakeup.close()
 
     # --- pieces ---------------------------------------------------------------------------
 
@@ -138,7 +142,7 @@ class Soak:
     def _wait_running(self, statuses: Any) -> None:
         deadline = time.monotonic() + START_TIMEOUT_S
         while time.monotonic() < deadline:
-            self.bus.wait(0.5)
+            self.wakeup.wait(0.5)
             self._check_supervisor()
             latest = statuses.latest()
             if latest is None or latest.state != "running":

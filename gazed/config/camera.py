@@ -1,0 +1,67 @@
+"""`[camera]`: the frame source, the image size and the lens."""
+
+from __future__ import annotations
+
+from pydantic import Field, model_validator
+
+from gazed.config.section import Section
+
+
+class CameraSection(Section):
+    source: str = Field(
+        "sim",
+        description="'sim' (frames from the simulator on the bus), a device index such as '0', "
+        "a video file path, or an rtsp:// / http:// URL.",
+    )
+    width_px: int = Field(640, ge=16, le=8192, description="Image width in pixels.")
+    height_px: int = Field(480, ge=16, le=8192, description="Image height in pixels.")
+    rate_hz: float = Field(25.0, gt=0, le=1000, description="Frame rate the camera delivers.")
+    hfov_deg: float | None = Field(
+        60.0,
+        gt=0,
+        lt=180,
+        description="Horizontal field of view; used when fx_px/fy_px are not given.",
+    )
+    fx_px: float | None = Field(
+        None, gt=0, description="Focal length along u in pixels (overrides hfov_deg)."
+    )
+    fy_px: float | None = Field(
+        None, gt=0, description="Focal length along v in pixels (defaults to fx_px)."
+    )
+    cx_px: float | None = Field(
+        None, description="Principal point u in pixels (default: image centre)."
+    )
+    cy_px: float | None = Field(
+        None, description="Principal point v in pixels (default: image centre)."
+    )
+    distortion: list[float] = Field(
+        default_factory=list,
+        max_length=8,
+        description="OpenCV distortion coefficients k1, k2, p1, p2[, k3…]; empty for none.",
+    )
+    reopen_max_s: float = Field(
+        10.0,
+        gt=0,
+        le=600,
+        description="Longest wait before reopening a failed camera, stream or file (the wait "
+        "starts at 0.5 s and doubles).",
+    )
+    timeout_ms: float = Field(
+        5000.0,
+        gt=0,
+        le=60000,
+        description="How long a source may stay silent: the open/read timeout of streams and "
+        "files; no simulator frame for this long reports the link down.",
+    )
+
+    @model_validator(mode="after")
+    def _focal_length(self) -> CameraSection:
+        if self.fx_px is None and self.hfov_deg is None:
+            raise ValueError("hfov_deg: missing (expected hfov_deg or fx_px, the focal length)")
+        if self.fy_px is not None and self.fx_px is None:
+            raise ValueError("fx_px: missing (expected fx_px whenever fy_px is given)")
+        return self
+
+    @property
+    def frame_period_s(self) -> float:
+        return 1.0 / self.rate_hz

@@ -1,0 +1,118 @@
+"""`[estimator]`: the filter mode, its noises, gating and the prediction over the latency."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import Field
+
+from gazed.config.section import Section
+
+
+class EstimatorSection(Section):
+    filter: Literal["imm", "innovation", "alphabeta", "image-cv"] = Field(
+        "imm",
+        description="'imm' CSD/CS/CD EKFs on the ground plane; 'innovation' CP/CV/CA selection; "
+        "'alphabeta' adaptive alpha-beta; 'image-cv' constant velocity on gaze angles (2D baseline).",
+    )
+    stay_probability: float = Field(
+        0.96, gt=0, lt=1, description="IMM switching matrix diagonal J_d (the paper's 0.96)."
+    )
+    csd_speed_rate_noise_m_s2: float = Field(
+        0.5, gt=0, description="IMM CSD process noise: std of the unmodelled speed rate ṡ."
+    )
+    csd_turn_rate_noise_rad_s: float = Field(
+        0.5, gt=0, description="IMM CSD process noise: std of the unmodelled turn rate θ̇."
+    )
+    cs_speed_rate_noise_m_s2: float = Field(
+        0.5, gt=0, description="IMM CS process noise: std of the unmodelled speed rate ṡ."
+    )
+    cs_turn_accel_noise_rad_s2: float = Field(
+        3.0,
+        gt=0,
+        description="IMM CS process noise: std of the turn-rate change θ̈ (the paper: 30 rad²/s⁴).",
+    )
+    cd_jerk_noise_m_s3: float = Field(
+        1.0, gt=0, description="IMM CD process noise: std of the speed-rate change s̈."
+    )
+    cd_turn_rate_noise_rad_s: float = Field(
+        0.5, gt=0, description="IMM CD process noise: std of the unmodelled turn rate θ̇."
+    )
+    cp_velocity_noise_m_s: float = Field(
+        0.2, gt=0, description="CP process noise: std of the velocity (seed 003 §IV: 0.04 m²)."
+    )
+    cv_accel_noise_m_s2: float = Field(
+        0.5, gt=0, description="CV process noise: std of the acceleration (seed 003 §IV: 0.25)."
+    )
+    ca_jerk_noise_m_s3: float = Field(
+        0.5, gt=0, description="CA process noise: std of the jerk (seed 003 §IV: 0.25)."
+    )
+    selection_window: int = Field(
+        10, ge=1, le=1000, description="Innovation selection: window length in observations."
+    )
+    consistency_probability: float = Field(
+        0.99,
+        gt=0.5,
+        lt=1,
+        description="Innovation selection: a model is consistent while its windowed innovation "
+        "mean and NIS stay inside this chi-square probability.",
+    )
+    alphabeta_smoothing: float = Field(
+        0.2,
+        gt=0,
+        le=1,
+        description="alphabeta: weight of the newest squared error in its running variances "
+        "(1 = the instantaneous values of seed 004 eq. 10).",
+    )
+    image_cv_accel_noise_rad_s2: float = Field(
+        0.5, gt=0, description="image-cv process noise: std of the gaze-angle acceleration."
+    )
+    initial_speed_std_m_s: float = Field(
+        2.0,
+        gt=0,
+        description="Std of the velocity (m/s, or rad/s for image-cv) of a track that has one "
+        "position and no velocity yet.",
+    )
+    position_noise_m: float = Field(
+        0.1,
+        gt=0,
+        description="Std of a ground-plane position measurement where nothing better is known "
+        "(also the annotation noise assumed by `gazed eval estimator --data`).",
+    )
+    velocity_noise_m_s: float = Field(
+        0.2, gt=0, description="Std of a ground-plane velocity measurement."
+    )
+    gate_probability: float = Field(
+        0.999, gt=0.5, lt=1, description="Chi-square gate: measurements outside it are outliers."
+    )
+    reinit_after_misses: int = Field(
+        5,
+        ge=1,
+        le=1000,
+        description="Re-initialise the filter after this many consecutive gate failures.",
+    )
+    pixel_noise_px: float = Field(
+        2.0,
+        gt=0,
+        le=1000,
+        description="Std of a detection's target pixel (the live measurement's noise).",
+    )
+    pixel_rate_noise_px_s: float = Field(
+        30.0, gt=0, le=100000, description="Std of a detection's independent image velocity."
+    )
+    predict_over_latency: bool = Field(
+        True,
+        description="Predict to the instant the demand acts; false predicts to the measurement's own "
+        "time (no latency compensation: the baseline `gazed eval loop --filter none` compares against).",
+    )
+    actuation_latency_default_ms: float = Field(
+        20.0,
+        ge=0,
+        le=5000,
+        description="Actuation latency assumed until servo/command stamps have measured it.",
+    )
+    coast_max_ms: float = Field(
+        2000.0,
+        gt=0,
+        description="Predict without measurements for at most this long, then drop the track.",
+    )

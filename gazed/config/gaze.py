@@ -1,0 +1,106 @@
+"""`[gaze]`: the saccade/pursuit controller, lost search and line tracing."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import Field
+
+from gazed.config.section import Section
+
+
+class GazeSection(Section):
+    control: Literal["pursuit", "look-and-move"] = Field(
+        "pursuit",
+        description="'pursuit': continuous smooth pursuit (dynamic look-and-move); 'look-and-move': "
+        "move, settle, then look (PTZ cameras that cannot image while moving).",
+    )
+    rate_hz: float = Field(
+        50.0, gt=0, le=1000, description="Rate of the gaze controller's demands."
+    )
+    fovea_half_angle_deg: float = Field(
+        3.0,
+        gt=0,
+        le=45,
+        description="Target within this angle of the optical axis counts as foveated.",
+    )
+    settle_ms: float = Field(
+        80.0, ge=0, description="After a saccade, detections are ignored for this long."
+    )
+    lost_after_ms: float = Field(
+        600.0,
+        gt=0,
+        description="No detection for this long in pursuit -> lost (coast on prediction).",
+    )
+    saccade_tolerance_deg: float = Field(
+        0.5,
+        gt=0,
+        le=20,
+        description="A saccade has arrived when the head is this close to its goal, at rest.",
+    )
+    saccade_timeout_ms: float = Field(
+        3000.0, gt=0, description="A saccade not settled after this -> search."
+    )
+    candidate_min_score: float = Field(
+        0.0, description="Motion candidates scoring below this do not draw a saccade."
+    )
+    residual_gain: float = Field(
+        0.3,
+        ge=0,
+        le=1,
+        description="Pursuit feedback: share of the smoothed prediction residual added to the demand.",
+    )
+    residual_smoothing: float = Field(
+        0.2,
+        gt=0,
+        le=1,
+        description="Weight of each new residual in its running mean (1: no smoothing).",
+    )
+    lost_search_growth_deg_s: float = Field(
+        2.0,
+        ge=0,
+        le=180,
+        description=(
+            "Lost: the search region around the prediction grows this fast at least; once it is"
+            " wider than the fovea, the fovea tours its edge, a look at each stop."
+        ),
+    )
+    lost_search_max_deg: float = Field(
+        10.0,
+        ge=0,
+        le=90,
+        description=(
+            "Lost: largest search radius; a region growing past it (the prediction says too"
+            " little) sends the gaze back to search."
+        ),
+    )
+    trace_max_turn_deg: float = Field(
+        30.0,
+        gt=0,
+        le=180,
+        description="Line tracing: an edge turning more than this is a corner: the trace ends.",
+    )
+    trace_line_tolerance_deg: float = Field(
+        0.3,
+        gt=0,
+        le=10,
+        description="Line tracing: a sample this far off the line through the earlier ones means the edge turned.",
+    )
+    trace_misses: int = Field(
+        3,
+        ge=1,
+        le=100,
+        description="Line tracing: looks in a row without an edge before the trace ends.",
+    )
+    search_after_ms: float = Field(
+        3000.0, gt=0, description="Lost for this long -> back to search."
+    )
+    reacquire_detections: int = Field(
+        3,
+        ge=1,
+        le=25,
+        description=(
+            "Park, search and lost take a detection up only after this many in a row (one per"
+            " frame): a lone false detection while the head scans is not the target."
+        ),
+    )

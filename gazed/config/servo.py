@@ -1,0 +1,112 @@
+"""`[servo]`: the serial link and, chosen by `protocol`, the protocol's own keys."""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal, get_args
+
+from pydantic import BaseModel, Field, model_validator
+
+from gazed.config.section import Section
+
+
+class ServoLink(Section):
+    """Keys shared by every protocol: the serial link and the servo process's timing."""
+
+    port: str = Field(
+        "/tmp/gazed-sim-head",
+        description="pyserial URL: /dev/ttyUSB0, a pty path, socket://host:port, spy://…, loop://.",
+    )
+    baud: int = Field(9600, gt=0, description="Serial speed in baud.")
+    timeout_ms: float = Field(100.0, gt=0, le=10000, description="How long to wait for a reply.")
+    command_timeout_ms: float = Field(
+        500.0,
+        gt=0,
+        le=60000,
+        description="No fresh demand for this long -> the servo process holds position.",
+    )
+    odometry_rate_hz: float = Field(
+        50.0, gt=0, le=1000, description="How often the head's position is polled."
+    )
+    command_rate_hz: float = Field(
+        50.0,
+        gt=0,
+        le=1000,
+        description="Most set-points per second while a move is under way (a fresh demand is "
+        "written at once).",
+    )
+    reconnect_max_s: float = Field(
+        10.0, gt=0, le=600, description="Longest wait between reconnection attempts."
+    )
+
+
+class PelcoDServo(ServoLink):
+    protocol: Literal["pelco-d"] = Field(
+        description="Pelco-D over RS-485 with extended position commands."
+    )
+    address: int = Field(1, ge=1, le=255, description="Receiver address of the camera.")
+    position_feedback: bool = Field(
+        True,
+        description="The unit answers the 0x51/0x53 position queries; otherwise odometry is dead-reckoned.",
+    )
+    pan_speed_max_deg_s: float = Field(
+        120.0, gt=0, le=3600, description="Pan rate of drive speed 0x3F (speeds map linearly)."
+    )
+    tilt_speed_max_deg_s: float = Field(
+        90.0, gt=0, le=3600, description="Tilt rate of drive speed 0x3F (speeds map linearly)."
+    )
+
+
+class ViscaServo(ServoLink):
+    protocol: Literal["visca"] = Field(description="Sony VISCA over RS-232/422.")
+    address: int = Field(1, ge=1, le=7, description="Camera address on the VISCA chain.")
+    pan_deg_per_unit: float = Field(0.075, gt=0, description="Degrees per VISCA pan position unit.")
+    tilt_deg_per_unit: float = Field(
+        0.075, gt=0, description="Degrees per VISCA tilt position unit."
+    )
+    pan_speed: int = Field(24, ge=1, le=24, description="Pan speed byte of absolute moves (1-24).")
+    tilt_speed: int = Field(
+        20, ge=1, le=20, description="Tilt speed byte of absolute moves (1-20)."
+    )
+    pan_speed_max_deg_s: float = Field(
+        120.0, gt=0, le=3600, description="Pan rate of speed byte 0x18 (speeds map linearly)."
+    )
+    tilt_speed_max_deg_s: float = Field(
+        90.0, gt=0, le=3600, description="Tilt rate of speed byte 0x14 (speeds map linearly)."
+    )
+
+
+class FlirPtuServo(ServoLink):
+    protocol: Literal["flir-ptu"] = Field(
+        description="FLIR / Directed Perception PTU ASCII protocol."
+    )
+    pan_arcsec_per_position: float = Field(
+        46.2857, gt=0, description="Pan resolution (arc seconds per position)."
+    )
+    tilt_arcsec_per_position: float = Field(
+        46.2857, gt=0, description="Tilt resolution (arc seconds per position)."
+    )
+
+
+class DynamixelServo(ServoLink):
+    protocol: Literal["dynamixel"] = Field(description="Two Dynamixel X servos, protocol 2.0.")
+    pan_id: int = Field(1, ge=0, le=252, description="Dynamixel ID of the pan servo.")
+    tilt_id: int = Field(2, ge=0, le=252, description="Dynamixel ID of the tilt servo.")
+    center: int = Field(2048, ge=0, description="Position value of the joint's zero.")
+    units_per_rev: int = Field(4096, gt=0, description="Position units per revolution.")
+
+    @model_validator(mode="after")
+    def _distinct_ids(self) -> DynamixelServo:
+        if self.pan_id == self.tilt_id:
+            raise ValueError("tilt_id: same as pan_id (expected two distinct servo IDs)")
+        return self
+
+
+ServoSection = Annotated[
+    PelcoDServo | ViscaServo | FlirPtuServo | DynamixelServo, Field(discriminator="protocol")
+]
+SERVO_LINK_KEYS = frozenset(ServoLink.model_fields)
+# protocol name -> its section model
+SERVO_MODELS: dict[str, type[BaseModel]] = {
+    get_args(m.model_fields["protocol"].annotation)[0]: m
+    for m in get_args(get_args(ServoSection)[0])
+}
