@@ -149,6 +149,7 @@ def test_closing_removes_the_link_and_the_host_sees_the_port_vanish(tmp_path: Pa
     driver.disconnect()
 
 
+@pytest.mark.e2e
 def test_the_emulator_runs_alone(tmp_path: Path) -> None:
     rig_path = tmp_path / "rig.toml"
     link = tmp_path / "head"

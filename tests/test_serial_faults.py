@@ -19,6 +19,8 @@ from gazed.bus import Bus
 from gazed.config import load_rig
 from gazed.sim.head_emulator import HeadEmulator
 
+pytestmark = pytest.mark.e2e  # every test here starts the real processes
+
 VISCA_SYNTAX_ERROR = bytes.fromhex("906002ff")  # a NAK: camera 1, syntax error
 
 

@@ -27,6 +27,8 @@ from gazed.sim.head_emulator import HeadEmulator
 from gazed.topics import GAZE_DEMAND, SERVO_COMMAND, SERVO_ODOMETRY, SERVO_STATUS, health
 from gazed.wakeup import Wakeup
 
+pytestmark = pytest.mark.e2e  # every test here starts the real processes
+
 PORTS = {"pelco-d": 17511, "visca": 17512, "flir-ptu": 17513, "dynamixel": 17514}
 SERVO_KEYS = {
     "pelco-d": "",

@@ -7,6 +7,7 @@ import signal
 import subprocess
 from pathlib import Path
 
+import pytest
 from conftest import PYTHON, child_env, poll_until, write_rig
 
 from gazed.bus import Bus
@@ -14,6 +15,8 @@ from gazed.config import load_rig
 from gazed.messages import SimTruth
 from gazed.topics import SIM_FRAME, SIM_TRUTH
 from gazed.wakeup import Wakeup
+
+pytestmark = pytest.mark.e2e  # every test here starts the real processes
 
 
 def test_frames_truth_and_the_head_port(tmp_path: Path) -> None:

@@ -112,6 +112,7 @@ def test_service_steps_publish_detections_and_count_bad_frames(tmp_path: Path) -
     assert np.median(errors) <= 2.0
 
 
+@pytest.mark.e2e
 def test_vision_process_end_to_end(tmp_path: Path) -> None:
     path = write_rig(tmp_path, RIG_BODY, name=unique_rig_name("vision"), port=17602)
     rig = load_rig(path)
@@ -211,6 +212,7 @@ def test_vision_process_end_to_end(tmp_path: Path) -> None:
     assert published_candidates and all(c.width_px == 320 for c in published_candidates)
 
 
+@pytest.mark.e2e
 def test_vision_process_reads_a_video_file_as_its_camera(tmp_path: Path) -> None:
     """An OpenCV source: the file is paced like a camera, loops when it ends (reported as a
     reopen), and its frames are detected; no odometry, so compensation is off."""

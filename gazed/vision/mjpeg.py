@@ -16,6 +16,7 @@ another host (the rig says so explicitly).
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import threading
 
 import cv2
@@ -25,6 +26,7 @@ from aiohttp import web
 BOUNDARY = "gazedframe"
 JPEG_QUALITY = 80
 START_TIMEOUT_S = 5.0
+IDLE_CHECK_S = 0.5  # while no frame comes, how often a stream checks that its client is there
 
 
 class MjpegServer:
@@ -157,11 +159,13 @@ class MjpegServer:
         self.clients += 1
         sent = -1
         try:
-            while not self._closing:
+            while not self._closing and _connected(request):
                 sequence, jpeg = self._newest()
                 if sequence == sent or jpeg is None:
                     async with self._new_frame:
-                        await self._new_frame.wait()
+                        # woken by a frame, or after a while to notice a client that left
+                        with contextlib.suppress(TimeoutError):
+                            await asyncio.wait_for(self._new_frame.wait(), IDLE_CHECK_S)
                     continue
                 head = (
                     f"--{BOUNDARY}\r\nContent-Type: image/jpeg\r\n"
@@ -175,3 +179,8 @@ class MjpegServer:
         finally:
             self.clients -= 1
         return response
+
+
+def _connected(request: web.Request) -> bool:
+    transport = request.transport
+    return transport is not None and not transport.is_closing()
