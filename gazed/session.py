@@ -9,7 +9,7 @@ learns the others' from the router (gossip scouting, on for the router and the p
 sends them its messages directly — one hop instead of two through the router. Multicast
 scouting is off everywhere, so nothing is announced beyond the configured endpoints.
 
-Identity (DESIGN §3, README "Security and several hosts"): with `[bus] credentials_path` every
+Identity (DESIGN §3, docs/security.md): with `[bus] credentials_path` every
 session authenticates with zenoh's user/password scheme as its own identity: each of the rig's
 processes as its name (`supervisor`, `sim`, `servo`, `vision`, `estimator`, `gaze`), everything
 else (`gazed tail`/`status`/`latency`, observers, evaluations) as `tools`; a router hosted by the

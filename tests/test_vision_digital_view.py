@@ -42,12 +42,19 @@ def projected(view: CameraModel, wide: CameraModel, pan: float, tilt: float, kin
     return u.astype(int).ravel(), v.astype(int).ravel(), wide_px, real & inside
 
 
+@pytest.fixture(scope="module")
+def views() -> dict[str, DigitalView]:
+    """One view per head kinematics: building the lens table is the slow part."""
+    return {k: DigitalView(WIDE, VIEW, HeadKinematics(k)) for k in ("pan-tilt", "tilt-pan")}
+
+
 @pytest.mark.parametrize("kinematics", ["pan-tilt", "tilt-pan"])
 @pytest.mark.parametrize(("pan", "tilt"), POSES)
-def test_source_pixels_agree_with_opencvs_projection(kinematics: str, pan: float, tilt: float):
+def test_source_pixels_agree_with_opencvs_projection(
+    views: dict[str, DigitalView], kinematics: str, pan: float, tilt: float
+) -> None:
     head = HeadKinematics(kinematics)
-    view = DigitalView(WIDE, VIEW, head)
-    source = view.source_pixels(pan, tilt)
+    source = views[kinematics].source_pixels(pan, tilt)
     u, v, expected, seen = projected(VIEW, WIDE, pan, tilt, head)
     assert seen.sum() > 500
     got = source[v, u]
@@ -67,21 +74,20 @@ def test_without_distortion_the_view_is_the_rotation_homography() -> None:
     assert np.abs(source[v, u][seen] - expected[seen]).max() < 0.05
 
 
-def test_render_samples_the_wide_frame_where_the_rays_land() -> None:
+def test_render_samples_the_wide_frame_where_the_rays_land(views: dict[str, DigitalView]) -> None:
     # a smooth pattern whose value at any wide pixel is known
     vv, uu = np.mgrid[0 : WIDE.height_px, 0 : WIDE.width_px].astype(float)
     pattern = lambda u, v: 127.5 + 60 * np.sin(u / 23.0) + 60 * np.cos(v / 17.0)  # noqa: E731
     frame = np.clip(pattern(uu, vv), 0, 255).astype(np.float32)
-    view = DigitalView(WIDE, VIEW)
-    image = view.render(frame, 0.2, -0.1)
+    image = views["pan-tilt"].render(frame, 0.2, -0.1)
     assert image.shape == (VIEW.height_px, VIEW.width_px)
     u, v, expected, seen = projected(VIEW, WIDE, 0.2, -0.1, HeadKinematics())
     assert np.abs(image[v, u][seen] - pattern(*expected[seen].T)).max() < 1.0
 
 
-def test_a_view_past_the_frame_is_black() -> None:
+def test_a_view_past_the_frame_is_black(views: dict[str, DigitalView]) -> None:
     frame = np.full((WIDE.height_px, WIDE.width_px, 3), 200, np.uint8)
-    view = DigitalView(WIDE, VIEW)
+    view = views["pan-tilt"]
     assert view.render(frame, 0.0, 0.0).min() == 200  # the centre sees only the frame
     assert view.render(frame, math.radians(170.0), 0.0).max() == 0  # looking backwards
     half = view.render(frame, math.radians(45.0), 0.0)
