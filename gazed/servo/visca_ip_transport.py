@@ -5,8 +5,10 @@ same packets as on a serial line, and this wraps each in Sony's header (`visca_i
   it, and every message after it takes the next sequence number (0xFFFFFFFF wraps to 0).
 - The reply to the message awaiting one must carry its sequence number. A command's later
   completion (`z0 5y FF`) carries the number of the command whose ACK named socket y, and is
-  passed on; any other reply (a late duplicate, a reply to another number) is dropped and
-  counted, and so is a datagram that is not a message.
+  passed on (a completion is never the direct answer: after a RESET, a completion of a command
+  from before it may carry the number of the message awaiting its reply); any other reply (a
+  late duplicate, a reply to another number) is dropped and counted, and so is a datagram that
+  is not a message.
 - A message unanswered after `timeout_s / (MAX_RESENDS + 1)` is sent again with the same
   sequence number (Sony p.32), at most `MAX_RESENDS` times; after that, the driver's read
   timeout makes it a link error.
@@ -202,13 +204,14 @@ class ViscaIpTransport:
             return b""
         waiting = self._awaiting
         payload = message.payload
-        if waiting is not None and message.sequence == waiting.sequence:
+        if is_completion(payload):  # never the direct answer, whatever its number
+            if self._executing.get(payload[1] & 0x0F) == message.sequence:
+                del self._executing[payload[1] & 0x0F]
+                return payload
+        elif waiting is not None and message.sequence == waiting.sequence:
             self._awaiting = None
             if is_ack(payload):
                 self._executing[payload[1] & 0x0F] = message.sequence
-            return payload
-        if is_completion(payload) and self._executing.get(payload[1] & 0x0F) == message.sequence:
-            del self._executing[payload[1] & 0x0F]
             return payload
         self.counters["foreign_replies"] += 1
         return b""
