@@ -7,22 +7,23 @@ and a silent camera taking the link down until it answers again (backoff)."""
 from __future__ import annotations
 
 import math
+import subprocess
 import time
 from collections.abc import Callable
 from pathlib import Path
 
 import pytest
-from conftest import poll_until
+from conftest import PYTHON, child_env, poll_until
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from servo_link_support import Demands, demand
+from servo_link_support import Demands, demand, link_rig
 
 from gazed.config import Rig, load_rig
 from gazed.servo import make_codec, visca_ip
 from gazed.servo.driver import DeviceError, ServoDriver
 from gazed.servo.head_link import HeadLink, LinkStep
 from gazed.servo.visca_ip_transport import MAX_RESENDS, ViscaIpTransport
-from gazed.sim.head_emulator import HeadEmulator
+from gazed.sim.head_emulator import EmulatorError, HeadEmulator
 from gazed.sim.head_visca_ip import ViscaIpSession
 from services.runtime import Now
 
@@ -255,3 +256,32 @@ def test_a_command_refused_by_the_camera_raises_a_device_error(tmp_path: Path) -
         camera.outgoing = once(is_ack, not_executable)
         with pytest.raises(DeviceError, match="not executable"):
             driver.set_position(math.radians(5.0), 0.0)
+
+
+@pytest.mark.e2e
+def test_the_emulator_alone_serves_a_visca_over_ip_rig(tmp_path: Path) -> None:
+    rig = udp_rig(tmp_path)
+    emulator = subprocess.Popen(
+        [PYTHON, "-m", "gazed.sim.head_emulator", "--rig", str(tmp_path / "rig.toml")],
+        cwd=REPO,
+        env=child_env(),
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        assert "visca head on udp ('127.0.0.1'" in emulator.stdout.readline()
+        with driver_on(rig) as driver:
+            driver.set_position(math.radians(3.0), math.radians(-2.0))
+            assert poll_until(lambda: _pan_deg_if_settled(driver, 3.0), 5.0) == pytest.approx(
+                3.0, abs=0.1
+            )
+    finally:
+        emulator.terminate()
+        assert emulator.wait(10) == 0
+
+
+def test_the_emulator_refuses_a_udp_port_for_another_protocol(tmp_path: Path) -> None:
+    rig = udp_rig(tmp_path)
+    pelco = rig.model_copy(update={"servo": link_rig(protocol="pelco-d").servo})
+    with pytest.raises(EmulatorError, match="carries VISCA"):
+        HeadEmulator(pelco, link=rig.servo.port)
