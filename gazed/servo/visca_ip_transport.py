@@ -128,6 +128,7 @@ class ViscaIpTransport:
     def write(self, data: bytes) -> int:
         """Send one VISCA packet under the next sequence number; the wall-clock time (ns)."""
         self._sock()
+        self._after_reset = None  # the driver has moved on from the message a RESET held
         self._send_message(data)
         return time.time_ns()
 
