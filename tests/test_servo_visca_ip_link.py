@@ -22,7 +22,7 @@ from gazed.config import Rig, load_rig
 from gazed.servo import make_codec, visca_ip
 from gazed.servo.driver import DeviceError, ServoDriver
 from gazed.servo.head_link import HeadLink, LinkStep
-from gazed.servo.visca_ip_transport import MAX_RESENDS, ViscaIpTransport
+from gazed.servo.visca_ip_transport import MAX_RESENDS, LinkError, ViscaIpTransport
 from gazed.sim.head_emulator import EmulatorError, HeadEmulator
 from gazed.sim.head_visca_ip import ViscaIpSession
 from services.runtime import Now
@@ -285,3 +285,11 @@ def test_the_emulator_refuses_a_udp_port_for_another_protocol(tmp_path: Path) ->
     pelco = rig.model_copy(update={"servo": link_rig(protocol="pelco-d").servo})
     with pytest.raises(EmulatorError, match="carries VISCA"):
         HeadEmulator(pelco, link=rig.servo.port)
+
+
+def test_no_camera_at_the_port_is_a_link_error_and_the_port_stays_closed(tmp_path: Path) -> None:
+    rig = udp_rig(tmp_path)
+    transport = ViscaIpTransport(rig.servo.port, TIMEOUT_S)
+    with pytest.raises(LinkError, match=r"RESET|refused"):
+        transport.connect()
+    assert not transport.is_connected

@@ -109,13 +109,16 @@ class ViscaIpTransport:
         sock.setblocking(False)
         self._socket = sock
         self._awaiting = self._after_reset = None
-        self._reset()
-        deadline = time.monotonic() + self.reset_timeout_s
-        while self._awaiting is not None:
-            if time.monotonic() >= deadline:
-                self.disconnect()
-                raise LinkError(f"{self.url}: no reply to RESET")
-            self.read(deadline - time.monotonic())
+        try:
+            self._reset()
+            deadline = time.monotonic() + self.reset_timeout_s
+            while self._awaiting is not None:
+                if time.monotonic() >= deadline:
+                    raise LinkError(f"{self.url}: no reply to RESET")
+                self.read(deadline - time.monotonic())
+        except LinkError:
+            self.disconnect()
+            raise
 
     def disconnect(self) -> None:
         sock, self._socket = self._socket, None
