@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 import os
 import time
+from collections import Counter
 from pathlib import Path
 
 import pytest
@@ -84,6 +85,7 @@ class VirtualLine:
         self.baud = rig.servo.baud
         self.byte_time_s = self.line.byte_time_s
         self.line_s = 0.0
+        self.counters: Counter[str] = Counter()
         self.now_s = t0_s
         self.is_connected = False
         self.written: list[bytes] = []

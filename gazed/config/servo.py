@@ -14,7 +14,8 @@ class ServoLink(Section):
 
     port: str = Field(
         "/tmp/gazed-sim-head",
-        description="pyserial URL: /dev/ttyUSB0, a pty path, socket://host:port, spy://…, loop://.",
+        description="pyserial URL: /dev/ttyUSB0, a pty path, socket://host:port, spy://…, "
+        "loop://; or visca-udp://host:52381 (VISCA over IP, protocol visca only).",
     )
     baud: int = Field(9600, gt=0, description="Serial speed in baud.")
     timeout_ms: float = Field(100.0, gt=0, le=10000, description="How long to wait for a reply.")
@@ -37,6 +38,12 @@ class ServoLink(Section):
     reconnect_max_s: float = Field(
         10.0, gt=0, le=600, description="Longest wait between reconnection attempts."
     )
+
+    @model_validator(mode="after")
+    def _visca_over_ip_carries_visca(self) -> ServoLink:
+        if self.port.startswith("visca-udp://") and getattr(self, "protocol", "visca") != "visca":
+            raise ValueError('port: visca-udp:// carries VISCA only (set protocol = "visca")')
+        return self
 
 
 class PelcoDServo(ServoLink):
@@ -63,16 +70,41 @@ class ViscaServo(ServoLink):
     tilt_deg_per_unit: float = Field(
         0.075, gt=0, description="Degrees per VISCA tilt position unit."
     )
-    pan_speed: int = Field(24, ge=1, le=24, description="Pan speed byte of absolute moves (1-24).")
+    pan_speed_max_code: int = Field(
+        0x18, ge=1, le=0x7F, description="Highest pan speed byte the camera takes (24 = 0x18)."
+    )
+    tilt_speed_max_code: int = Field(
+        0x14,
+        ge=1,
+        le=0x7F,
+        description="Highest tilt speed byte the camera takes (20 = 0x14; Sony SRG-X400 23).",
+    )
+    pan_speed: int = Field(
+        24, ge=1, description="Pan speed byte of absolute moves (1..pan_speed_max_code)."
+    )
     tilt_speed: int = Field(
-        20, ge=1, le=20, description="Tilt speed byte of absolute moves (1-20)."
+        20, ge=1, description="Tilt speed byte of absolute moves (1..tilt_speed_max_code)."
     )
     pan_speed_max_deg_s: float = Field(
-        120.0, gt=0, le=3600, description="Pan rate of speed byte 0x18 (speeds map linearly)."
+        120.0,
+        gt=0,
+        le=3600,
+        description="Pan rate of the highest speed byte (speeds map linearly).",
     )
     tilt_speed_max_deg_s: float = Field(
-        90.0, gt=0, le=3600, description="Tilt rate of speed byte 0x14 (speeds map linearly)."
+        90.0,
+        gt=0,
+        le=3600,
+        description="Tilt rate of the highest speed byte (speeds map linearly).",
     )
+
+    @model_validator(mode="after")
+    def _speeds_in_range(self) -> ViscaServo:
+        if self.pan_speed > self.pan_speed_max_code:
+            raise ValueError(f"pan_speed: above pan_speed_max_code {self.pan_speed_max_code}")
+        if self.tilt_speed > self.tilt_speed_max_code:
+            raise ValueError(f"tilt_speed: above tilt_speed_max_code {self.tilt_speed_max_code}")
+        return self
 
 
 class FlirPtuServo(ServoLink):

@@ -14,6 +14,7 @@ import argparse
 import contextlib
 import json
 import signal
+import socket
 import subprocess
 import sys
 import tempfile
@@ -233,7 +234,11 @@ def private_rig(
     for key in ("zenoh_config_path", "credentials_path"):  # relative to the original rig file
         if key in bus:
             bus[key] = str(base / str(bus[key]))
-    document.setdefault("servo", tomlkit.table())["port"] = str(directory / "head")
+    servo = document.setdefault("servo", tomlkit.table())
+    if str(servo.get("port", "")).startswith("visca-udp://"):  # VISCA over IP: a private UDP port
+        servo["port"] = f"visca-udp://127.0.0.1:{_free_port(socket.SOCK_DGRAM)}"
+    else:
+        servo["port"] = str(directory / "head")
     sim = document.setdefault("sim", tomlkit.table())
     if scenario.startswith("file:"):
         path, hash_, ped = scenario[len("file:") :].partition("#")
@@ -337,10 +342,8 @@ def cpu_seconds(process: psutil.Process) -> float:
     return times.user + times.system
 
 
-def _free_port() -> int:
-    import socket
-
-    with socket.socket() as s:
+def _free_port(kind: int = socket.SOCK_STREAM) -> int:
+    with socket.socket(socket.AF_INET, kind) as s:
         s.bind(("127.0.0.1", 0))
         return int(s.getsockname()[1])
 

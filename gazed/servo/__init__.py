@@ -1,5 +1,6 @@
 """Servo IO (DESIGN §8): one codec module per protocol (bytes in, bytes out, no I/O) over one
-resync loop (`resync`), the serial transport, the driver that pairs them, and what the `servo`
+resync loop (`resync`), the transports (a pyserial URL, or `visca-udp://` for Sony's VISCA
+over IP: `visca_ip_transport`), the driver that pairs them, and what the `servo`
 process runs on them: the head link (`head_link`) with its set-point writer and safety layer
 (`setpoint_writer`, `limits`, `setpoints`), odometry dating (`odometry`), the line-load meter
 (`line_load`), the response lag (`response_lag`) and the park (`park`).

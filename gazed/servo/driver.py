@@ -27,7 +27,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from gazed.servo.codec import Codec, Reply
-from gazed.servo.transport import LinkError, SerialTransport
+from gazed.servo.transport import LinkError, Transport
 
 
 class ServoTimeout(LinkError):
@@ -52,7 +52,7 @@ class DevicePosition:
 class ServoDriver:
     """The head behind one serial port, speaking one protocol."""
 
-    def __init__(self, codec: Codec, transport: SerialTransport, timeout_s: float) -> None:
+    def __init__(self, codec: Codec, transport: Transport, timeout_s: float) -> None:
         self.codec = codec
         self.transport = transport
         self.timeout_s = timeout_s

@@ -36,7 +36,8 @@ from gazed.servo.odometry import JointReading, OdometryDating
 from gazed.servo.park import park
 from gazed.servo.response_lag import ResponseLag
 from gazed.servo.setpoint_writer import SetpointWriter
-from gazed.servo.transport import LinkError, SerialTransport
+from gazed.servo.transport import LinkError, Transport
+from gazed.servo.visca_ip_transport import open_transport
 
 BACKOFF_INITIAL_S = 0.25
 STATUS_PERIOD_S = 1.0
@@ -101,7 +102,7 @@ class HeadLink:
         on_command: Callable[[GazeDemand, int], None],
         *,
         refused_upstream: Callable[[], int] = lambda: 0,
-        transport: SerialTransport | None = None,
+        transport: Transport | None = None,
         mono_s: Callable[[], float] = time.monotonic,
         wall_ns: Callable[[], int] = time.time_ns,
         sleep: Callable[[float], None] = time.sleep,
@@ -113,10 +114,11 @@ class HeadLink:
         self._wall_ns = wall_ns
         self._sleep = sleep
         self.codec = make_codec(rig.servo.protocol, **rig.servo_params())
+        timeout_s = rig.servo.timeout_ms / 1000.0
         self.driver = ServoDriver(
             self.codec,
-            transport or SerialTransport(rig.servo.port, rig.servo.baud),
-            rig.servo.timeout_ms / 1000.0,
+            transport or open_transport(rig.servo.port, rig.servo.baud, timeout_s),
+            timeout_s,
         )
         self.writer = SetpointWriter(
             rig.head,
@@ -320,6 +322,7 @@ class HeadLink:
             "discarded_bytes": self.codec.discarded_bytes,
             "bad_frames": self.codec.bad_frames,
             **{f"driver_{k}": v for k, v in self.driver.counters.items()},
+            **{f"link_{k}": v for k, v in self.driver.transport.counters.items()},
         }
 
     def notes(self) -> dict[str, str]:

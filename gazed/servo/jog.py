@@ -23,7 +23,8 @@ from gazed.config import Rig, load_rig_or_exit
 from gazed.geometry.kinematics import device_from_joint, joint_from_device
 from gazed.servo import CodecError, HandshakeError, Reply, make_codec
 from gazed.servo.driver import ServoDriver
-from gazed.servo.transport import LinkError, SerialTransport
+from gazed.servo.transport import LinkError
+from gazed.servo.visca_ip_transport import open_transport
 
 
 def jog_arguments(parser: argparse.ArgumentParser) -> None:
@@ -56,7 +57,8 @@ def jog_command(args: argparse.Namespace) -> int:
             return 2
     port = args.port or rig.servo.port
     codec = make_codec(rig.servo.protocol, **rig.servo_params())
-    driver = ServoDriver(codec, SerialTransport(port, rig.servo.baud), rig.servo.timeout_ms / 1000)
+    timeout_s = rig.servo.timeout_ms / 1000
+    driver = ServoDriver(codec, open_transport(port, rig.servo.baud, timeout_s), timeout_s)
     print(f"{rig.servo.protocol} on {port} at {rig.servo.baud} baud")
     try:
         with driver:

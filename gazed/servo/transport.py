@@ -19,6 +19,8 @@ from __future__ import annotations
 
 import contextlib
 import time
+from collections import Counter
+from typing import Protocol
 
 import serial
 
@@ -37,6 +39,29 @@ class NotConnectedError(LinkError):
     """I/O was attempted before `connect()`."""
 
 
+class Transport(Protocol):
+    """What the driver needs of a link: `SerialTransport` here, `ViscaIpTransport` for VISCA
+    over IP. `counters` holds the link's own counts (none for a serial line)."""
+
+    url: str
+    byte_time_s: float
+    line_s: float
+    counters: Counter[str]
+
+    @property
+    def is_connected(self) -> bool: ...
+
+    def connect(self) -> None: ...
+
+    def disconnect(self) -> None: ...
+
+    def write(self, data: bytes) -> int: ...
+
+    def read(self, timeout_s: float) -> tuple[bytes, int]: ...
+
+    def line_busy_s(self) -> float: ...
+
+
 class SerialTransport:
     """A serial port opened from a pyserial URL at `baud`, 8N1."""
 
@@ -47,6 +72,7 @@ class SerialTransport:
         self._serial: serial.SerialBase | None = None
         self._line_free_s = 0.0
         self.line_s = 0.0  # the line's time of every byte written and read so far
+        self.counters: Counter[str] = Counter()
 
     def __enter__(self) -> SerialTransport:
         self.connect()

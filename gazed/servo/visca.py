@@ -39,8 +39,9 @@ IF_CLEAR = (0x01, 0x00, 0x01)
 CANCEL = 0x20  # 8x 2y FF cancels the command in socket y
 PAN_DIRECTION = {"left": 0x01, "right": 0x02, "stop": 0x03}
 TILT_DIRECTION = {"up": 0x01, "down": 0x02, "stop": 0x03}
-PAN_SPEED_MAX = 0x18
+PAN_SPEED_MAX = 0x18  # the usual highest speed bytes (EVI-D70, PTZOptics)
 TILT_SPEED_MAX = 0x14
+SPEED_CODE_LIMIT = 0x7F  # no payload byte may reach the terminator's high bit
 
 # reply message types (high nibble of the second byte) and error codes (SRG-300H p.28)
 REPLY = {"ack": 0x40, "completion": 0x50, "error": 0x60}
@@ -105,8 +106,10 @@ def split_packets(
 
 
 class ViscaCodec(Codec):
-    """Host side of VISCA. `pan_speed`/`tilt_speed` are the speed bytes of absolute moves;
-    `pan_speed_max_deg_s`/`tilt_speed_max_deg_s` the rates of drive speeds 0x18/0x14 (drive
+    """Host side of VISCA. `pan_speed_max_code`/`tilt_speed_max_code` are the highest speed
+    bytes the camera takes (0x18/0x14 on most models; Sony SRG-X400 tilt 0x17, pyvisca sends
+    up to 0x18); `pan_speed`/`tilt_speed` the speed bytes of absolute moves;
+    `pan_speed_max_deg_s`/`tilt_speed_max_deg_s` the rates of the highest speed bytes (drive
     speeds are mapped linearly; the model's own table is not linear)."""
 
     protocol: ClassVar[str] = "visca"
@@ -120,12 +123,22 @@ class ViscaCodec(Codec):
         tilt_speed: int = TILT_SPEED_MAX,
         pan_speed_max_deg_s: float = 120.0,
         tilt_speed_max_deg_s: float = 90.0,
+        pan_speed_max_code: int = PAN_SPEED_MAX,
+        tilt_speed_max_code: int = TILT_SPEED_MAX,
     ) -> None:
         super().__init__()
         if not 1 <= address <= 7:
             raise CodecError(f"address {address} outside 1..7")
-        if not (1 <= pan_speed <= PAN_SPEED_MAX and 1 <= tilt_speed <= TILT_SPEED_MAX):
-            raise CodecError(f"speeds {pan_speed}, {tilt_speed} outside 1..24, 1..20")
+        for name, code in (("pan", pan_speed_max_code), ("tilt", tilt_speed_max_code)):
+            if not 1 <= code <= SPEED_CODE_LIMIT:
+                raise CodecError(f"{name} speed max {code:#x} outside 0x01..{SPEED_CODE_LIMIT:#x}")
+        if not (1 <= pan_speed <= pan_speed_max_code and 1 <= tilt_speed <= tilt_speed_max_code):
+            raise CodecError(
+                f"speeds {pan_speed}, {tilt_speed} outside 1..{pan_speed_max_code}, "
+                f"1..{tilt_speed_max_code}"
+            )
+        self.pan_speed_max_code = pan_speed_max_code
+        self.tilt_speed_max_code = tilt_speed_max_code
         self.address = address
         self.pan_deg_per_unit = pan_deg_per_unit
         self.tilt_deg_per_unit = tilt_deg_per_unit
@@ -151,10 +164,20 @@ class ViscaCodec(Codec):
 
     def encode_set_velocity(self, pan_rad_s: float, tilt_rad_s: float) -> list[bytes]:
         pan_speed, pan_dir = self._drive(
-            pan_rad_s, self.pan_speed_max_deg_s, PAN_SPEED_MAX, PAN_DIRECTION, "right", "left"
+            pan_rad_s,
+            self.pan_speed_max_deg_s,
+            self.pan_speed_max_code,
+            PAN_DIRECTION,
+            "right",
+            "left",
         )
         tilt_speed, tilt_dir = self._drive(
-            tilt_rad_s, self.tilt_speed_max_deg_s, TILT_SPEED_MAX, TILT_DIRECTION, "up", "down"
+            tilt_rad_s,
+            self.tilt_speed_max_deg_s,
+            self.tilt_speed_max_code,
+            TILT_DIRECTION,
+            "up",
+            "down",
         )
         head = (CATEGORY["command"], CATEGORY["pan_tilt"], PAN_TILT["drive"])
         return [self._packet(*head, pan_speed, tilt_speed, pan_dir, tilt_dir)]

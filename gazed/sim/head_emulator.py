@@ -7,6 +7,10 @@ protocol's device model (`head_pelco_d`, `head_visca`, `head_flir_ptu`, `head_dy
 answers as the device would, and moves the two axes of a `HeadMechanics` — all of which is the
 `HeadLine`, including the line's timing at the rig's baud rate.
 
+A rig whose port is `visca-udp://host:port` gets the camera on that loopback UDP port instead,
+speaking Sony's VISCA-over-IP framing (`head_visca_ip`) around the same VISCA camera; its
+bytes take no line time.
+
 Embedding (the `sim` process): `HeadEmulator(rig)` as a context manager runs its own thread;
 `pose_at(t)` gives the camera's true joint angles at any monotonic instant of the last two
 seconds. Alone: `python -m gazed.sim.head_emulator --rig RIG`.
@@ -20,6 +24,7 @@ import os
 import pty
 import select
 import signal
+import socket
 import sys
 import threading
 import time
@@ -30,8 +35,10 @@ from pathlib import Path
 from gazed.config import Rig, RigError, load_rig
 from gazed.geometry.kinematics import joint_from_device
 from gazed.messages import HeadPose
+from gazed.servo.visca_ip_transport import SCHEME, address_of
 from gazed.sim.head_line import HeadLine
 from gazed.sim.head_mechanics import AxisSample
+from gazed.sim.head_visca_ip import ViscaIpSession
 
 POLL_S = 0.002
 READ_CHUNK = 4096
@@ -53,13 +60,23 @@ class HeadEmulator:
         clock: Callable[[], float] = time.monotonic,
     ) -> None:
         port = str(link if link is not None else rig.servo.port)
-        if "://" in port:
+        self.udp_address: tuple[str, int] | None = None
+        if port.startswith(f"{SCHEME}://"):
+            if rig.servo.protocol != "visca":
+                raise EmulatorError(
+                    f"[servo] port {port!r} carries VISCA, not {rig.servo.protocol}"
+                )
+            self.udp_address = address_of(port)
+        elif "://" in port:
             raise EmulatorError(f"[servo] port {port!r} is a URL; the emulator needs a file path")
         self.rig = rig
         self.link_path = Path(port)
         self._clock = clock
         self._lock = threading.RLock()
-        self.line = HeadLine(rig, clock())
+        self.line = HeadLine(rig, clock(), serial=self.udp_address is None)
+        self.session = ViscaIpSession()
+        self._udp: socket.socket | None = None
+        self._client: tuple[str, int] | None = None
         self.mechanics = self.line.mechanics
         self.pty_path: str | None = None
         self.bytes_received = 0
@@ -81,8 +98,19 @@ class HeadEmulator:
     # --- lifecycle -------------------------------------------------------------------------
 
     def open(self) -> None:
-        """Create the pty (raw, no echo) and the symlink at the rig's port."""
-        if self._master is not None:
+        """Create the pty (raw, no echo) and the symlink at the rig's port, or bind the UDP
+        port."""
+        if self._master is not None or self._udp is not None:
+            return
+        if self.udp_address is not None:
+            udp = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+            try:
+                udp.bind(self.udp_address)
+            except OSError as exc:
+                udp.close()
+                raise EmulatorError(f"cannot bind {self.udp_address}: {exc}") from exc
+            udp.setblocking(False)
+            self._udp = udp
             return
         if self.link_path.exists() and not self.link_path.is_symlink():
             raise EmulatorError(f"{self.link_path} exists and is not a symlink; not replacing it")
@@ -124,6 +152,9 @@ class HeadEmulator:
                     os.close(fd)
         self._master = self._slave = None
         self.pty_path = None
+        if self._udp is not None:
+            self._udp.close()
+            self._udp = None
 
     def _run(self) -> None:
         while not self._stop.is_set():
@@ -134,12 +165,13 @@ class HeadEmulator:
     def service(self, timeout_s: float) -> None:
         """One round: wait up to `timeout_s` for bytes (less if something falls due), hand them
         to the line, write what has reached the host."""
-        if self._master is None:
+        fd = self._udp.fileno() if self._udp is not None else self._master
+        if fd is None:
             raise EmulatorError("the emulator is not open")
         with self._lock:
             due_s = self.line.next_due_s()
         wait_s = timeout_s if due_s is None else min(timeout_s, due_s - self._clock())
-        readable, _, _ = select.select([self._master], [], [], max(0.0, wait_s))
+        readable, _, _ = select.select([fd], [], [], max(0.0, wait_s))
         data = self._read() if readable else b""
         now = self._clock()
         with self._lock:
@@ -149,6 +181,8 @@ class HeadEmulator:
             self._write(out)
 
     def _read(self) -> bytes:
+        if self._udp is not None:
+            return self._receive_datagrams(self._udp)
         assert self._master is not None
         try:
             data = os.read(self._master, READ_CHUNK)
@@ -158,6 +192,10 @@ class HeadEmulator:
         return data
 
     def _write(self, data: bytes) -> None:
+        if self._udp is not None:
+            for datagram in self.session.send(data):
+                self._send_datagram(datagram)
+            return
         assert self._master is not None
         try:
             written = os.write(self._master, data)
@@ -165,6 +203,29 @@ class HeadEmulator:
             written = 0  # nobody reads the port: the bytes are lost, as on a real line
         self.bytes_sent += written
         self.bytes_dropped += len(data) - written
+
+    def _receive_datagrams(self, udp: socket.socket) -> bytes:
+        """The VISCA bytes of every datagram waiting; control replies go back at once."""
+        out = bytearray()
+        while True:
+            try:
+                datagram, self._client = udp.recvfrom(READ_CHUNK)
+            except OSError:
+                return bytes(out)  # nothing more waiting
+            self.bytes_received += len(datagram)
+            data, replies = self.session.receive(datagram)
+            out += data
+            for reply in replies:
+                self._send_datagram(reply)
+
+    def _send_datagram(self, datagram: bytes) -> None:
+        """One datagram to the host last heard from (lost if none, or if it has gone)."""
+        sent = 0
+        if self._udp is not None and self._client is not None:
+            with contextlib.suppress(OSError):
+                sent = self._udp.sendto(datagram, self._client)
+        self.bytes_sent += sent
+        self.bytes_dropped += len(datagram) - sent
 
     # --- truth -----------------------------------------------------------------------------
 
@@ -212,11 +273,12 @@ def main(argv: list[str] | None = None) -> int:
         signal.signal(signum, lambda *_: stopping.__setitem__(0, True))
     try:
         with emulator:
-            print(
-                f"{rig.servo.protocol} head on {emulator.pty_path} -> {emulator.link_path} "
-                f"at {rig.servo.baud} baud",
-                flush=True,
+            where = (
+                f"udp {emulator.udp_address}"
+                if emulator.udp_address
+                else f"{emulator.pty_path} -> {emulator.link_path} at {rig.servo.baud} baud"
             )
+            print(f"{rig.servo.protocol} head on {where}", flush=True)
             while not stopping[0]:
                 time.sleep(0.1)
     except (OSError, EmulatorError) as exc:

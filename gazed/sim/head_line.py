@@ -44,12 +44,13 @@ DEVICES: dict[str, Callable[..., DeviceModel]] = {
 
 
 class HeadLine:
-    """The rig's head at the far end of its serial line, on the caller's clock (seconds)."""
+    """The rig's head at the far end of its serial line, on the caller's clock (seconds).
+    `serial=False` is a network link: its bytes take no line time."""
 
-    def __init__(self, rig: Rig, t0_s: float) -> None:
+    def __init__(self, rig: Rig, t0_s: float, *, serial: bool = True) -> None:
         self.mechanics = HeadMechanics(rig.head, rig.sim, t0_s)
         self.device: DeviceModel = DEVICES[rig.servo.protocol](rig.servo, self.mechanics)
-        self.byte_time_s = BITS_PER_BYTE / rig.servo.baud
+        self.byte_time_s = BITS_PER_BYTE / rig.servo.baud if serial else 0.0
         self.reply_delay_s = rig.sim.head_reply_delay_ms / 1000.0
         self._arrivals: deque[tuple[float, bytes]] = deque()
         self._outgoing: deque[tuple[float, bytes]] = deque()

@@ -25,13 +25,11 @@ from gazed.servo.visca import (
     CATEGORY,
     IF_CLEAR,
     PAN_DIRECTION,
-    PAN_SPEED_MAX,
     PAN_TILT,
     PAN_TILT_POSITION_INQUIRY,
     REPLY,
     TERMINATOR,
     TILT_DIRECTION,
-    TILT_SPEED_MAX,
     from_nibbles,
     reply_header,
     split_packets,
@@ -64,6 +62,8 @@ class ViscaDevice:
         self.address = servo.address
         self.pan_deg_per_unit = servo.pan_deg_per_unit
         self.tilt_deg_per_unit = servo.tilt_deg_per_unit
+        self.pan_speed_max_code = servo.pan_speed_max_code
+        self.tilt_speed_max_code = servo.tilt_speed_max_code
         self.pan_speed_max_rad_s = math.radians(servo.pan_speed_max_deg_s)
         self.tilt_speed_max_rad_s = math.radians(servo.tilt_speed_max_deg_s)
         self.mechanics = mechanics
@@ -145,7 +145,7 @@ class ViscaDevice:
         """The action of a pan-tilt command and whether it is a move that completes on arrival."""
         if kind == PAN_TILT["drive"] and len(args) == 4:
             vv, ww, pp, tt = args
-            if not (1 <= vv <= PAN_SPEED_MAX and 1 <= ww <= TILT_SPEED_MAX):
+            if not (1 <= vv <= self.pan_speed_max_code and 1 <= ww <= self.tilt_speed_max_code):
                 return None
             pan_sign = {
                 PAN_DIRECTION["right"]: 1,
@@ -159,21 +159,21 @@ class ViscaDevice:
             }
             if pp not in pan_sign or tt not in tilt_sign:
                 return None
-            pan_rate = pan_sign[pp] * vv / PAN_SPEED_MAX * self.pan_speed_max_rad_s
-            tilt_rate = tilt_sign[tt] * ww / TILT_SPEED_MAX * self.tilt_speed_max_rad_s
+            pan_rate = pan_sign[pp] * vv / self.pan_speed_max_code * self.pan_speed_max_rad_s
+            tilt_rate = tilt_sign[tt] * ww / self.tilt_speed_max_code * self.tilt_speed_max_rad_s
             if pan_rate == 0 and tilt_rate == 0:
                 return (lambda m: (m.pan.hold(), m.tilt.hold())), False
             return (lambda m: (m.pan.move_at(pan_rate), m.tilt.move_at(tilt_rate))), False
         if kind in (PAN_TILT["absolute"], PAN_TILT["relative"]) and len(args) == 10:
             vv, ww = args[0], args[1]
-            if not (1 <= vv <= PAN_SPEED_MAX and 1 <= ww <= TILT_SPEED_MAX) or any(
-                b > 0x0F for b in args[2:]
-            ):
+            if not (
+                1 <= vv <= self.pan_speed_max_code and 1 <= ww <= self.tilt_speed_max_code
+            ) or any(b > 0x0F for b in args[2:]):
                 return None
             pan = math.radians(from_nibbles(args[2:6]) * self.pan_deg_per_unit)
             tilt = math.radians(from_nibbles(args[6:10]) * self.tilt_deg_per_unit)
-            pan_rate = vv / PAN_SPEED_MAX * self.pan_speed_max_rad_s
-            tilt_rate = ww / TILT_SPEED_MAX * self.tilt_speed_max_rad_s
+            pan_rate = vv / self.pan_speed_max_code * self.pan_speed_max_rad_s
+            tilt_rate = ww / self.tilt_speed_max_code * self.tilt_speed_max_rad_s
             relative = kind == PAN_TILT["relative"]
 
             def move(m: HeadMechanics) -> None:

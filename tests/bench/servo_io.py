@@ -1,5 +1,6 @@
 """Servo IO benchmark: the real `servo` process against the head emulator (a separate process on
-a pty, emulating the serial line at the baud rate), per protocol at its usual baud rate.
+a pty, emulating the serial line at the baud rate), per protocol at its usual baud rate, and
+VISCA over IP (the emulator's camera on a loopback UDP port; baud 0 in the table).
 
 Figures:
 - odometry rate reached when polling flat out (`odometry_rate_hz = 1000`, no demands): the
@@ -17,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import socket
 import statistics
 import subprocess
 import sys
@@ -40,6 +42,7 @@ CASES = [
     ("visca", 9600, ""),
     ("flir-ptu", 9600, ""),
     ("dynamixel", 57600, ""),
+    ("visca", 0, ""),  # VISCA over IP: visca-udp://127.0.0.1:PORT
 ]
 BUS_PORT = 17590
 # Each odometry message carries the stamps of the command last written; at 10 Hz nearly every
@@ -49,6 +52,7 @@ DEMAND_RATE_HZ = 10.0
 
 def write_rig(directory: Path, protocol: str, baud: int, odometry_hz: float, extra: str) -> Path:
     path = directory / f"bench-{protocol}-{baud}-{int(odometry_hz)}.toml"
+    port = f"visca-udp://127.0.0.1:{free_udp_port()}" if baud == 0 else directory / "head"
     path.write_text(
         f"""
 [rig]
@@ -57,8 +61,8 @@ name = "servobench"
 listen = ["tcp/127.0.0.1:{BUS_PORT}"]
 [servo]
 protocol = "{protocol}"
-port = "{directory / "head"}"
-baud = {baud}
+port = "{port}"
+baud = {baud or 9600}
 timeout_ms = 200
 odometry_rate_hz = {odometry_hz}
 command_timeout_ms = 500
@@ -66,6 +70,12 @@ command_timeout_ms = 500
 """
     )
     return path
+
+
+def free_udp_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
 
 
 def spawn(*args: str) -> subprocess.Popen:
@@ -106,8 +116,8 @@ def run_case(protocol: str, baud: int, extra: str, seconds: float) -> dict[str, 
                 commands = bus.subscribe(SERVO_COMMAND, capacity=100000)
                 publisher = bus.publisher(GAZE_DEMAND)
                 head = spawn("-m", "gazed.sim.head_emulator", "--rig", str(rig_path))
-                while not (directory / "head").exists():
-                    time.sleep(0.05)
+                while baud and not (directory / "head").exists():
+                    time.sleep(0.05)  # a UDP camera: the servo retries until it answers
                 servo = spawn("-m", "services.servo", "--rig", str(rig_path))
                 try:
                     wait_connected(wakeup, status)
