@@ -10,6 +10,7 @@ from dataclasses import dataclass
 
 from servo_link_support import HEAD_SECTION, Demands, demand
 
+from gazed import cli
 from gazed.config import parse_rig
 from gazed.servo.head_link import HeadLink
 
@@ -105,3 +106,10 @@ def test_digital_head_parks_on_close():
     link.close()
     pose = link.driver.mechanics.pose_at(clock.mono_s + 1.0)
     assert math.isclose(pose.pan_rad, rig.head.park_rad[0], abs_tol=1e-3)
+
+
+def test_jog_refuses_the_digital_head(tmp_path, capsys):
+    rig_path = tmp_path / "rig.toml"
+    rig_path.write_text(f'[rig]\nname = "d"\n[servo]\nprotocol = "digital"\n{HEAD_SECTION}')
+    assert cli.main(["servo", "jog", "--rig", str(rig_path), "--query"]) == 2
+    assert "no serial port" in capsys.readouterr().out
