@@ -81,6 +81,8 @@ class VisionService:
             source if source is not None else open_source(rig, bus, self.stage, self.stream)
         )
         self.source.connect()
+        digital = rig.servo.protocol == "digital"
+        self.source_name = f"wide {rig.wide.source}" if digital else rig.camera.source
 
     def step(self, now: Now) -> float:
         for odometry in self.odometry.take():
@@ -111,7 +113,7 @@ class VisionService:
             counters.update(self.source.counters)
         notes = {
             "detector": self.stage.pipeline.detector.name,
-            "source": f"{self.rig.camera.source} ({status.link})",
+            "source": f"{self.source_name} ({status.link})",
             "compensation": self.stage.compensation_note(),
         }
         if status.last_error:
