@@ -4,10 +4,13 @@ from odometry at its capture, held back by the frame delay; the detection report
 from __future__ import annotations
 
 import math
+import time
 from pathlib import Path
 
+import cv2
 import numpy as np
 import pytest
+from conftest import poll_until
 
 from gazed import cli
 from gazed.config import parse_rig
@@ -16,6 +19,7 @@ from gazed.messages import Odometry
 from gazed.vision.digital_camera import DigitalCamera, wide_camera
 from gazed.vision.digital_view import DigitalView
 from gazed.vision.frames import CapturedFrame
+from gazed.vision.opencv_camera import OpenCvCamera
 from gazed.vision.source import FrameSource, SourceStatus
 from gazed.vision.stage import VisionStage
 
@@ -146,3 +150,25 @@ def test_a_digital_rig_whose_footage_is_absent_exits_2_naming_the_key(
     assert (
         "wide.source: no such file" in error and str(tmp_path / "footage" / "absent.avi") in error
     )
+
+
+def test_a_file_plays_at_the_rigs_rate_not_its_containers(tmp_path: Path) -> None:
+    path = tmp_path / "slow.avi"
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 2.0, (64, 48))
+    for i in range(30):
+        writer.write(np.full((48, 64, 3), 8 * i, np.uint8))
+    writer.release()
+    times_ns: list[int] = []
+    source = OpenCvCamera(
+        str(path),
+        width_px=64,
+        height_px=48,
+        rate_hz=50.0,
+        reopen_max_s=0.05,
+        timeout_ms=2000.0,
+        file_rate_hz=50.0,  # the container says 2 Hz: 0.5 s a frame
+    )
+    source.on_frame = lambda: times_ns.append(time.time_ns())
+    with source:
+        poll_until(lambda: len(times_ns) >= 11, 5.0)
+    assert float(np.median(np.diff(times_ns[:11]))) < 0.2e9
