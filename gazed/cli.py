@@ -55,6 +55,10 @@ COMMANDS: dict[str, Command | Group] = {
                 "gazed.geometry.calibrate_cli",
                 "homography from 4+ traced ground lines, no endpoint matching (seed 000 §3.2)",
             ),
+            "tsai": Command(
+                "gazed.geometry.tsai_cli",
+                "a Tsai calibration (PETS XML) as the rig's [wide] camera and ground homography",
+            ),
             "trace": Command(
                 "gazed.gaze.trace_cli",
                 "trace 4+ ground lines with the running rig, then the line calibration "

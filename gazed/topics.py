@@ -131,7 +131,7 @@ PROCESSES: tuple[Process, ...] = (
         "the camera and the detector",
         reads=(SIM_FRAME, SERVO_ODOMETRY, GAZE_STATE),
         publishes=(VISION_DETECTION, VISION_CANDIDATES, VISION_EDGE),
-        sections=("camera", "head", "vision"),
+        sections=("camera", "head", "vision", "servo", "wide"),
     ),
     Process(
         "estimator",

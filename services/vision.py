@@ -2,13 +2,16 @@
 The work per frame is `gazed.vision.stage`.
 
 Inputs:  frames from the rig's `[camera] source` — the simulator's `sim/frame` for 'sim', else
-         OpenCV (device index, file, RTSP/HTTP URL) —, `servo/odometry` and `gaze/state`.
+         OpenCV (device index, file, RTSP/HTTP URL); with a digital head (`[servo] protocol =
+         "digital"`) the views rendered from `[wide]`'s frames, also served as MJPEG on
+         `[wide] stream_host:stream_port` —, `servo/odometry` and `gaze/state`.
 Outputs: `vision/detection` for every frame processed, found or not, with the head pose
          interpolated at capture time and `compensated` telling whether the head's rotation
          was removed; `vision/candidates` (when `[vision] candidates`, and not while `gaze/state`
          says the controller pursues, saccades or traces); while it traces a ground line
          (`trace`), `vision/edge` instead: the edge under the fovea.
 Settings: [camera] (source, size, intrinsics, reopen_max_s, timeout_ms), [head] kinematics,
+         [servo] protocol, [wide] (the digital head's wide camera and stream),
          [vision] (detector and its thresholds, odometry interpolation).
 
 It runs at the camera's rate: each step takes the newest frame (older ones are skipped, never
@@ -20,7 +23,7 @@ detector's time per frame.
 from __future__ import annotations
 
 from gazed.bus import Bus
-from gazed.config import Rig
+from gazed.config import Rig, exit_if_cannot_start
 from gazed.topics import (
     GAZE_STATE,
     SERVO_ODOMETRY,
@@ -29,6 +32,8 @@ from gazed.topics import (
     VISION_EDGE,
 )
 from gazed.vision.bus_frames import BusFrameSource
+from gazed.vision.digital_camera import DigitalCamera, open_digital_camera
+from gazed.vision.mjpeg import MjpegServer
 from gazed.vision.opencv_camera import OpenCvCamera, capture_target
 from gazed.vision.source import FrameSource
 from gazed.vision.stage import VisionStage
@@ -38,9 +43,17 @@ STAGE = "vision"
 IDLE_WAIT_S = 1.0  # no frame: sleep until one arrives (sources wake the loop) or this long
 
 
-def open_source(rig: Rig, bus: Bus) -> FrameSource:
-    """The rig's camera: the simulator's frames on the bus, or an OpenCV capture."""
+def open_source(rig: Rig, bus: Bus, stage: VisionStage, stream: MjpegServer | None) -> FrameSource:
+    """The rig's camera: a digital head's view of the wide camera, the simulator's frames on
+    the bus, or an OpenCV capture."""
     camera = rig.camera
+    if rig.servo.protocol == "digital":
+        return open_digital_camera(
+            rig,
+            stage.history.pose_at,
+            on_frame=bus.notify,
+            on_view=stream.publish if stream is not None else None,
+        )
     if camera.source == "sim":
         return BusFrameSource(bus, silence_s=camera.timeout_ms * 1e-3)
     return OpenCvCamera(
@@ -63,8 +76,13 @@ class VisionService:
         self.edges = bus.publisher(VISION_EDGE)
         self.detections = bus.publisher(VISION_DETECTION)
         self.candidates = bus.publisher(VISION_CANDIDATES) if rig.vision.candidates else None
-        self.source = source if source is not None else open_source(rig, bus)
+        self.stream = open_stream(rig)
+        self.source = (
+            source if source is not None else open_source(rig, bus, self.stage, self.stream)
+        )
         self.source.connect()
+        digital = rig.servo.protocol == "digital"
+        self.source_name = f"wide {rig.wide.source}" if digital else rig.camera.source
 
     def step(self, now: Now) -> float:
         for odometry in self.odometry.take():
@@ -73,7 +91,8 @@ class VisionService:
             self.stage.gaze_state = state.state
         frame = self.source.read()
         if frame is None:
-            return IDLE_WAIT_S
+            due_s = self.source.due_in_s()
+            return IDLE_WAIT_S if due_s is None else min(IDLE_WAIT_S, due_s)
         output = self.stage.process(frame)
         if output.edge is not None:
             self.edges.put(output.edge)
@@ -90,22 +109,38 @@ class VisionService:
         counters["source_reopens"] = status.reopens
         counters["source_frames"] = status.frames
         counters["detector_restarts"] = self.stage.pipeline.restarts
+        if isinstance(self.source, DigitalCamera):
+            counters.update(self.source.counters)
         notes = {
             "detector": self.stage.pipeline.detector.name,
-            "source": f"{self.rig.camera.source} ({status.link})",
+            "source": f"{self.source_name} ({status.link})",
             "compensation": self.stage.compensation_note(),
         }
         if status.last_error:
             notes["source_error"] = status.last_error
+        if self.stream is not None:
+            notes["stream"] = self.stream.url
         if self.stage.last_drop:
             notes["last_drop"] = self.stage.last_drop
         return HealthReport(counters=counters, stage_ms=self.stage.times_ms(), notes=notes)
 
     def close(self) -> None:
         self.source.disconnect()
+        if self.stream is not None:
+            self.stream.stop()
+
+
+def open_stream(rig: Rig) -> MjpegServer | None:
+    """The MJPEG stream of a digital head's view, where the rig gives it a port."""
+    if rig.servo.protocol != "digital" or rig.wide.stream_port is None:
+        return None
+    stream = MjpegServer(rig.wide.stream_port, rig.wide.stream_host)
+    stream.start()
+    return stream
 
 
 def build(rig: Rig, bus: Bus) -> VisionService:
+    exit_if_cannot_start(rig)
     return VisionService(rig, bus)
 
 

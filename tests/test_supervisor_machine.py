@@ -127,7 +127,7 @@ def test_it_gives_up_past_the_restart_intensity(supervisor: Supervisor) -> None:
         ("[vision]\nfovea_deg = 8.0\n", ["vision"]),
         ("[estimator]\nfilter = 'alphabeta'\n", ["estimator"]),
         ("[gaze]\nrate_hz = 30.0\n", ["gaze"]),
-        ("[servo]\nprotocol = 'visca'\n", ["sim", "servo"]),
+        ("[servo]\nprotocol = 'visca'\n", ["sim", "servo", "vision"]),
         (
             "[calibration]\ntarget_height_m = 0.0\ncamera_xyz_m = [0, 0, 3]\n",
             ["sim", "estimator", "gaze"],

@@ -19,13 +19,20 @@ from gazed.config.errors import RigError
 from gazed.config.estimator import EstimatorSection
 from gazed.config.gaze import GazeSection
 from gazed.config.head import HeadSection
-from gazed.config.loading import load_rig, load_rig_or_exit, parse_rig
+from gazed.config.loading import (
+    cannot_start,
+    exit_if_cannot_start,
+    load_rig,
+    load_rig_or_exit,
+    parse_rig,
+)
 from gazed.config.rig import Rig, RigSection
 from gazed.config.section import Section
 from gazed.config.services import ServiceSpec, ServicesSection
 from gazed.config.servo import (
     SERVO_LINK_KEYS,
     SERVO_MODELS,
+    DigitalServo,
     DynamixelServo,
     FlirPtuServo,
     PelcoDServo,
@@ -35,6 +42,7 @@ from gazed.config.servo import (
 )
 from gazed.config.sim import TRAJECTORY_NAMES, SimSection
 from gazed.config.vision import VisionSection
+from gazed.config.wide import WideSection
 from gazed.topics import SERVICE_NAMES
 
 __all__ = [
@@ -47,6 +55,7 @@ __all__ = [
     "BusSection",
     "CalibrationSection",
     "CameraSection",
+    "DigitalServo",
     "DynamixelServo",
     "Endpoint",
     "EstimatorSection",
@@ -65,6 +74,9 @@ __all__ = [
     "SimSection",
     "ViscaServo",
     "VisionSection",
+    "WideSection",
+    "cannot_start",
+    "exit_if_cannot_start",
     "load_rig",
     "load_rig_or_exit",
     "parse_rig",

@@ -11,7 +11,8 @@ class CameraSection(Section):
     source: str = Field(
         "sim",
         description="'sim' (frames from the simulator on the bus), a device index such as '0', "
-        "a video file path, or an rtsp:// / http:// URL.",
+        "a video file path, or an rtsp:// / http:// URL. Unused by a digital head, whose view "
+        "is rendered from [wide] source.",
     )
     width_px: int = Field(640, ge=16, le=8192, description="Image width in pixels.")
     height_px: int = Field(480, ge=16, le=8192, description="Image height in pixels.")

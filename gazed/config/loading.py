@@ -34,6 +34,31 @@ def load_rig_or_exit(path: str | Path) -> Rig:
         raise SystemExit(2) from exc
 
 
+def cannot_start(rig: Rig) -> list[str]:
+    """Why a valid rig cannot start on this machine: a digital head without a wide camera, or
+    footage to play that is not here. Such a rig loads (its keys are right), but `gazed run`
+    and its processes exit 2 with these problems."""
+    where = rig.source_path or "<rig>"
+    source = rig.wide.source
+    if source is None:
+        if rig.servo.protocol == "digital":
+            return [
+                f"{where}: wide.source: missing (expected the wide camera the digital head looks through)"
+            ]
+        return []
+    if source.isdigit() or "://" in source or Path(source).is_file():
+        return []
+    return [f"{where}: wide.source: no such file {source} (the footage is absent on this machine)"]
+
+
+def exit_if_cannot_start(rig: Rig) -> None:
+    """Print why the rig cannot start, and exit 2; return if it can."""
+    problems = cannot_start(rig)
+    if problems:
+        print("\n".join(problems), file=sys.stderr)
+        raise SystemExit(2)
+
+
 def parse_rig(text: str, path: str | Path = "<rig>") -> Rig:
     """Validate rig TOML text; `path` names the file in errors and anchors relative paths."""
     path = Path(path)
@@ -54,6 +79,9 @@ def parse_rig(text: str, path: str | Path = "<rig>") -> Rig:
     }
     if relative:
         rig = rig.model_copy(update={"bus": rig.bus.model_copy(update=relative)})
+    if rig.wide.source is not None:
+        wide = rig.wide.model_copy(update={"source": rig.wide.source_in(path.parent)})
+        rig = rig.model_copy(update={"wide": wide})
     rig._source_path = path
     return rig
 

@@ -18,6 +18,7 @@ from gazed.config.services import ServicesSection
 from gazed.config.servo import SERVO_LINK_KEYS, PelcoDServo, ServoSection
 from gazed.config.sim import SimSection
 from gazed.config.vision import VisionSection
+from gazed.config.wide import WideSection
 
 
 class RigSection(Section):
@@ -42,6 +43,7 @@ class Rig(Section):
     gaze: GazeSection = Field(default_factory=GazeSection)
     sim: SimSection = Field(default_factory=SimSection)
     services: ServicesSection = Field(default_factory=ServicesSection)
+    wide: WideSection = Field(default_factory=WideSection)
 
     _source_path: Path | None = PrivateAttr(None)
 

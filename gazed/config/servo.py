@@ -133,8 +133,20 @@ class DynamixelServo(ServoLink):
         return self
 
 
+class DigitalServo(ServoLink):
+    protocol: Literal["digital"] = Field(
+        description="A digital pan/tilt head: the view of `[camera]` rendered from the fixed "
+        "wide camera of `[wide]`; no serial port (port and baud are unused)."
+    )
+    port: str = Field("digital", description="Unused by the digital head: a name for status.")
+    latency_ms: float = Field(
+        50.0, ge=0, le=2000, description="How long after a set-point the view starts to move."
+    )
+
+
 ServoSection = Annotated[
-    PelcoDServo | ViscaServo | FlirPtuServo | DynamixelServo, Field(discriminator="protocol")
+    PelcoDServo | ViscaServo | FlirPtuServo | DynamixelServo | DigitalServo,
+    Field(discriminator="protocol"),
 ]
 SERVO_LINK_KEYS = frozenset(ServoLink.model_fields)
 # protocol name -> its section model

@@ -135,6 +135,11 @@ def write_homography(rig_path: Path, matrix: np.ndarray, note: str) -> None:
     if "calibration" not in document:
         document["calibration"] = tomlkit.table()
     document["calibration"]["homography"] = rows
+    replace_rig(rig_path, document)
+
+
+def replace_rig(rig_path: Path, document: tomlkit.TOMLDocument) -> None:
+    """Write an edited rig document over its file: validated as a rig first, then atomically."""
     text = tomlkit.dumps(document)
     parse_rig(text, rig_path)
     with tempfile.NamedTemporaryFile(

@@ -9,6 +9,8 @@ gets its odometry dead-reckoned from the set-points. The head's response lag is 
 its position replies (`ResponseLag`). A failed link (port gone, `POLL_FAILURES_FOR_LINK_DOWN`
 unanswered polls in a row, a failed handshake) is reported and reopened with exponential
 backoff up to `reconnect_max_s`. `close()` drives the head to park, then closes the port.
+The digital head (`gazed.servo.digital_head`) stands in for the driver: a head model in this
+process.
 
 `step(now)` is the loop body. A step run for a demand in the bus's receive thread
 (`now.immediate`) writes it and nothing slow: polls and reconnects (serial exchanges) stay in
@@ -26,10 +28,11 @@ from dataclasses import dataclass
 from typing import Literal, Protocol
 
 from gazed.backoff import Backoff
-from gazed.config import Rig
+from gazed.config import DigitalServo, Rig
 from gazed.geometry.kinematics import device_from_joint
 from gazed.messages import GazeDemand
 from gazed.servo import CodecError, HandshakeError, make_codec
+from gazed.servo.digital_head import DigitalHead
 from gazed.servo.driver import DeviceError, ServoDriver, ServoTimeout
 from gazed.servo.line_load import LineLoadMeter
 from gazed.servo.odometry import JointReading, OdometryDating
@@ -113,13 +116,17 @@ class HeadLink:
         self._mono_s = mono_s
         self._wall_ns = wall_ns
         self._sleep = sleep
-        self.codec = make_codec(rig.servo.protocol, **rig.servo_params())
-        timeout_s = rig.servo.timeout_ms / 1000.0
-        self.driver = ServoDriver(
-            self.codec,
-            transport or open_transport(rig.servo.port, rig.servo.baud, timeout_s),
-            timeout_s,
-        )
+        self.driver: ServoDriver | DigitalHead
+        if isinstance(rig.servo, DigitalServo):  # a model in this process, no serial port
+            self.driver = DigitalHead(rig.head, rig.servo, mono_s=mono_s, wall_ns=wall_ns)
+        else:
+            timeout_s = rig.servo.timeout_ms / 1000.0
+            self.driver = ServoDriver(
+                make_codec(rig.servo.protocol, **rig.servo_params()),
+                transport or open_transport(rig.servo.port, rig.servo.baud, timeout_s),
+                timeout_s,
+            )
+        self.codec = self.driver.codec
         self.writer = SetpointWriter(
             rig.head,
             self.driver,

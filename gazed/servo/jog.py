@@ -21,7 +21,7 @@ from pathlib import Path
 
 from gazed.config import Rig, load_rig_or_exit
 from gazed.geometry.kinematics import device_from_joint, joint_from_device
-from gazed.servo import CodecError, HandshakeError, Reply, make_codec
+from gazed.servo import CODECS, CodecError, HandshakeError, Reply, make_codec
 from gazed.servo.driver import ServoDriver
 from gazed.servo.transport import LinkError
 from gazed.servo.visca_ip_transport import open_transport
@@ -55,6 +55,9 @@ def jog_command(args: argparse.Namespace) -> int:
         if problem:
             print(f"gazed servo jog: {problem}")
             return 2
+    if rig.servo.protocol not in CODECS:
+        print(f"gazed servo jog: the {rig.servo.protocol} head has no serial port to jog")
+        return 2
     port = args.port or rig.servo.port
     codec = make_codec(rig.servo.protocol, **rig.servo_params())
     timeout_s = rig.servo.timeout_ms / 1000

@@ -10,7 +10,7 @@ import time
 from pathlib import Path
 
 from gazed.bus import Bus, BusError
-from gazed.config import load_rig_or_exit
+from gazed.config import exit_if_cannot_start, load_rig_or_exit
 from gazed.console import REFRESH_S, LiveStatus
 from gazed.sdnotify import Notifier
 from gazed.supervisor.machine import GiveUp, Supervisor
@@ -30,6 +30,7 @@ def run_command(args: argparse.Namespace) -> int:
         format="%(asctime)s %(levelname)s %(name)s: %(message)s",
     )
     rig = load_rig_or_exit(args.rig)
+    exit_if_cannot_start(rig)
     notifier = Notifier()
     try:
         with Bus(rig, "supervisor", router=rig.bus.router) as bus, Wakeup() as wakeup:

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from gazed.messages import Stamp
+from gazed.messages import HeadPose, Stamp
 
 Encoding = str  # "bgr8", "rgb8" or "gray8" (FrameHeader.encoding)
 
@@ -31,13 +31,16 @@ class FrameError(ValueError):
 
 @dataclass(frozen=True)
 class CapturedFrame:
-    """Pixels and when the light hit the sensor (wall clock ns)."""
+    """Pixels and when the light hit the sensor (wall clock ns). `head`: the pose the frame was
+    rendered at (a digital head's view); None for a camera's own frames, whose pose comes from
+    odometry."""
 
     pixels: np.ndarray
     encoding: Encoding
     t_capture_ns: int
     seq: int
     stamps: tuple[Stamp, ...] = field(default=())
+    head: HeadPose | None = None
 
 
 def gray_frame(frame: CapturedFrame, width_px: int, height_px: int) -> np.ndarray:

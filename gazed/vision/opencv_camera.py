@@ -3,9 +3,9 @@
 A grab thread opens the capture, reads frames as they come, stamps each with the wall clock the
 moment `read()` returns it (the closest this side of the driver gets to the capture time; a
 camera's own exposure-to-delivery delay is not included), and keeps only the newest. A video
-file is paced at its own frame rate, so it behaves like a camera. When opening fails or a read
-returns nothing (device unplugged, stream dropped, file ended) the capture is released and
-reopened after a backoff delay (doubling up to `reopen_max_s`); files therefore loop. Streams
+file is paced at its own frame rate (or `file_rate_hz` where its container says otherwise),
+so it behaves like a camera. When opening fails or a read returns nothing (device unplugged,
+stream dropped, file ended) the capture is released and reopened after a backoff delay (doubling up to `reopen_max_s`); files therefore loop. Streams
 get FFmpeg open/read timeouts, so a dead URL never blocks the thread for long, and the process
 never waits on the thread at all.
 """
@@ -45,8 +45,10 @@ class OpenCvCamera(FrameSource):
         reopen_max_s: float,
         timeout_ms: float,
         on_frame: Callable[[], None] | None = None,
+        file_rate_hz: float | None = None,
     ) -> None:
         self.target = target
+        self.file_rate_hz = file_rate_hz
         self.width_px = width_px
         self.height_px = height_px
         self.rate_hz = rate_hz
@@ -133,7 +135,7 @@ class OpenCvCamera(FrameSource):
         """Read until the capture fails or we are stopped; the reason it ended."""
         period_s = 0.0
         if self._is_file:
-            fps = capture.get(cv2.CAP_PROP_FPS)
+            fps = self.file_rate_hz or capture.get(cv2.CAP_PROP_FPS)
             period_s = 1.0 / fps if fps and fps > 0 else 1.0 / self.rate_hz
         due_s = time.monotonic()
         while not self._stop.is_set():

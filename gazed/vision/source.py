@@ -68,6 +68,11 @@ class FrameSource(abc.ABC):
     @abc.abstractmethod
     def status(self) -> SourceStatus: ...
 
+    def due_in_s(self) -> float | None:
+        """A source that holds frames back (a frame delay): how long until the next is due, as
+        nothing wakes the loop then. None: frames wake the loop as they arrive."""
+        return None
+
     def _require_connected(self) -> None:
         if not self.is_connected:
             raise SourceNotConnectedError(f"{self.description}: read before connect()")

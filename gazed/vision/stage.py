@@ -3,7 +3,8 @@ yields (DESIGN §6).
 
 Each frame taken is checked (`FrameIntake`: a frame of the wrong size, type or channel count,
 or one not newer than the last one processed, is dropped and counted as `dropped:<reason>`),
-given the head pose interpolated at its capture (`OdometryHistory`), and then, by what the gaze
+given the head pose interpolated at its capture (`OdometryHistory`; a digital head's view
+carries the pose it was rendered at, which is that), and then, by what the gaze
 controller does (`gaze/state`):
 - while it traces a ground line (`trace`): the edge under the fovea (`EdgeTracer`), nothing else;
 - otherwise the detector, and the candidates unless the controller pursues or saccades: it has
@@ -99,7 +100,7 @@ class VisionStage:
         except FrameError as exc:
             self._drop(exc.reason, str(exc))
             return VisionOutput()
-        head = self.history.pose_at(frame.t_capture_ns)
+        head = frame.head if frame.head is not None else self.history.pose_at(frame.t_capture_ns)
         if self.gaze_state == "trace":  # line calibration: the edge under the fovea, nothing else
             return VisionOutput(edge=self._edge(frame, head, self.edges.observe(gray)))
         wanted = self.gaze_state not in CANDIDATES_UNUSED

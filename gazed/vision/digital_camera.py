@@ -1,0 +1,150 @@
+"""The digital head's camera: the frames of a fixed wide camera, each rendered as the head's view
+at the head's pose when it was captured (DESIGN §11: the wide frames stay in the vision process).
+
+    camera = DigitalCamera(wide_source, DigitalView(wide, view), pose_at, frame_delay_s=0.15)
+    frame = camera.read()        # the view, its capture time the wide frame's, `head` its pose
+
+Each wide frame is held back `frame_delay_s` after its capture, as a camera pipeline would, and
+then rendered (`DigitalView`) at the pose the head's odometry gives for its capture instant
+(`pose_at`, the vision stage's `OdometryHistory`). That pose travels with the frame
+(`CapturedFrame.head`), so the detection reports the very pose its view was rendered at. A frame
+whose capture instant odometry does not cover yet (before the servo's first reading, or a
+stalled servo) cannot be rendered: it is dropped and counted. Of the frames due at once only
+the newest is rendered. Every rendered view goes to `on_view` (the MJPEG stream).
+"""
+
+from __future__ import annotations
+
+import time
+from collections import Counter, deque
+from collections.abc import Callable
+
+import numpy as np
+
+from gazed.config import Rig, WideSection
+from gazed.geometry.camera import CameraModel
+from gazed.geometry.kinematics import HeadKinematics
+from gazed.messages import HeadPose
+from gazed.vision.digital_view import DigitalView
+from gazed.vision.frames import CapturedFrame
+from gazed.vision.opencv_camera import OpenCvCamera, capture_target
+from gazed.vision.source import FrameSource, SourceError, SourceStatus
+
+PENDING_MAX = 64  # wide frames held back at most (a frame delay of seconds at a high rate)
+
+
+def wide_camera(wide: WideSection) -> CameraModel:
+    """The wide camera of `[wide]` (principal point at the image centre where not given)."""
+    w, h = wide.width_px, wide.height_px
+    return CameraModel.from_intrinsics(
+        w,
+        h,
+        wide.fx_px,
+        wide.fy_px if wide.fy_px is not None else wide.fx_px,
+        wide.cx_px if wide.cx_px is not None else (w - 1) / 2.0,
+        wide.cy_px if wide.cy_px is not None else (h - 1) / 2.0,
+        tuple(wide.distortion),
+    )
+
+
+class DigitalCamera(FrameSource):
+    """Views rendered from `wide`'s frames; see the module docstring."""
+
+    def __init__(
+        self,
+        wide: FrameSource,
+        view: DigitalView,
+        pose_at: Callable[[int], HeadPose | None],
+        *,
+        frame_delay_s: float = 0.0,
+        on_view: Callable[[np.ndarray], None] | None = None,
+        clock_ns: Callable[[], int] = time.time_ns,
+    ) -> None:
+        self.wide = wide
+        self.view = view
+        self.pose_at = pose_at
+        self.frame_delay_ns = round(frame_delay_s * 1e9)
+        self.on_view = on_view
+        self.clock_ns = clock_ns
+        self.description = f"digital head over {wide.description}"
+        self.counters: Counter[str] = Counter()
+        self._pending: deque[CapturedFrame] = deque(maxlen=PENDING_MAX)
+
+    @property
+    def is_connected(self) -> bool:
+        return self.wide.is_connected
+
+    def connect(self) -> None:
+        self.wide.connect()
+
+    def disconnect(self) -> None:
+        self.wide.disconnect()
+        self._pending.clear()
+
+    def status(self) -> SourceStatus:
+        return self.wide.status()
+
+    def due_in_s(self) -> float | None:
+        """How long until the oldest frame held back is due (None: none held)."""
+        if not self._pending:
+            return None
+        due_ns = self._pending[0].t_capture_ns + self.frame_delay_ns
+        return max(0.0, (due_ns - self.clock_ns()) * 1e-9)
+
+    def read(self) -> CapturedFrame | None:
+        self._require_connected()
+        frame = self.wide.read()
+        if frame is not None:
+            self._pending.append(frame)
+        now_ns = self.clock_ns()
+        due = None
+        while self._pending and self._pending[0].t_capture_ns + self.frame_delay_ns <= now_ns:
+            if due is not None:
+                self.counters["wide_frames_skipped"] += 1
+            due = self._pending.popleft()
+        return None if due is None else self._render(due)
+
+    def _render(self, frame: CapturedFrame) -> CapturedFrame | None:
+        pose = self.pose_at(frame.t_capture_ns)
+        if pose is None:
+            self.counters["wide_frames_without_pose"] += 1
+            return None
+        pixels = self.view.render(frame.pixels, pose.pan_rad, pose.tilt_rad)
+        if self.on_view is not None:
+            self.on_view(pixels)
+        self.counters["views_rendered"] += 1
+        return CapturedFrame(
+            pixels, frame.encoding, frame.t_capture_ns, frame.seq, frame.stamps, head=pose
+        )
+
+
+def open_digital_camera(
+    rig: Rig,
+    pose_at: Callable[[int], HeadPose | None],
+    *,
+    on_frame: Callable[[], None] | None = None,
+    on_view: Callable[[np.ndarray], None] | None = None,
+) -> DigitalCamera:
+    """The rig's digital head camera: `[wide]`'s source (a file plays at `[wide] rate_hz` and
+    loops), rendered to `[camera]`'s view."""
+    wide = rig.wide
+    if wide.source is None:
+        raise SourceError("[wide] source: missing (the digital head needs a wide camera)")
+    source = OpenCvCamera(
+        capture_target(wide.source),
+        width_px=wide.width_px,
+        height_px=wide.height_px,
+        rate_hz=wide.rate_hz,
+        reopen_max_s=rig.camera.reopen_max_s,
+        timeout_ms=rig.camera.timeout_ms,
+        on_frame=on_frame,
+        file_rate_hz=wide.rate_hz,
+    )
+    view = DigitalView(
+        wide_camera(wide),
+        CameraModel.from_section(rig.camera),
+        HeadKinematics.from_section(rig.head),
+    )
+    return DigitalCamera(
+        source, view, pose_at, frame_delay_s=wide.frame_delay_ms * 1e-3, on_view=on_view
+    )
