@@ -450,10 +450,14 @@ def test_pid_control_drives_the_head_at_a_rate_towards_the_pixel_error() -> None
     clock = Clock()
     c = in_pursuit(clock, rig)
     clock.advance(0.04)
-    c.on_detection(detection(clock, 400.0, 240.0))  # right of centre: pan on
+    c.on_detection(detection(clock, 400.0, 240.0, age_s=0.15))  # right of centre: pan on
     c.on_odometry(odometry(clock, 0.0, 0.0))
     demand = c.tick(clock.wall_ns, clock.mono_s).demand
     assert demand.kind == "pursuit" and demand.pan_rate_rad_s > 0
+    assert demand.t_capture_ns == clock.wall_ns - 150_000_000  # it acts on that detection
+    clock.advance(0.02)
+    later = c.tick(clock.wall_ns, clock.mono_s).demand
+    assert later.t_capture_ns == clock.wall_ns  # no new detection: stamped by the gaze alone
     error_rad = c.pid.last_error
     assert error_rad[0] > 0
     assert c.pid.rate_rad_s[0] == pytest.approx(rig.gaze.pid_kp_per_s * error_rad[0])

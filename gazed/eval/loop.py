@@ -375,5 +375,5 @@ def _table(results: list[dict[str, Any]]) -> str:
     ]
     lines = [f"scenario {results[0]['scenario']}, {results[0]['seconds']:g} s"]
     for label, get in rows:
-        lines.append(f"  {label:<28}" + "".join(f"{get(r)!s:>12}" for r in results))
+        lines.append(f"  {label:<28}" + "".join(f"{get(r)!s:>16}" for r in results))
     return "\n".join(lines)

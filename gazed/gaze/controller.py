@@ -306,7 +306,7 @@ class GazeController:
         if self.gaze.control in MOVE_THEN_LOOK:
             return self._look_and_move(wall_ns, mono_s)
         if self.gaze.control == "pid":
-            demand = self.pid.demand(self.odometry, wall_ns)
+            demand = self.pid.demand(self.odometry, wall_ns, self.sightings.found)
             return demand if demand is not None else self._hold(wall_ns)
         return self._follow(wall_ns, correction=True)
 

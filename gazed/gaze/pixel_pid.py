@@ -79,14 +79,18 @@ class PixelPid:
         self.last_capture_ns = t_capture_ns
         self.updated = True
 
-    def demand(self, odometry: Odometry | None, wall_ns: int) -> GazeDemand | None:
+    def demand(
+        self, odometry: Odometry | None, wall_ns: int, found: Detection | None = None
+    ) -> GazeDemand | None:
         """This tick's demand: the commanded position moved on at the held rate; None before
-        any odometry."""
+        any odometry. The first demand after a new detection carries `found`'s stamps (the
+        detection it acts on), so that the loop's latency can be read from it."""
         if self.command_rad is None:
             if odometry is None:
                 return None
             self.command_rad = [odometry.pan_rad, odometry.tilt_rad]
             self.last_tick_ns = wall_ns
+        source = found if self.updated else None
         if self.updated:
             self.last_update_ns, self.updated = wall_ns, False
         if self.last_update_ns is None or (wall_ns - self.last_update_ns) / 1e9 > self.stale_s:
@@ -104,6 +108,7 @@ class PixelPid:
             self.command_rad[0],
             self.command_rad[1],
             wall_ns,
+            source,
             rates_rad_s=(self.rate_rad_s[0], self.rate_rad_s[1]),
         )
 
