@@ -424,3 +424,42 @@ def test_a_restarted_controller_takes_up_a_target_in_view_instead_of_parking() -
     assert math.degrees(decision.demand.pan_rad) == pytest.approx(
         20.0 + math.degrees(math.atan(5.5 / F)), abs=0.05
     )
+
+
+def test_move_wait_move_moves_to_where_the_target_was_seen_without_prediction() -> None:
+    rig = RIG.model_copy(update={"gaze": RIG.gaze.model_copy(update={"control": "move-wait-move"})})
+    clock = Clock()
+    c = GazeController(rig, clock.mono_s)
+    c.on_odometry(odometry(clock, 0.0, 0.0))
+    c.tick(clock.wall_ns, clock.mono_s)
+    clock.advance(0.02)
+    run_up(c, clock, 330.0, 240.0, du=50.0)
+    seen = detection(clock, 330.0, 240.0, du=50.0)
+    c.on_detection(seen)
+    c.on_prediction(prediction(clock, 1.0, 0.0, pan_rate_deg_s=5.0))  # not used
+    move = c.tick(clock.wall_ns, clock.mono_s).demand
+    assert move.kind == "position"
+    where = c.sightings.aim(seen)
+    assert (move.pan_rad, move.tilt_rad) == pytest.approx((where.pan_rad, where.tilt_rad))
+    c.on_detection(detection(clock, 200.0, 240.0))  # captured while moving: ignored
+    assert c.counts["ignored_while_moving"] == 1
+
+
+def test_pid_control_drives_the_head_at_a_rate_towards_the_pixel_error() -> None:
+    rig = RIG.model_copy(update={"gaze": RIG.gaze.model_copy(update={"control": "pid"})})
+    clock = Clock()
+    c = in_pursuit(clock, rig)
+    clock.advance(0.04)
+    c.on_detection(detection(clock, 400.0, 240.0, age_s=0.15))  # right of centre: pan on
+    c.on_odometry(odometry(clock, 0.0, 0.0))
+    demand = c.tick(clock.wall_ns, clock.mono_s).demand
+    assert demand.kind == "pursuit" and demand.pan_rate_rad_s > 0
+    assert demand.t_capture_ns == clock.wall_ns - 150_000_000  # it acts on that detection
+    clock.advance(0.02)
+    later = c.tick(clock.wall_ns, clock.mono_s).demand
+    assert later.t_capture_ns == clock.wall_ns  # no new detection: stamped by the gaze alone
+    error_rad = c.pid.last_error
+    assert error_rad[0] > 0
+    assert c.pid.rate_rad_s[0] == pytest.approx(rig.gaze.pid_kp_per_s * error_rad[0])
+    # the head's acceleration limit shapes the step in rate
+    assert demand.pan_rate_rad_s <= c.pid.rate_rad_s[0]

@@ -10,10 +10,29 @@ from gazed.config.section import Section
 
 
 class GazeSection(Section):
-    control: Literal["pursuit", "look-and-move"] = Field(
+    control: Literal["pursuit", "look-and-move", "pid", "move-wait-move"] = Field(
         "pursuit",
         description="'pursuit': continuous smooth pursuit (dynamic look-and-move); 'look-and-move': "
-        "move, settle, then look (PTZ cameras that cannot image while moving).",
+        "move, settle, then look (PTZ cameras that cannot image while moving). The peers' laws, "
+        "to compare with: 'pid': a PID on the pixel error with a deadband, no prediction; "
+        "'move-wait-move': move to where the target was seen, wait until the head stops, look again.",
+    )
+    pid_kp_per_s: float = Field(
+        4.0,
+        ge=0,
+        le=100,
+        description="control 'pid': proportional gain, head rate (rad/s) per rad of error.",
+    )
+    pid_ki_per_s2: float = Field(
+        4.0, ge=0, le=1000, description="control 'pid': integral gain (rad/s per rad·s)."
+    )
+    pid_kd_s: float = Field(
+        0.0, ge=0, le=10, description="control 'pid': derivative gain (rad/s per rad/s)."
+    )
+    pid_deadband_px: float = Field(
+        10.0,
+        ge=0,
+        description="control 'pid': an error within this many pixels of the image centre counts as none.",
     )
     rate_hz: float = Field(
         50.0, gt=0, le=1000, description="Rate of the gaze controller's demands."

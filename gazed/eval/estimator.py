@@ -146,17 +146,22 @@ def format_report(report: dict[str, Any]) -> str:
             lines.append(f"{ph['phase']:<11}{ph['selected'] or '-':>9}   {cells}")
     else:
         results = report["filters"] if "filters" in report else {report["filter"]: report}
+        results = {**results, **report["baselines"]}
         lines.append(
             f"{report['data']}: {report['tracks']} tracks, added noise {report['noise_m']} m"
         )
         lines.append(
-            f"{'filter':<11}{'horizon s':>10}{'mean m':>9}{'median m':>10}{'p90 m':>8}{'n':>7}"
+            f"{'predictor':<18}{'horizon s':>10}{'mean m':>9}{'median m':>10}{'p90 m':>8}{'n':>7}"
         )
         for name, r in results.items():
             for h, e in r["error_m"].items():
                 lines.append(
-                    f"{name:<11}{h:>10}{e['mean']:>9.3f}{e['median']:>10.3f}{e['p90']:>8.3f}{e['n']:>7}"
+                    f"{name:<18}{h:>10}{e['mean']:>9.3f}{e['median']:>10.3f}{e['p90']:>8.3f}{e['n']:>7}"
                 )
+        fit = report["baselines"]["cv-ml"]
+        lines.append(
+            f"cv-ml: q = {fit['q']:.3g} m²/s³, r = {fit['r']:.3g} m² (maximum likelihood on the file)"
+        )
     return "\n".join(lines)
 
 

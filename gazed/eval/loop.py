@@ -5,7 +5,8 @@ trajectory, filter, visual latency, seed and control mode; `gazed run` starts ev
 it (the real entry points); once the supervisor reports them all up, what the bus carries for
 `--seconds` is recorded and scored (`loop_metrics`), with each process's CPU share over the
 same window. `--compare` runs `imm`, `image-cv` and `none` (the IMM without prediction over the
-latency) on the same seed, one after the other.
+latency) and the peers' control laws `pid` and `move-wait-move` on the same seed, one after the
+other.
 """
 
 from __future__ import annotations
@@ -44,7 +45,16 @@ from gazed.topics import (
 from gazed.wakeup import Wakeup
 
 FILTERS = ("imm", "innovation", "alphabeta", "image-cv", "none")
-COMPARED = ("imm", "image-cv", "none")
+CONTROLS = ("pursuit", "look-and-move", "pid", "move-wait-move")
+# (filter, control) of each --compare run: the estimation modes in pursuit, then the peers' laws
+# (which use the detections alone; the estimator runs beside them unused)
+COMPARED = (
+    ("imm", None),
+    ("image-cv", None),
+    ("none", None),
+    (None, "pid"),
+    (None, "move-wait-move"),
+)
 START_TIMEOUT_S = 60.0
 
 
@@ -63,9 +73,11 @@ def loop_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--latency-ms", type=float, help="the simulated visual latency")
     parser.add_argument("--seed", type=int, help="the simulated world's seed")
-    parser.add_argument("--control", choices=("pursuit", "look-and-move"), help="gaze control mode")
+    parser.add_argument("--control", choices=CONTROLS, help="gaze control mode")
     parser.add_argument(
-        "--compare", action="store_true", help=f"run {', '.join(COMPARED)} on the same seed"
+        "--compare",
+        action="store_true",
+        help="run imm, image-cv, none, pid and move-wait-move on the same seed",
     )
     parser.add_argument("--json", action="store_true", help="print JSON")
 
@@ -76,9 +88,9 @@ def loop_command(args: argparse.Namespace) -> int:
     except RigError as exc:
         print(exc, file=sys.stderr)
         return 2
-    filters = COMPARED if args.compare else (args.filter,)
+    runs = COMPARED if args.compare else ((args.filter, args.control),)
     results = []
-    for mode in filters:
+    for mode, control in runs:
         try:
             results.append(
                 run_loop(
@@ -88,7 +100,7 @@ def loop_command(args: argparse.Namespace) -> int:
                     mode,
                     args.latency_ms,
                     args.seed,
-                    args.control,
+                    control,
                 )
             )
         except (RuntimeError, RigError) as exc:
@@ -120,6 +132,7 @@ def run_loop(
         result: dict[str, Any] = {
             "scenario": scenario,
             "filter": filter_mode or rig.estimator.filter,
+            "control": rig.gaze.control,
             "seconds": seconds,
         }
         result.update(score(record, CameraPose.from_rig(rig), rig.gaze.fovea_half_angle_deg))
@@ -351,6 +364,7 @@ def _free_port(kind: int = socket.SOCK_STREAM) -> int:
 def _table(results: list[dict[str, Any]]) -> str:
     rows = [
         ("filter", lambda r: r["filter"]),
+        ("control", lambda r: r["control"]),
         ("acquired after (s)", lambda r: r["acquired_after_s"]),
         ("gaze error rms (deg)", lambda r: (r["gaze_error_deg"] or {}).get("rms")),
         ("gaze error p95 (deg)", lambda r: (r["gaze_error_deg"] or {}).get("p95")),
@@ -364,5 +378,5 @@ def _table(results: list[dict[str, Any]]) -> str:
     ]
     lines = [f"scenario {results[0]['scenario']}, {results[0]['seconds']:g} s"]
     for label, get in rows:
-        lines.append(f"  {label:<28}" + "".join(f"{get(r)!s:>12}" for r in results))
+        lines.append(f"  {label:<28}" + "".join(f"{get(r)!s:>16}" for r in results))
     return "\n".join(lines)

@@ -1,7 +1,12 @@
-"""Reader of pedestrian track files (`frame_id ped_id x y`, ../shared/data/pedestrians/).
+"""Reader of pedestrian track files, in either of two formats told apart by the first line:
 
-Whitespace-separated floats, one observation per line, no header; 10 frame_id units are
-0.4 s (the ETH/UCY convention). Tracks are returned sorted by time.
+- `frame_id ped_id x y` (../shared/data/pedestrians/): whitespace-separated floats, one
+  observation per line, no header; 10 frame_id units are 0.4 s (the ETH/UCY convention).
+- annotated people in footage (`gazed.eval.truth`, the PETS 2009 truth): a CSV whose header
+  names `frame, t_s, id, ..., x_m, y_m`; a person's track is its ground position `x_m, y_m` at
+  the file's `t_s`.
+
+Tracks are returned sorted by time.
 """
 
 from __future__ import annotations
@@ -11,11 +16,13 @@ from pathlib import Path
 
 import numpy as np
 
+from gazed.eval.truth import TruthFileError, read_truth
+
 SECONDS_PER_FRAME_UNIT = 0.04
 
 
 class TrackFileError(ValueError):
-    """The file is not in the `frame_id ped_id x y` format; the message names the line."""
+    """The file is in neither format; the message names the line."""
 
 
 @dataclass(frozen=True)
@@ -27,11 +34,14 @@ class Track:
 
 def read_tracks(path: Path) -> list[Track]:
     """Every pedestrian's track in the file, in order of first appearance."""
-    rows: list[tuple[float, float, float, float]] = []
     try:
         text = Path(path).read_text()
     except OSError as exc:
         raise TrackFileError(f"{path}: cannot read ({exc.strerror})") from exc
+    first = next((line for line in text.splitlines() if line.strip()), "")
+    if first.lstrip().startswith("frame,"):
+        return _annotated_tracks(path)
+    rows: list[tuple[float, float, float, float]] = []
     for number, line in enumerate(text.splitlines(), start=1):
         if not line.strip():
             continue
@@ -60,3 +70,14 @@ def read_tracks(path: Path) -> list[Track]:
             raise TrackFileError(f"{path}: pedestrian {ped:g} has two observations in one frame")
         tracks.append(Track(float(ped), t, own[:, 2:4].copy()))
     return tracks
+
+
+def _annotated_tracks(path: Path) -> list[Track]:
+    try:
+        people = read_truth(path)
+    except TruthFileError as exc:
+        raise TrackFileError(str(exc)) from exc
+    for person in people.values():
+        if np.any(np.diff(person.t_s) <= 0):
+            raise TrackFileError(f"{path}: person {person.id}'s times do not increase with frame")
+    return [Track(float(p.id), p.t_s.copy(), p.ground_m.copy()) for p in people.values()]

@@ -6,17 +6,110 @@ step the prediction to each horizon is compared with the recorded position then.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
 from gazed.config import EstimatorSection
 from gazed.estimation import build_estimator
+from gazed.eval.baselines import (
+    ConstantPosition,
+    ConstantVelocity,
+    Positions,
+    TwoPoint,
+    fit_constant_velocity,
+)
 from gazed.eval.metrics import error_summary
 from gazed.eval.pedestrians import Track, read_tracks
 
 DATA_FILTERS = ("imm", "cv", "ca", "alphabeta", "innovation")
+BASELINES = ("constant-position", "two-point", "cv-ml")
+
+
+class Predictor(Protocol):
+    """What the error loop needs of a filter or a baseline: a batch of tracks stepped at once."""
+
+    t_s: np.ndarray
+
+    def step(self, t_s: np.ndarray, z: np.ndarray, present: np.ndarray) -> None: ...
+
+    def forecast(self, t_s: np.ndarray) -> Positions: ...
+
+
+class _Estimator:
+    """A gazed estimator seen as a `Predictor`: every measurement with the covariance R."""
+
+    def __init__(self, section: EstimatorSection, n: int, mode: str, R: np.ndarray) -> None:
+        self._estimator = build_estimator(section, n_tracks=n, mode=mode)
+        self._R = R
+
+    @property
+    def t_s(self) -> np.ndarray:
+        return self._estimator.t_s
+
+    def step(self, t_s: np.ndarray, z: np.ndarray, present: np.ndarray) -> None:
+        self._estimator.step(t_s, z, self._R, present)
+
+    def forecast(self, t_s: np.ndarray) -> Positions:
+        f = self._estimator.forecast(t_s)
+        return Positions(f.position, f.valid)
+
+
+@dataclass(frozen=True)
+class _Aligned:
+    """The tracks of a file aligned by step index, NaN-padded: times (N, K), recorded positions
+    and measurements (N, K, 2), lengths (N,)."""
+
+    t: np.ndarray
+    xy: np.ndarray
+    z: np.ndarray
+    length: np.ndarray
+
+
+def _align(tracks: list[Track], noise_m: float, seed: int) -> _Aligned:
+    n = len(tracks)
+    length = np.array([len(tr.t_s) for tr in tracks])
+    steps = int(length.max())
+    t = np.full((n, steps), np.nan)
+    xy = np.full((n, steps, 2), np.nan)
+    for i, tr in enumerate(tracks):
+        t[i, : length[i]] = tr.t_s
+        xy[i, : length[i]] = tr.xy_m
+    rng = np.random.default_rng(seed)
+    z = xy + rng.normal(0.0, noise_m, xy.shape) if noise_m > 0 else xy
+    return _Aligned(t, xy, z, length)
+
+
+def _prediction_errors(
+    predictor: Predictor, data: _Aligned, horizons_s: list[float]
+) -> dict[str, Any]:
+    """Each track stepped causally; from its second measurement on, its forecast to every
+    horizon the track still covers against the recorded position then."""
+    t, xy, length = data.t, data.xy, data.length
+    errors: dict[float, list[np.ndarray]] = {h: [] for h in horizons_s}
+    for k in range(t.shape[1]):
+        present = k < length
+        predictor.step(t[:, k], np.nan_to_num(data.z[:, k]), present)
+        if k == 0:
+            continue
+        held = np.where(np.isfinite(predictor.t_s), predictor.t_s, 0.0)
+        for h in horizons_s:
+            target_t = t[:, k] + h
+            truth, known = _recorded(t, xy, length, target_t)
+            f = predictor.forecast(np.where(present, target_t, held))
+            use = present & known & f.valid
+            if use.any():
+                errors[h].append(np.linalg.norm(f.position[use] - truth[use], axis=-1))
+    return {
+        "tracks": len(length),
+        "points": int(length.sum()),
+        "error_m": {
+            f"{h:g}": error_summary(np.concatenate(errors[h]) if errors[h] else np.array([]))
+            for h in horizons_s
+        },
+    }
 
 
 def track_errors(
@@ -28,47 +121,28 @@ def track_errors(
     seed: int,
 ) -> dict[str, Any]:
     """All tracks filtered at once (one batch row per track, aligned by their step index)."""
+    data = _align(tracks, noise_m, seed)
     n = len(tracks)
-    estimator = build_estimator(section, n_tracks=n, mode=mode)
-    rng = np.random.default_rng(seed)
-    length = np.array([len(tr.t_s) for tr in tracks])
-    steps = int(length.max())
-    t = np.full((n, steps), np.nan)
-    xy = np.full((n, steps, 2), np.nan)
-    for i, tr in enumerate(tracks):
-        t[i, : length[i]] = tr.t_s
-        xy[i, : length[i]] = tr.xy_m
-    z = xy + rng.normal(0.0, noise_m, xy.shape) if noise_m > 0 else xy
     R = np.broadcast_to(np.eye(2) * (section.position_noise_m**2 + noise_m**2), (n, 2, 2))
-    errors: dict[float, list[np.ndarray]] = {h: [] for h in horizons_s}
-    for k in range(steps):
-        present = k < length
-        estimator.step(t[:, k], np.nan_to_num(z[:, k]), R, present)
-        if k == 0:
-            continue
-        for h in horizons_s:
-            target_t = t[:, k] + h
-            truth, known = _recorded(t, xy, length, target_t)
-            use = (
-                present
-                & known
-                & estimator.forecast(np.where(present, target_t, estimator.t_s)).valid
-            )
-            if not use.any():
-                continue
-            f = estimator.forecast(
-                np.where(use, target_t, np.where(np.isfinite(estimator.t_s), estimator.t_s, 0.0))
-            )
-            errors[h].append(np.linalg.norm(f.position[use] - truth[use], axis=-1))
-    return {
-        "filter": mode,
-        "tracks": n,
-        "points": int(length.sum()),
-        "error_m": {
-            f"{h:g}": error_summary(np.concatenate(errors[h]) if errors[h] else np.array([]))
-            for h in horizons_s
-        },
+    return {"filter": mode, **_prediction_errors(_Estimator(section, n, mode, R), data, horizons_s)}
+
+
+def baseline_errors(
+    tracks: list[Track], horizons_s: list[float], noise_m: float, seed: int
+) -> dict[str, dict[str, Any]]:
+    """The baselines on the same measurements, horizons and errors as the filters; `cv-ml`
+    carries the q (m²/s³) and r (m²) fitted to the file."""
+    data = _align(tracks, noise_m, seed)
+    n = len(tracks)
+    q, r = fit_constant_velocity(data.t, np.nan_to_num(data.z), data.length)
+    predictors: dict[str, Predictor] = {
+        "constant-position": ConstantPosition(n),
+        "two-point": TwoPoint(n),
+        "cv-ml": ConstantVelocity(n, q, r),
     }
+    results = {name: _prediction_errors(p, data, horizons_s) for name, p in predictors.items()}
+    results["cv-ml"].update(q=q, r=r)
+    return results
 
 
 def _recorded(
@@ -97,14 +171,14 @@ def data_report(
     noise_m: float,
     seed: int,
 ) -> dict[str, Any]:
+    """The filter (or all of them, under "filters") scored on a file, with the baselines beside
+    them under "baselines"."""
     tracks = read_tracks(path)
+    head = {"data": str(path), "noise_m": noise_m}
+    baselines = {"baselines": baseline_errors(tracks, horizons_s, noise_m, seed)}
     if mode == "all":
         results = {
             m: track_errors(section, tracks, m, horizons_s, noise_m, seed) for m in DATA_FILTERS
         }
-        return {"data": str(path), "noise_m": noise_m, "tracks": len(tracks), "filters": results}
-    return {
-        "data": str(path),
-        "noise_m": noise_m,
-        **track_errors(section, tracks, mode, horizons_s, noise_m, seed),
-    }
+        return {**head, "tracks": len(tracks), "filters": results, **baselines}
+    return {**head, **track_errors(section, tracks, mode, horizons_s, noise_m, seed), **baselines}

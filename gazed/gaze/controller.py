@@ -24,7 +24,9 @@ States and transitions (each published with its reason):
 - lost coasts on the prediction and searches a growing region around it (`lost_search`);
 - trace follows a ground line's edge for the line calibration (`trace`);
 - `look-and-move` control replaces continuous pursuit by move, settle, look
-  (`look_and_move`).
+  (`look_and_move`); the peers' laws replace it too, to compare with: `move-wait-move` is the
+  same cycle aimed where the target was seen, without prediction, and `pid` a PID on the pixel
+  error (`pixel_pid`).
 
 Every demand is clamped to the joint and rate limits (counted); the feed-forward rates also
 change by at most the acceleration limit per tick (`demand`).
@@ -42,6 +44,7 @@ from gazed.gaze.demand import DemandShaper, Hold, make_demand
 from gazed.gaze.look_and_move import LookAndMove
 from gazed.gaze.lost_search import LostSearch
 from gazed.gaze.move import Move, Settling, at_goal
+from gazed.gaze.pixel_pid import PixelPid, pixel_error
 from gazed.gaze.pursuit import Pursuit
 from gazed.gaze.sightings import Sightings
 from gazed.gaze.trace import LineTracer
@@ -62,6 +65,8 @@ from gazed.messages import (
 
 PARK_TOLERANCE_RAD = math.radians(1.0)  # this close to the park pose, the head is parked
 TAKING_UP = ("park", "search", "lost")  # the states that take a detection up (in a row)
+MOVE_THEN_LOOK = ("look-and-move", "move-wait-move")  # controls that ignore frames while moving
+PID_STALE_FRAMES = 3  # the pid stops the head after this many frame periods without a detection
 
 
 @dataclass(frozen=True)
@@ -82,7 +87,7 @@ class GazeController:
 
     def __init__(self, rig: Rig, mono_s: float) -> None:
         gaze = self.gaze = rig.gaze
-        camera = CameraModel.from_section(rig.camera)
+        self.camera = camera = CameraModel.from_section(rig.camera)
         self.kinematics = kinematics = HeadKinematics.from_section(rig.head)
         self.park = rig.head.park_rad
         self.fovea_rad = math.radians(gaze.fovea_half_angle_deg)
@@ -98,11 +103,18 @@ class GazeController:
         )
         self.move = Move(move_limits, settling)  # saccade or look-and-move
         self.look_and_move = LookAndMove(self.move)
+        limits_rad = (self.shaper.limiter.pan_limits_rad, self.shaper.limiter.tilt_limits_rad)
+        self.pid = PixelPid(
+            (gaze.pid_kp_per_s, gaze.pid_ki_per_s2, gaze.pid_kd_s),
+            gaze.pid_deadband_px,
+            move_limits.rate_max_rad_s,
+            limits_rad,
+            PID_STALE_FRAMES * frame_period_s,
+        )
         camera_xyz_m = rig.calibration.camera_xyz_m
         self.lost_search = LostSearch(
             gaze, self.fovea_rad, camera_xyz_m, move_limits, frame_period_s
         )
-        limits_rad = (self.shaper.limiter.pan_limits_rad, self.shaper.limiter.tilt_limits_rad)
         self.tracer = LineTracer(gaze, camera, kinematics, limits_rad)
         # the state machine
         self.state: GazeStateName = "park"
@@ -149,13 +161,16 @@ class GazeController:
             return
         if (
             self.state == "saccade"
-            or (self.gaze.control == "look-and-move" and not self.look_and_move.looking)
+            or (self.gaze.control in MOVE_THEN_LOOK and not self.look_and_move.looking)
             or (self.state == "lost" and self.lost_search.from_the_move(detection.t_capture_ns))
         ):
             self.own_counts["ignored_while_moving"] += 1  # captured mid-move: blurred, off track
             return
         if self.state == "pursuit":
             self.pursuit.on_detection(detection)
+            if self.gaze.control == "pid":
+                error_rad, error_px = pixel_error(self.camera, self.kinematics, detection)
+                self.pid.update(error_rad, error_px, detection.t_capture_ns)
         self.sightings.take(detection, count=self.state in TAKING_UP)
 
     def on_candidates(self, candidates: Candidates) -> None:
@@ -217,6 +232,7 @@ class GazeController:
         self.move.settling.restart()
         self.sightings.restart_run()
         self.lost_search.reset()
+        self.pid.restart()
         self.own_counts["transitions"] += 1
 
     # -- states ------------------------------------------------------------------------------
@@ -287,12 +303,18 @@ class GazeController:
         if detection is None and mono_s - self.entered_s > self.gaze.lost_after_ms / 1000.0:
             self.enter("lost", f"no detection for {self.gaze.lost_after_ms:g} ms", wall_ns, mono_s)
             return self._lost(wall_ns, mono_s)
-        if self.gaze.control == "look-and-move":
+        if self.gaze.control in MOVE_THEN_LOOK:
             return self._look_and_move(wall_ns, mono_s)
+        if self.gaze.control == "pid":
+            demand = self.pid.demand(self.odometry, wall_ns, self.sightings.found)
+            return demand if demand is not None else self._hold(wall_ns)
         return self._follow(wall_ns, correction=True)
 
     def _look_and_move(self, wall_ns: int, mono_s: float) -> GazeDemand | None:
         def target(found: Detection) -> Aim:
+            if self.gaze.control == "move-wait-move":  # where it was seen, no motion assumed
+                seen = self.sightings.aim(found)
+                return Aim(seen.t_ns, seen.pan_rad, seen.tilt_rad)
             return self.pursuit.aim(wall_ns) or self.sightings.aim(found)
 
         found, since_ns = self.sightings.found, self.entered_ns
