@@ -125,7 +125,9 @@ def score(
     return result
 
 
-def _reach_scores(reachable: np.ndarray, errors_rad: np.ndarray, fovea_rad: float) -> dict:
+def _reach_scores(
+    reachable: np.ndarray, errors_rad: np.ndarray, fovea_rad: float
+) -> dict[str, float | None]:
     """The out-of-reach share of the scored frames and the fovea fraction over the reachable."""
     inside = errors_rad[reachable] <= fovea_rad
     return {
