@@ -14,6 +14,7 @@ from gazed.eval.loop_metrics import (
     acquisition_index,
     gaze_errors_rad,
     latencies_ms,
+    reachable,
     score,
 )
 from gazed.geometry.kinematics import HeadKinematics
@@ -26,6 +27,7 @@ from gazed.messages import (
     ServoStatus,
     SimTruth,
 )
+from gazed.sim.reach import FieldOfRegard
 
 POSE = CameraPose(
     np.array([0.0, -5.0, 3.0]), math.radians(90), math.radians(-25), head=HeadKinematics("pan-tilt")
@@ -88,6 +90,62 @@ def test_score_counts_from_acquisition() -> None:
     assert result["gaze_error_deg"]["rms"] == pytest.approx(
         math.sqrt((0.5**2 + 1.5**2) / 2), rel=0.1
     )
+
+
+REACH = FieldOfRegard(
+    POSE,
+    (math.radians(-90), math.radians(90)),
+    (math.radians(-50), math.radians(40)),
+    (math.radians(-3), math.radians(-3)),  # widened by the fovea, as for scoring
+    0.2,
+)
+
+
+def truth_at(k: int, xy_m: tuple[float, float], off_deg: float) -> SimTruth:
+    """The target at `xy_m`, and the head `off_deg` above its middle, at the tilt limit if it
+    cannot reach."""
+    pan, tilt = (float(a) for a in POSE.gaze_angles(np.array([*xy_m, 0.2])))
+    tilt = max(tilt + math.radians(off_deg), math.radians(-50))
+    return SimTruth(
+        t_capture_ns=k * 40_000_000,
+        seq=k,
+        target_xy_m=xy_m,
+        target_velocity_m_s=(0.0, 0.0),
+        target_height_m=0.4,
+        head=HeadPose(pan_rad=pan, tilt_rad=tilt),
+    )
+
+
+def test_a_frame_is_reachable_when_the_head_can_foveate_it() -> None:
+    # below the camera's foot the target needs a tilt of about -61°: 11° beyond the limit
+    frames = [truth_at(0, (0.0, 1.0), 0.0), truth_at(1, (0.0, -4.8), 0.0)]
+    assert reachable(frames, REACH).tolist() == [True, False]
+    limit = POSE.centre_m[2] - 0.2  # the ground distance at which the tilt is 3° past its limit
+    edge_y = -5.0 + limit / math.tan(math.radians(25 + 50 + 3))
+    near = [truth_at(0, (0.0, edge_y + 0.02), 0.0), truth_at(1, (0.0, edge_y - 0.02), 0.0)]
+    assert reachable(near, REACH).tolist() == [True, False]
+
+
+def test_score_splits_the_frames_out_of_reach_from_the_rest() -> None:
+    frames = (
+        [truth_at(k, (0.0, 1.0), 0.0) for k in range(10)]
+        + [truth_at(k, (0.0, -4.8), 0.0) for k in range(10, 20)]  # beyond the tilt limit
+        + [truth_at(k, (0.0, 1.0), 4.0 if k % 2 else 0.0) for k in range(20, 30)]
+    )
+    record = LoopRecord(frames, [], [], [])
+    result = score(record, POSE, 3.0, REACH)
+    assert result["acquired_after_s"] == 0.0
+    assert result["fovea_fraction"] == pytest.approx(15 / 30, abs=1e-4)
+    assert result["out_of_reach_fraction"] == pytest.approx(10 / 30, abs=1e-4)
+    assert result["fovea_fraction_reachable"] == pytest.approx(15 / 20, abs=1e-4)
+    assert "out_of_reach_fraction" not in score(record, POSE, 3.0)
+    # scored from acquisition: frames before it count in neither share
+    late = [truth_at(k, (0.0, -4.8), 0.0) for k in range(5)] + [
+        truth_at(k, (0.0, 1.0), 0.0) for k in range(5, 20)
+    ]
+    result = score(LoopRecord(late, [], [], []), POSE, 3.0, REACH)
+    assert result["out_of_reach_fraction"] == 0.0
+    assert result["fovea_fraction_reachable"] == 1.0
 
 
 def test_latency_counts_the_first_write_of_each_capture() -> None:

@@ -8,7 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gazed.sim.trajectories import NAMES, make_trajectory, read_pedestrians
+from gazed.sim.scenarios import NAMES, make_trajectory
+from gazed.sim.trajectories import read_pedestrians
 
 DT = 0.01
 

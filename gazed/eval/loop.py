@@ -34,6 +34,7 @@ from gazed.config import Rig, RigError, load_rig
 from gazed.eval.loop_metrics import LoopRecord, score
 from gazed.geometry.pose import CameraPose
 from gazed.messages import ServoStatus
+from gazed.sim.reach import FieldOfRegard
 from gazed.topics import (
     ESTIMATOR_STATE,
     GAZE_STATE,
@@ -135,7 +136,8 @@ def run_loop(
             "control": rig.gaze.control,
             "seconds": seconds,
         }
-        result.update(score(record, CameraPose.from_rig(rig), rig.gaze.fovea_half_angle_deg))
+        pose, reach = CameraPose.from_rig(rig), FieldOfRegard.for_scoring(rig)
+        result.update(score(record, pose, rig.gaze.fovea_half_angle_deg, reach))
         del result["frames"]
         result["cpu_percent"] = cpu
         result["servo"] = servo_summary(servo)

@@ -6,6 +6,10 @@ corrective saccades).
   point), from `sim/truth`;
 - acquisition: the first frame from which the target stays within the fovea for
   `ACQUIRED_FRAMES` frames in a row; fovea fraction, error RMS / p95 and saccades count from there;
+- reach: with the rig's field of regard (`FieldOfRegard.for_scoring`), each truth frame is
+  reachable when the head can put the target's middle in its fovea within its joint limits; the
+  share of scored frames out of reach, and the fovea fraction over the reachable ones, tell a
+  loop that could not follow from a scenario that went where no head can look;
 - ground RMSE: the estimator's ground position at a capture time against the truth then, from
   acquisition on (before it, the estimator may still hold a track of something else);
 - latency: processing from the frame's arrival at `vision` (its `vision.arrival` stamp) to the
@@ -24,6 +28,7 @@ import numpy as np
 from gazed.geometry.pose import CameraPose
 from gazed.latency import processing_s
 from gazed.messages import ARRIVAL_STAGE, EstimatorState, GazeDemand, GazeState, SimTruth
+from gazed.sim.reach import FieldOfRegard
 
 ACQUIRED_FRAMES = 10
 
@@ -64,7 +69,20 @@ def acquisition_index(errors_rad: np.ndarray, fovea_rad: float) -> int | None:
     return None
 
 
-def score(record: LoopRecord, pose: CameraPose, fovea_half_angle_deg: float) -> dict[str, object]:
+def reachable(truth: list[SimTruth], reach: FieldOfRegard) -> np.ndarray:
+    """Per truth frame: whether the joint angles that centre the target's middle are within
+    the field of regard."""
+    middles = np.array([(*t.target_xy_m, t.target_height_m / 2.0) for t in truth])
+    return reach.contains_angles(*reach.pose.gaze_angles(middles))
+
+
+def score(
+    record: LoopRecord,
+    pose: CameraPose,
+    fovea_half_angle_deg: float,
+    reach: FieldOfRegard | None = None,
+) -> dict[str, object]:
+    """The run's scores (module docstring); the reach figures only with a `reach`."""
     truth = sorted(record.truth, key=lambda t: t.t_capture_ns)
     if not truth:
         raise ValueError("no sim/truth was received: the simulator did not run")
@@ -95,11 +113,27 @@ def score(record: LoopRecord, pose: CameraPose, fovea_half_angle_deg: float) -> 
             fovea_fraction=round(float(np.mean(after <= fovea_half_angle_deg)), 4),
             saccades_after_acquisition=saccades,
         )
+    if reach is not None:
+        scored = slice(start or 0, None)
+        result.update(_reach_scores(reachable(truth, reach)[scored], errors[scored], fovea))
+        if start is None:
+            result["fovea_fraction_reachable"] = 0.0
     result["ground_rmse_m"] = ground_rmse_m(
         truth, [e for e in record.estimates if e.t_capture_ns >= scored_from_ns]
     )
     result["latency_ms"] = latencies_ms(record.commands)
     return result
+
+
+def _reach_scores(
+    reachable: np.ndarray, errors_rad: np.ndarray, fovea_rad: float
+) -> dict[str, float | None]:
+    """The out-of-reach share of the scored frames and the fovea fraction over the reachable."""
+    inside = errors_rad[reachable] <= fovea_rad
+    return {
+        "out_of_reach_fraction": round(float(np.mean(~reachable)), 4),
+        "fovea_fraction_reachable": round(float(np.mean(inside)), 4) if inside.size else None,
+    }
 
 
 def ground_rmse_m(truth: list[SimTruth], estimates: list[EstimatorState]) -> float | None:

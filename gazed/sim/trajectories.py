@@ -24,8 +24,6 @@ from pathlib import Path
 
 import numpy as np
 
-from gazed.config import TRAJECTORY_NAMES
-
 OBSERVATION_S = 0.04  # seed 000 §4.2: the rounded square is 50 observations of 40 ms a side
 PEDESTRIAN_FRAME_S = 0.04  # ETH/UCY: 10 frame_id units = 0.4 s
 
@@ -87,7 +85,7 @@ class SegmentPath:
             if segment.heading_rad is not None:
                 heading = segment.heading_rad
             self._starts.append(_Start(t, x, y, speed, heading))
-            x, y, speed, heading = _advance(x, y, speed, heading, segment, segment.duration_s)
+            x, y, speed, heading = advance(x, y, speed, heading, segment, segment.duration_s)
             t += segment.duration_s
         self.end = (x, y, speed, heading)
         self._start_times_s = np.array([start.t_s for start in self._starts])
@@ -102,13 +100,13 @@ class SegmentPath:
         index = min(max(index, 0), len(self.segments) - 1)
         start, segment = self._starts[index], self.segments[index]
         tau = local - start.t_s
-        x, y, speed, heading = _advance(
+        x, y, speed, heading = advance(
             start.x_m, start.y_m, start.speed_m_s, start.heading_rad, segment, tau
         )
         return _state(t_s, x, y, speed, heading, segment)
 
 
-def _advance(
+def advance(
     x: float, y: float, s0: float, theta0: float, segment: Segment, tau: float
 ) -> tuple[float, float, float, float]:
     d = s0 * tau + 0.5 * segment.accel_m_s2 * tau * tau
@@ -212,69 +210,6 @@ def figure_eight(
     return SegmentPath(segments, centre_xy_m, speed_m_s, math.pi / 2)
 
 
-def random_walk(
-    seed: int,
-    speed_m_s: float = 1.0,
-    radius_m: float = 4.0,
-    centre_xy_m: tuple[float, float] = (0.0, 0.0),
-    duration_s: float = 3600.0,
-) -> SegmentPath:
-    """Seeded maneuvers: straights of 1-4 s, turns of 20-60°/s for 1-3 s, speed changes, short
-    stops. A segment that would end farther than 1.5 `radius_m` from the centre, or any segment
-    that starts outside `radius_m`, is replaced by a turn back towards the centre."""
-    rng = np.random.default_rng(seed)
-    cx, cy = centre_xy_m
-    heading0 = float(rng.uniform(-math.pi, math.pi))
-    x, y, speed, heading = cx, cy, speed_m_s, heading0
-    segments: list[Segment] = []
-    total = 0.0
-    while total < duration_s:
-        segment = _random_segment(rng, speed, speed_m_s)
-        end = _advance(x, y, speed, heading, segment, segment.duration_s)
-        if (
-            math.hypot(x - cx, y - cy) > radius_m
-            or math.hypot(end[0] - cx, end[1] - cy) > 1.5 * radius_m
-        ):
-            segment = _homing_segment(x, y, speed, heading, speed_m_s, centre_xy_m)
-            end = _advance(x, y, speed, heading, segment, segment.duration_s)
-        x, y, speed, heading = end[0], end[1], max(end[2], 0.0), end[3]
-        segments.append(segment)
-        total += segment.duration_s
-    return SegmentPath(segments, centre_xy_m, speed_m_s, heading0, loop=False)
-
-
-def _random_segment(rng: np.random.Generator, speed: float, nominal_m_s: float) -> Segment:
-    kind = rng.choice(["straight", "turn", "speed", "stop"], p=[0.35, 0.35, 0.2, 0.1])
-    if kind == "straight":
-        return Segment(float(rng.uniform(1.0, 4.0)))
-    if kind == "turn" and speed > 0.05:
-        rate = math.radians(float(rng.uniform(20.0, 60.0))) * float(rng.choice([-1.0, 1.0]))
-        return Segment(float(rng.uniform(1.0, 3.0)), curvature_1_m=rate / speed)
-    if kind == "stop" and speed > 0.05:
-        ramp_s = float(rng.uniform(0.8, 1.5))
-        return Segment(ramp_s, accel_m_s2=-speed / ramp_s)
-    target = float(rng.uniform(0.5, 1.5)) * nominal_m_s  # a speed change, or walking off
-    ramp_s = float(rng.uniform(1.0, 2.0))
-    return Segment(ramp_s, accel_m_s2=(target - speed) / ramp_s)
-
-
-def _homing_segment(
-    x: float,
-    y: float,
-    speed: float,
-    heading: float,
-    nominal_m_s: float,
-    centre_xy_m: tuple[float, float],
-) -> Segment:
-    """Turn towards the centre at 60°/s (walking off first if standing)."""
-    if speed < 0.3 * nominal_m_s:
-        return Segment(1.0, accel_m_s2=nominal_m_s - speed)
-    home = math.atan2(centre_xy_m[1] - y, centre_xy_m[0] - x)
-    error = (home - heading + math.pi) % (2 * math.pi) - math.pi
-    rate = math.copysign(math.radians(60.0), error)
-    return Segment(max(abs(error), 0.1) / abs(rate), curvature_1_m=rate / speed)
-
-
 class RecordedTrack:
     """A pedestrian track (`frame_id ped_id x y`, 10 frame_id units = 0.4 s), moved so its mean
     lies at `centre_xy_m`, interpolated by a C1 cubic (Catmull-Rom) between samples. It holds
@@ -342,46 +277,3 @@ def read_pedestrians(path: Path) -> dict[int, tuple[np.ndarray, np.ndarray]]:
         rows = rows[np.argsort(rows[:, 0])]
         tracks[int(ped)] = (rows[:, 0] * PEDESTRIAN_FRAME_S, rows[:, 2:4].copy())
     return tracks
-
-
-Trajectory = SegmentPath | RecordedTrack
-
-NAMES = TRAJECTORY_NAMES
-
-
-def make_trajectory(
-    spec: str,
-    *,
-    seed: int = 1,
-    speed_m_s: float = 1.0,
-    scale: float = 1.0,
-    centre_xy_m: tuple[float, float] = (0.0, 0.0),
-    base_dir: Path | None = None,
-) -> Trajectory:
-    """A trajectory by name (`NAMES`) or `file:PATH[#ped_id]` (default: the longest track)."""
-    if spec == "rounded-square":
-        return rounded_square(speed_m_s, centre_xy_m)
-    if spec == "oval":
-        return oval(scale, centre_xy_m)
-    if spec == "stop-and-go":
-        return stop_and_go(speed_m_s, centre_xy_m)
-    if spec == "figure-eight":
-        return figure_eight(speed_m_s, 2.0 * scale, centre_xy_m)
-    if spec == "random":
-        return random_walk(seed, speed_m_s, 4.0 * scale, centre_xy_m)
-    if spec.startswith("file:"):
-        path_text, _, ped_text = spec[len("file:") :].partition("#")
-        path = Path(path_text)
-        if not path.is_absolute() and base_dir is not None:
-            path = base_dir / path
-        tracks = read_pedestrians(path)
-        if ped_text:
-            if int(float(ped_text)) not in tracks:
-                raise ValueError(f"{path}: no pedestrian {ped_text}")
-            times, xy = tracks[int(float(ped_text))]
-        else:
-            times, xy = max(tracks.values(), key=lambda track: len(track[0]))
-        return RecordedTrack(times, xy * scale, centre_xy_m)
-    raise ValueError(
-        f"unknown trajectory {spec!r} (expected one of {', '.join(NAMES)} or file:PATH[#ped_id])"
-    )

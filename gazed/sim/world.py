@@ -18,14 +18,17 @@ from gazed.config import Rig
 from gazed.geometry.camera import CameraModel
 from gazed.geometry.pose import CameraPose
 from gazed.messages import FrameHeader, HeadPose, SimTruth
+from gazed.sim.reach import FieldOfRegard
 from gazed.sim.renderer import Body, Renderer
-from gazed.sim.trajectories import Trajectory, make_trajectory
+from gazed.sim.scenarios import Trajectory, make_trajectory
 
 
 def trajectories(rig: Rig) -> tuple[Trajectory, Trajectory | None]:
-    """The target's trajectory and the distractor's (None without one), from [sim]."""
+    """The target's trajectory and the distractor's (None without one), from [sim]; a random
+    walk keeps within the head's reach (`FieldOfRegard.for_walker`)."""
     sim = rig.sim
     base_dir = rig.source_path.parent if rig.source_path is not None else None
+    reach = FieldOfRegard.for_walker(rig)
 
     def build(spec: str, seed: int) -> Trajectory:
         return make_trajectory(
@@ -35,6 +38,7 @@ def trajectories(rig: Rig) -> tuple[Trajectory, Trajectory | None]:
             scale=sim.trajectory_scale,
             centre_xy_m=sim.area_centre_xy_m,
             base_dir=base_dir,
+            reach=reach,
         )
 
     return build(sim.trajectory, sim.seed), (
