@@ -82,7 +82,7 @@ class VisionService:
         )
         self.source.connect()
         digital = rig.servo.protocol == "digital"
-        self.source_name = f"wide {rig.wide.source}" if digital else rig.camera.source
+        self.source_name = f"wide {rig.wide_source}" if digital else rig.camera.source
 
     def step(self, now: Now) -> float:
         for odometry in self.odometry.take():

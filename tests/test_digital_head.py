@@ -113,3 +113,12 @@ def test_jog_refuses_the_digital_head(tmp_path, capsys):
     rig_path.write_text(f'[rig]\nname = "d"\n[servo]\nprotocol = "digital"\n{HEAD_SECTION}')
     assert cli.main(["servo", "jog", "--rig", str(rig_path), "--query"]) == 2
     assert "no serial port" in capsys.readouterr().out
+
+
+def test_digital_link_reports_its_health_like_any_head():
+    _, clock, _, link = digital_link()
+    run(link, clock, 0.1)
+    counters = link.counters()
+    assert counters["odometry"] > 0 and counters["errors"] == 0
+    assert not any(k.startswith("link_") for k in counters)  # no link of its own to count
+    assert link.notes()["link"] == "connected"

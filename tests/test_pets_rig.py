@@ -23,7 +23,7 @@ PETS = REPO / "configs" / "pets.toml"
 def private_pets_rig(tmp_path: Path) -> Path:
     """configs/pets.toml with its own name, bus port and stream port, the footage's path
     absolute (skips where the footage is absent)."""
-    source = load_rig(PETS).wide.source
+    source = load_rig(PETS).wide_source
     assert source is not None
     if not Path(source).is_file():
         pytest.skip(f"the PETS footage {source} is absent")

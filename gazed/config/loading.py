@@ -39,7 +39,7 @@ def cannot_start(rig: Rig) -> list[str]:
     footage to play that is not here. Such a rig loads (its keys are right), but `gazed run`
     and its processes exit 2 with these problems."""
     where = rig.source_path or "<rig>"
-    source = rig.wide.source
+    source = rig.wide_source
     if source is None:
         if rig.servo.protocol == "digital":
             return [
@@ -79,9 +79,6 @@ def parse_rig(text: str, path: str | Path = "<rig>") -> Rig:
     }
     if relative:
         rig = rig.model_copy(update={"bus": rig.bus.model_copy(update=relative)})
-    if rig.wide.source is not None:
-        wide = rig.wide.model_copy(update={"source": rig.wide.source_in(path.parent)})
-        rig = rig.model_copy(update={"wide": wide})
     rig._source_path = path
     return rig
 

@@ -53,6 +53,12 @@ class Rig(Section):
         return self._source_path
 
     @property
+    def wide_source(self) -> str | None:
+        """`[wide] source` with a relative file path taken from the rig file's folder."""
+        folder = self.source_path.parent if self.source_path is not None else Path.cwd()
+        return self.wide.source_in(folder)
+
+    @property
     def name(self) -> str:
         return self.rig.name
 

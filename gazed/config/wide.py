@@ -13,6 +13,7 @@ from gazed.config.section import Section
 class WideSection(Section):
     source: str | None = Field(
         None,
+        min_length=1,
         description="The wide camera: a device index such as '0', a video file (relative to the "
         "rig file's folder; files loop) or an rtsp:// / http:// URL. Needed by the digital head.",
     )

@@ -249,6 +249,9 @@ def private_rig(
     for key in ("zenoh_config_path", "credentials_path"):  # relative to the original rig file
         if key in bus:
             bus[key] = str(base / str(bus[key]))
+    wide = document.get("wide")
+    if wide is not None and "source" in wide:
+        wide["source"] = load_rig(rig_path).wide_source
     servo = document.setdefault("servo", tomlkit.table())
     if str(servo.get("port", "")).startswith("visca-udp://"):  # VISCA over IP: a private UDP port
         servo["port"] = f"visca-udp://127.0.0.1:{_free_port(socket.SOCK_DGRAM)}"

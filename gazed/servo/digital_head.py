@@ -47,6 +47,9 @@ class InstantLine:
     byte_time_s: float = 0.0
     line_s: float = 0.0
 
+    def __init__(self) -> None:
+        self.counters: Counter[str] = Counter()  # the link's own counts: none
+
     def line_busy_s(self) -> float:
         return 0.0
 

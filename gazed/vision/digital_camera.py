@@ -128,10 +128,10 @@ def open_digital_camera(
     """The rig's digital head camera: `[wide]`'s source (a file plays at `[wide] rate_hz` and
     loops), rendered to `[camera]`'s view."""
     wide = rig.wide
-    if wide.source is None:
+    if rig.wide_source is None:
         raise SourceError("[wide] source: missing (the digital head needs a wide camera)")
     source = OpenCvCamera(
-        capture_target(wide.source),
+        capture_target(rig.wide_source),
         width_px=wide.width_px,
         height_px=wide.height_px,
         rate_hz=wide.rate_hz,
