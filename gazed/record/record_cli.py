@@ -4,9 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
-import signal
 import sys
-import threading
 import time
 from pathlib import Path
 
@@ -14,6 +12,7 @@ import zenoh
 
 from gazed.bustools.listen import common_arguments, target_of
 from gazed.record.mcap_writer import McapRecording, QueuedRecorder, Sample
+from gazed.record.stopping import stop_on_signals
 from gazed.session import BusError, open_session
 from gazed.topics import PREFIX
 
@@ -37,10 +36,7 @@ def record_command(args: argparse.Namespace) -> int:
     except BusError as exc:
         print(f"gazed record: no bus answers: {exc}", file=sys.stderr)
         return 1
-    done = threading.Event()
-    for signum in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(signum, lambda *_: done.set())
-    with args.output.open("wb") as stream:
+    with stop_on_signals() as done, args.output.open("wb") as stream:
         recorder = QueuedRecorder(McapRecording(stream))
 
         def on_sample(sample: zenoh.Sample) -> None:

@@ -8,7 +8,6 @@ with its topic's encoding, at its recorded time relative to the first message di
 from __future__ import annotations
 
 import argparse
-import signal
 import sys
 import threading
 import time
@@ -21,6 +20,7 @@ from gazed.bus import JSON, OCTETS
 from gazed.bustools.listen import common_arguments, target_of
 from gazed.record import frame_image
 from gazed.record.mcap_reader import DamagedRecording, Recorded, read_recording
+from gazed.record.stopping import stop_on_signals
 from gazed.session import BusError, open_session
 from gazed.topics import PREFIX, split_key, topic_for
 
@@ -46,20 +46,18 @@ def replay_command(args: argparse.Namespace) -> int:
     except BusError as exc:
         print(f"gazed replay: no bus answers: {exc}", file=sys.stderr)
         return 1
-    stop = threading.Event()
-    for signum in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(signum, lambda *_: stop.set())
-    replayer = Replayer(session, target.rig, args.rate, stop)
-    try:
-        for recorded in read_recording(args.recording):
-            if not replayer.publish(recorded):
-                break
-    except DamagedRecording as exc:
-        print(f"gazed replay: {exc}", file=sys.stderr)
-        return 1
-    finally:
-        session.close()
-        print(replayer.summary(), file=sys.stderr)
+    with stop_on_signals() as stop:
+        replayer = Replayer(session, target.rig, args.rate, stop)
+        try:
+            for recorded in read_recording(args.recording):
+                if not replayer.publish(recorded):
+                    break
+        except DamagedRecording as exc:
+            print(f"gazed replay: {exc}", file=sys.stderr)
+            return 1
+        finally:
+            session.close()
+            print(replayer.summary(), file=sys.stderr)
     return 0
 
 
