@@ -4,6 +4,7 @@ saying where the damage starts."""
 
 from __future__ import annotations
 
+import json
 import threading
 from collections import Counter
 from collections.abc import Iterator
@@ -57,14 +58,15 @@ def router(tmp_path: Path) -> Iterator[tuple[Path, Router]]:
 
 
 def test_replay_publishes_every_message_on_the_rig(
-    router: tuple[Path, Router], tmp_path: Path
+    router: tuple[Path, Router], tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     rig_path, bus = router
     samples = [odometry_sample(i) for i in range(20)] + [frame_sample(i) for i in range(3)]
     write_file(tmp_path / "run.mcap", samples)
-    assert (
-        main(["replay", str(tmp_path / "run.mcap"), "--rig", str(rig_path), "--rate", "100"]) == 0
-    )
+    args = ["replay", str(tmp_path / "run.mcap"), "--rig", str(rig_path), "--rate", "100"]
+    assert main([*args, "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report == {"published": {"servo/odometry": 20, "sim/frame": 3}, "skipped": {}}
     poll_until(lambda: bus.total() == 23, 5.0)
     assert bus.counts == {"servo/odometry": 20, "sim/frame": 3}
     assert [f.header.seq for f in bus.frames] == [0, 1, 2]  # type: ignore[attr-defined]
@@ -84,3 +86,9 @@ def test_a_cut_file_replays_its_first_part_and_exits_1(
     good = int(error.split("after message ")[1].split()[0])
     assert 0 < good < 61
     poll_until(lambda: bus.total() == good, 5.0)
+
+
+def test_replay_needs_a_rig(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    write_file(tmp_path / "run.mcap", [odometry_sample(0)])
+    assert main(["replay", str(tmp_path / "run.mcap"), "--connect", "tcp/127.0.0.1:1"]) == 2
+    assert "which rig" in capsys.readouterr().err

@@ -8,6 +8,7 @@ with its topic's encoding, at its recorded time relative to the first message di
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 import threading
 import time
@@ -41,6 +42,9 @@ def replay_command(args: argparse.Namespace) -> int:
         print(f"gazed replay: {args.recording}: no such file", file=sys.stderr)
         return 2
     target = target_of(args)
+    if target.rig == "*":
+        print("gazed replay: which rig? give --rig RIG or --rig-name NAME", file=sys.stderr)
+        return 2
     try:
         session = open_session(target.bus)
     except BusError as exc:
@@ -57,7 +61,10 @@ def replay_command(args: argparse.Namespace) -> int:
             return 1
         finally:
             session.close()
-            print(replayer.summary(), file=sys.stderr)
+            if args.json:
+                print(json.dumps({"published": replayer.published, "skipped": replayer.skipped}))
+            else:
+                print(replayer.summary(), file=sys.stderr)
     return 0
 
 
