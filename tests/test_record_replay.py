@@ -92,3 +92,11 @@ def test_replay_needs_a_rig(tmp_path: Path, capsys: pytest.CaptureFixture[str]) 
     write_file(tmp_path / "run.mcap", [odometry_sample(0)])
     assert main(["replay", str(tmp_path / "run.mcap"), "--connect", "tcp/127.0.0.1:1"]) == 2
     assert "which rig" in capsys.readouterr().err
+
+
+def test_record_into_a_missing_directory_is_an_error(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    output = tmp_path / "absent" / "run.mcap"
+    assert main(["record", "--rig-name", "x", "-o", str(output), "--seconds", "0"]) == 2
+    assert "no such directory" in capsys.readouterr().err

@@ -29,6 +29,9 @@ def record_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def record_command(args: argparse.Namespace) -> int:
+    if not args.output.parent.is_dir():
+        print(f"gazed record: {args.output.parent}: no such directory", file=sys.stderr)
+        return 2
     target = target_of(args)
     keys = [_absolute(k, target.rig) for k in args.keyexpr] or [f"{PREFIX}/{target.rig}/**"]
     try:

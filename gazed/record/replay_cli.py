@@ -25,6 +25,9 @@ from gazed.record.stopping import stop_on_signals
 from gazed.session import BusError, open_session
 from gazed.topics import PREFIX, split_key, topic_for
 
+# How long replay waits for a subscriber before it starts (nobody may be listening).
+SUBSCRIBERS_WAIT_S = 1.0
+
 
 def replay_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("recording", type=Path, help="an MCAP file written by `gazed record`")
@@ -84,6 +87,7 @@ class Replayer:
     def publish(self, recorded: Recorded) -> bool:
         """Wait for the message's time, then publish it; False once stopped."""
         if self._start is None:
+            self._await_subscribers(recorded.key)
             self._start = (recorded.log_time_ns, time.monotonic())
         first_ns, started_s = self._start
         due_s = started_s + (recorded.log_time_ns - first_ns) / 1e9 / self._rate
@@ -106,6 +110,21 @@ class Replayer:
             self._publisher(suffix).put(recorded.data)
         self.published[suffix] += 1
         return True
+
+    def _await_subscribers(self, key: str) -> None:
+        """Wait (at most `SUBSCRIBERS_WAIT_S`) until the bus has told this new session of a
+        subscriber to the first key: a message published before that is not sent at all."""
+        parts = split_key(key)
+        if parts is None:
+            return
+        publisher = self._publisher(parts[1])
+        matched = threading.Event()
+        listener = publisher.declare_matching_listener(
+            lambda status: matched.set() if status.matching else None
+        )
+        if not publisher.matching_status.matching:
+            matched.wait(SUBSCRIBERS_WAIT_S)
+        listener.undeclare()
 
     def summary(self) -> str:
         total = sum(self.published.values())
