@@ -44,6 +44,12 @@ COMMANDS: dict[str, Command | Group] = {
     "latency": Command(
         "gazed.bustools.latency", "per-stage and end-to-end latency from message stamps"
     ),
+    "record": Command(
+        "gazed.record.record_cli", "write the bus's messages into an MCAP file (Foxglove opens it)"
+    ),
+    "replay": Command(
+        "gazed.record.replay_cli", "publish an MCAP recording back on a rig's bus, in its timing"
+    ),
     "calibrate": Group(
         "solve the frontal-plane -> ground homography",
         {

@@ -1,0 +1,1 @@
+"""Recording the bus into MCAP files and replaying them (`gazed record`, `gazed replay`)."""
