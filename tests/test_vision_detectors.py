@@ -186,8 +186,8 @@ def test_a_quantised_head_pose_neither_fires_on_background_nor_loses_the_target(
 ) -> None:
     """The ego-rotation is only as good as the head's encoder: residual flow on strong edges then
     looks like motion that keeps its place in the world. The flow detector reports a region only
-    if it moves against the background's measured leftover motion by more than the floor, and
-    looks for the target among the rest when most of the region is such background.
+    if it moves against the world by more than the noise plus 5 % of the head's displacement,
+    and looks for the target among the rest when most of the region is such background.
     `-s` prints the figures."""
     false = sum(r.output.found for r, _ in run_with_encoder(rotation_only, detector, **settings))
     position, velocity, found = errors(run_with_encoder(pursuit, detector, **settings))

@@ -82,7 +82,6 @@ class FlowWindow:
     ) -> None:
         assert pair.previous is not None
         self.fovea = fovea
-        self.offsets_px = offsets_px
         self.sigma_px = sigma_px
         self.margin = math.ceil(3.0 * sigma_px) + 1
         m, n = self.margin, fovea.side
@@ -176,22 +175,17 @@ class FlowConstraints:
         self.wn = np.square(gradient) * self.normal
         self.products = self.wn[[0, 0, 1]] * self.normal[[0, 1, 1]]
 
-    def distances(self, starts: np.ndarray) -> np.ndarray:
-        """y = v_ind - v̂·d = -E_t/|∇E| + v̂·(s - w), each constraint's distance from each
-        hypothesis d (the rows of `starts`, (k, 2)), the previous frame re-sampled at s + d:
-        (k, N) px per frame."""
-        previous = np.empty((len(starts), self.index.size), np.float32)
-        for row, d in zip(previous, starts.tolist(), strict=True):
-            self.window.previous_at(d).take(self.index, out=row)
-        return previous * self.inverse_gradient + self.offset
-
     def fit(self, starts: np.ndarray, tolerance_px: float, noise_px: float) -> FlowFit:
         """One Gauss-Newton step from each hypothesis d (the rows of `starts`, (k, 2)); the
         estimate that explains the most constraints. Re-sample the previous frame at s + d, keep
         the constraints within `tolerance_px` of the hypothesis (the linear range; the rest
         belong to something else), and fit v̂·d' = v_ind by least squares weighted by |∇E|²
         (i.e. ∇E·d' = -E_t), solved for the step δ = d' - d."""
-        y = self.distances(starts)
+        previous = np.empty((len(starts), self.index.size), np.float32)
+        for row, d in zip(previous, starts.tolist(), strict=True):
+            self.window.previous_at(d).take(self.index, out=row)
+        # y = v_ind - v̂·d = -E_t/|∇E| + v̂·(s - w), each constraint's distance from d: (k, N)
+        y = previous * self.inverse_gradient + self.offset
         near = (np.abs(y) < tolerance_px).astype(float)
         # normal equations of Σ w (v̂·δ - y)² over the near constraints, for all k at once:
         # [a b; b c] δ = (p, q), with (a, b, c) = Σ w (nx², nx ny, ny²) and (p, q) = Σ w v̂ y

@@ -28,15 +28,11 @@ explains most pixels. When none explains `ACQUIRED_SCORE` of the region, the sam
 images smoothed more (`COARSE_SIGMA_PX`, a wider linear range) give a fourth start. A fit
 explaining less than `MIN_SCORE` is not reported.
 
-The ego-rotation is only as good as the head pose at capture (an encoder step, a stamp off by
-a few milliseconds): the background then keeps a leftover motion, and on textured ground the
-whole window moves against the compensation like a target would. So the background's leftover
-displacement b is measured in every frame that has a region: the same fit on the ring around
-the window (`SURROUND` windows wide, the window itself left out, every other pixel), and the
-spread of its constraints about b (their `BACKGROUND_QUANTILE` quantile) added to the noise
-gives the floor (without compensation, the noise alone). A fit whose motion against b is within that floor keeps its place in the
-world: its pixels are dropped and the rest fitted again; a region with nothing else is not a
-target (a lone residual would otherwise be pursued as one).
+The ego-rotation is only as good as the head pose at capture (an encoder step can be a
+sizeable fraction of a pixel): on strong edges the residual then exceeds the noise, and a fit
+can win that keeps its place in the world (|d| within the noise plus `EGO_ERROR` of the head's
+displacement). That is background: its pixels are dropped and the rest fitted again; a region
+with nothing else is not a target (a lone residual would otherwise be pursued as one).
 
 The window follows the target: it is centred on the predicted position while the target is
 found, and returns to the principal point when it is lost.
@@ -68,9 +64,7 @@ MIN_SCORE = 0.2  # ... and one explaining less than this is not reported
 REFINE_ITERATIONS = 6  # further fits of the chosen hypothesis
 CONVERGED_PX = 0.02  # stop refining when d changes by less than this (px per frame)
 REFINE_RANGE_PX = 1.0  # constraints this far from a hypothesis pull it once it is chosen
-SURROUND = 3  # the ring the background is measured on spans this many windows a side
-SURROUND_STRIDE = 2  # ... taking every other pixel of it in each direction
-BACKGROUND_QUANTILE = 0.9  # the spread of the background's constraints about its fit
+EGO_ERROR = 0.05  # the fraction of the head's turn between frames the odometry can be off by
 _CLOSING_KERNEL = np.ones((3, 3), np.uint8)
 
 
@@ -102,13 +96,6 @@ class NormalFlowDetector:
         self.min_gradient = min_gradient
         self.min_area_px = min_area_px
         self._offsets_px = window_offsets_px(self.side)
-        outer = SURROUND * self.side
-        self._surround_offsets_px = window_offsets_px(outer)
-        ring = np.zeros((outer, outer), bool)
-        ring[::SURROUND_STRIDE, ::SURROUND_STRIDE] = True
-        inner = slice((outer - self.side) // 2, (outer + self.side) // 2)
-        ring[inner, inner] = False
-        self._ring = ring
         self._track: tuple[float, float, np.ndarray] | None = None  # u, v, d (px/frame)
 
     def reset(self) -> None:
@@ -131,14 +118,14 @@ class NormalFlowDetector:
             self.reset()
             return DetectorOutput.nothing(fovea.rect)
         fit = self._fit_velocity(pair, window, region, track)
-        background, floor_px = self._background(pair, fovea)
-        if math.hypot(*(fit.d - background)) <= floor_px:
+        still_px = self._still_px(pair.step, fovea)
+        if math.hypot(*fit.d) <= still_px:
             # most of it keeps its place in the world: background the compensation missed
             # (odometry error); whatever moves is in the rest, if anything
             region = self._regions(region & ~self._explained(region, window, fit))
             if region is not None:
                 fit = self._fit_velocity(pair, window, region, track)
-            if region is None or math.hypot(*(fit.d - background)) <= floor_px:
+            if region is None or math.hypot(*fit.d) <= still_px:
                 self.reset()
                 return DetectorOutput.nothing(fovea.rect)
         # the target: moving against the background, and explained by the fitted velocity
@@ -175,31 +162,13 @@ class NormalFlowDetector:
         explained[region & window.valid] = fit.inliers
         return explained
 
-    def _background(self, pair: FramePair, fovea: Fovea) -> tuple[np.ndarray, float]:
-        """The background's leftover displacement b (px per frame) on the ring around the
-        window, and the floor a region's motion against it must clear: the noise plus the
-        spread of the ring's constraints about b. Without ego compensation (no odometry)
-        there is no leftover to measure, and with no texture there none to see: b = 0 and the
-        noise."""
-        if not pair.compensated:
-            return np.zeros(2), self.noise_px
-        side = self._surround_offsets_px.shape[0]
-        x0, y0 = fovea.x0 - (side - fovea.side) // 2, fovea.y0 - (side - fovea.side) // 2
-        outer = Fovea(x0, y0, side)
-        window = FlowWindow(
-            pair, outer, self._surround_offsets_px, self.min_gradient, None, SMOOTHING_SIGMA_PX
-        )
-        h, w = pair.gray.shape[:2]
-        inside = np.zeros_like(self._ring)  # the ring's pixels within the image
-        inside[max(0, -y0) : h - y0, max(0, -x0) : w - x0] = True
-        ring = self._ring & inside & window.valid
-        if np.count_nonzero(ring) < self.min_area_px:
-            return np.zeros(2), self.noise_px
-        fit = self._fit_velocity(pair, window, ring, None)
-        distances = np.abs(window.constraints(ring).distances(fit.d[None])[0])
-        near = distances[distances < LINEAR_RANGE_PX]
-        spread = float(np.quantile(near, BACKGROUND_QUANTILE)) if near.size else 0.0
-        return fit.d, self.noise_px + spread
+    def _still_px(self, step: HeadStep, fovea: Fovea) -> float:
+        """The largest displacement (px per frame) of a region that still counts as keeping its
+        place in the world: the noise, plus the error of the ego-rotation displacement it was
+        compensated by, a fraction EGO_ERROR of that displacement (head pose at capture)."""
+        cu, cv = fovea.centre
+        tu, tv = step.transport(cu, cv)
+        return self.noise_px + EGO_ERROR * math.hypot(tu - cu, tv - cv)
 
     def _place(self, step: HeadStep, shape: tuple[int, ...]) -> Fovea:
         """Centre the fovea on the predicted target, or on the principal point."""
@@ -244,7 +213,7 @@ class NormalFlowDetector:
             coarse = FlowWindow(
                 pair,
                 window.fovea,
-                window.offsets_px,
+                self._offsets_px,
                 self.min_gradient / scale,
                 track,
                 COARSE_SIGMA_PX,
