@@ -50,6 +50,15 @@ def test_the_head_is_driven_to_park_without_a_jump() -> None:
     assert math.degrees(pose.tilt_rad) == pytest.approx(-5.0, abs=0.01)
 
 
+def test_the_port_closes_on_a_parked_head_not_on_settled_set_points() -> None:
+    line, setpoints = parked_from(40.0, timeout_s=2.5)
+    assert setpoints.settled
+    # no time after park returns: the head that follows its set-points late is there already
+    pose = line.line.mechanics.pose_at(line.now_s)
+    assert math.degrees(pose.pan_rad) == pytest.approx(5.0, abs=0.02)
+    assert math.degrees(pose.tilt_rad) == pytest.approx(-5.0, abs=0.02)
+
+
 def test_a_park_that_takes_too_long_stops_at_the_timeout() -> None:
     line, setpoints = parked_from(40.0, timeout_s=0.05)
     pans = pan_setpoints_deg(line.written)
