@@ -14,7 +14,7 @@ from __future__ import annotations
 import time
 from typing import ClassVar, Literal, Self
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 Stamp = tuple[str, int]
 
@@ -37,7 +37,7 @@ class Message(BaseModel):
 
     @classmethod
     def schema_id(cls) -> str:
-        """`gazed.Detection/1`: the schema part of the zenoh encoding."""
+        """`gazed.Detection/2`: the schema part of the zenoh encoding."""
         return f"{cls.SCHEMA}/{cls.VERSION}"
 
     def stamped(self, stage: str, t_ns: int | None = None) -> Self:
@@ -81,10 +81,32 @@ class FrameHeader(Message):
         return (self.height, self.width) if self.channels == 1 else (self.height, self.width, 3)
 
 
+class Mover(BaseModel):
+    """One moving region in a frame (pixels, image coordinates): its point (`Detection.point`
+    says which), its independent image velocity, its box, and what it looks like."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, frozen=True)
+    u_px: float
+    v_px: float
+    du_px_s: float = 0.0
+    dv_px_s: float = 0.0
+    box_width_px: float = Field(0.0, ge=0)
+    box_height_px: float = Field(0.0, ge=0)
+    area_px: float = Field(0.0, ge=0)
+    confidence: float = Field(0.0, ge=0, le=1)
+    appearance: tuple[float, ...] = Field(
+        default=(),
+        max_length=64,
+        description="Normalised colour histogram (gazed.vision.appearance); empty where none.",
+    )
+
+
 class Detection(Message):
-    """The target as the detector saw it in one frame (pixels, image coordinates: u right, v down)."""
+    """The target as the detector saw it in one frame (pixels, image coordinates: u right, v down),
+    and every mover the frame shows. Version 2 adds `movers`."""
 
     SCHEMA: ClassVar[str] = "gazed.Detection"
+    VERSION: ClassVar[int] = 2
     seq: int = Field(ge=0, description="Frame sequence number.")
     detector: str
     found: bool
@@ -111,6 +133,11 @@ class Detection(Message):
     processing_ms: float = Field(0.0, ge=0)
     head: HeadPose | None = Field(
         None, description="Head pose at capture time, None without odometry."
+    )
+    movers: tuple[Mover, ...] = Field(
+        default=(),
+        max_length=64,
+        description="Every mover in the frame, the target's own first when found.",
     )
 
 
@@ -203,12 +230,38 @@ GazeStateName = Literal["park", "search", "saccade", "pursuit", "lost", "trace"]
 
 
 class GazeState(Message):
-    """A transition of the gaze controller, with its reason."""
+    """A transition of the gaze controller, or a change of its chosen target, with its reason.
+    Version 2 adds `target_id`."""
 
     SCHEMA: ClassVar[str] = "gazed.GazeState"
+    VERSION: ClassVar[int] = 2
     state: GazeStateName
     previous: GazeStateName | None = None
     reason: str = ""
+    target_id: int | None = Field(
+        None, ge=0, description="The estimator track the gaze follows; None before a choice."
+    )
+
+
+class GazeSelect(Message):
+    """An operator's choice of target: a track id, a ground point, or a pixel with the head pose
+    it was seen at; the nearest track is chosen. None of them hands the choice back to the rig's
+    rule."""
+
+    SCHEMA: ClassVar[str] = "gazed.GazeSelect"
+    track_id: int | None = Field(None, ge=0)
+    ground_xy_m: tuple[float, float] | None = None
+    pixel_px: tuple[float, float] | None = None
+    head: HeadPose | None = Field(None, description="The pose `pixel_px` was seen at.")
+
+    @model_validator(mode="after")
+    def _one_choice(self) -> Self:
+        given = [x is not None for x in (self.track_id, self.ground_xy_m, self.pixel_px)]
+        if sum(given) > 1:
+            raise ValueError("give one of track_id, ground_xy_m and pixel_px")
+        if self.pixel_px is not None and self.head is None:
+            raise ValueError("pixel_px needs the head pose it was seen at")
+        return self
 
 
 class GazeCommand(Message):
@@ -249,11 +302,31 @@ class TraceResult(Message):
     reason: str
 
 
+class Track(BaseModel):
+    """One person the estimator follows, at the frame's capture."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, frozen=True)
+    id: int = Field(ge=0, description="Stable for the track's life; never reused.")
+    confirmed: bool = Field(description="Seen often enough to be a person, not clutter.")
+    pan_rad: float = Field(description="The head angles that centre it in the fovea.")
+    tilt_rad: float
+    ground_xy_m: tuple[float, float] | None = None
+    ground_velocity_m_s: tuple[float, float] | None = None
+    ground_cov_m2: tuple[tuple[float, float], tuple[float, float]] | None = None
+    age_s: float = Field(ge=0, description="Since the track began.")
+    hits: int = Field(ge=0, description="Detections it has taken.")
+    coasting: bool = Field(False, description="No detection of it in this frame.")
+    box_height_px: float = Field(0.0, ge=0, description="Its last box's height.")
+    most_likely: str = ""
+
+
 class EstimatorState(Message):
     """The filter after a detection or a coasting step: combined state, covariance, model
-    probabilities and the target on the ground."""
+    probabilities and the target on the ground (the chosen track's, `target_id`), and every
+    track. Version 2 adds `tracks` and `target_id`."""
 
     SCHEMA: ClassVar[str] = "gazed.EstimatorState"
+    VERSION: ClassVar[int] = 2
     filter: str
     x: tuple[float, ...] = Field(
         description="Combined state vector (its layout depends on the filter)."
@@ -264,12 +337,15 @@ class EstimatorState(Message):
     ground_xy_m: tuple[float, float] | None = None
     ground_velocity_m_s: tuple[float, float] | None = None
     coasting: bool = False
+    target_id: int | None = Field(None, ge=0, description="The track described above.")
+    tracks: tuple[Track, ...] = Field(default=(), max_length=256)
 
 
 class Prediction(Message):
-    """Where the target will be when the next demand takes effect."""
+    """Where the target will be when the next demand takes effect. Version 2 adds `track_id`."""
 
     SCHEMA: ClassVar[str] = "gazed.Prediction"
+    VERSION: ClassVar[int] = 2
     filter: str
     t_effect_ns: int = Field(ge=0, description="The instant the prediction is for.")
     horizon_s: float = Field(ge=-60, le=60)
@@ -283,6 +359,7 @@ class Prediction(Message):
     visual_latency_s: float = Field(ge=0, le=60)
     actuation_latency_s: float = Field(ge=0, le=60)
     coasting: bool = False
+    track_id: int | None = Field(None, ge=0, description="The track predicted; None: the only one.")
 
 
 class ManeuverEvent(Message):

@@ -16,6 +16,7 @@ from gazed.messages import (
     FrameHeader,
     GazeCommand,
     GazeDemand,
+    GazeSelect,
     GazeState,
     Health,
     ManeuverEvent,
@@ -65,6 +66,7 @@ ESTIMATOR_PREDICTION = Topic(
 ESTIMATOR_EVENT = Topic("estimator/event", ManeuverEvent, "the most likely motion model changed")
 GAZE_DEMAND = Topic("gaze/demand", GazeDemand, "joint angles and rates for the head")
 GAZE_STATE = Topic("gaze/state", GazeState, "each state transition with its reason")
+GAZE_SELECT = Topic("gaze/select", GazeSelect, "an operator's choice of target")
 GAZE_COMMAND = Topic("gaze/command", GazeCommand, "requests to the controller (trace a line)")
 GAZE_TRACE = Topic("gaze/trace", TraceResult, "the samples of a traced ground line")
 SERVO_ODOMETRY = Topic("servo/odometry", Odometry, "the head's angles and rates when read")

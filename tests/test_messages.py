@@ -32,6 +32,10 @@ SAMPLES: list[m.Message] = [
         height_px=480,
         processing_ms=1.2,
         head=HEAD,
+        movers=(
+            m.Mover(u_px=1.5, v_px=2.5, box_width_px=8, box_height_px=20, appearance=(0.5, 0.5)),
+            m.Mover(u_px=100.0, v_px=40.0, du_px_s=2.0, area_px=30.0, confidence=0.4),
+        ),
     ),
     m.Candidates(
         t_capture_ns=3,
@@ -46,7 +50,8 @@ SAMPLES: list[m.Message] = [
         t_capture_ns=5, protocol="pelco-d", port="/dev/ttyUSB0", link="connected", clamps=2
     ),
     m.GazeDemand(t_capture_ns=6, kind="pursuit", pan_rad=0.1, tilt_rad=0.2, pan_rate_rad_s=0.01),
-    m.GazeState(t_capture_ns=7, state="pursuit", previous="saccade", reason="settled"),
+    m.GazeState(t_capture_ns=7, state="pursuit", previous="saccade", reason="settled", target_id=3),
+    m.GazeSelect(t_capture_ns=7, pixel_px=(320.0, 240.0), head=HEAD),
     m.EstimatorState(
         t_capture_ns=8,
         filter="imm",
@@ -54,6 +59,22 @@ SAMPLES: list[m.Message] = [
         P=((1.0, 0.0), (0.0, 1.0)),
         model_probabilities={"CSD": 0.9, "CS": 0.05, "CD": 0.05},
         most_likely="CSD",
+        target_id=1,
+        tracks=(
+            m.Track(
+                id=1,
+                confirmed=True,
+                pan_rad=0.1,
+                tilt_rad=-0.5,
+                ground_xy_m=(3.0, 4.0),
+                ground_velocity_m_s=(1.0, 0.0),
+                ground_cov_m2=((0.01, 0.0), (0.0, 0.01)),
+                age_s=2.5,
+                hits=20,
+                box_height_px=80.0,
+                most_likely="CSD",
+            ),
+        ),
     ),
     m.Prediction(
         t_capture_ns=9,
@@ -136,7 +157,7 @@ def test_every_topic_model_has_a_sample() -> None:
 
 
 def test_schema_id_names_model_and_version() -> None:
-    assert m.Detection.schema_id() == "gazed.Detection/1"
+    assert m.Detection.schema_id() == "gazed.Detection/2"  # movers added
     assert m.Health.schema_id() == "gazed.Health/2"  # subscribes and publishes added
 
 
@@ -218,7 +239,7 @@ def test_random_json_objects_decode_or_are_counted(fields: dict) -> None:
     stats = Stats()
     payload = json.dumps(fields).encode()
     result = decode_sample(
-        VISION_DETECTION, FakeSample(payload, "application/json;gazed.Detection/1"), stats
+        VISION_DETECTION, FakeSample(payload, "application/json;gazed.Detection/2"), stats
     )
     counters, _ = stats.snapshot()
     assert (result is None) == (counters.get("malformed", 0) == 1)
@@ -231,13 +252,13 @@ def test_schema_mismatch_is_malformed() -> None:
     good = SAMPLES[1].to_json()
     assert (
         decode_sample(
-            VISION_DETECTION, FakeSample(good, "application/json;gazed.Detection/1"), stats
+            VISION_DETECTION, FakeSample(good, "application/json;gazed.Detection/2"), stats
         )
         is not None
     )
     assert (
         decode_sample(
-            VISION_DETECTION, FakeSample(good, "application/json;gazed.Detection/2"), stats
+            VISION_DETECTION, FakeSample(good, "application/json;gazed.Detection/1"), stats
         )
         is None
     )
@@ -245,3 +266,12 @@ def test_schema_mismatch_is_malformed() -> None:
     counters, _ = stats.snapshot()
     assert counters["malformed"] == 1
     assert stats.last_malformed is not None and "gazed.Detection/2" in stats.last_malformed
+
+
+def test_a_selection_names_at_most_one_choice() -> None:
+    assert m.GazeSelect(t_capture_ns=1).track_id is None  # hand the choice back to the rule
+    assert m.GazeSelect(t_capture_ns=1, ground_xy_m=(1.0, 2.0)).ground_xy_m == (1.0, 2.0)
+    with pytest.raises(ValidationError, match="one of"):
+        m.GazeSelect(t_capture_ns=1, track_id=2, ground_xy_m=(1.0, 2.0))
+    with pytest.raises(ValidationError, match="head pose"):
+        m.GazeSelect(t_capture_ns=1, pixel_px=(3.0, 4.0))
