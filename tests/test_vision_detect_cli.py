@@ -85,7 +85,18 @@ def test_json_lines_follow_the_target(walker_clip, capsys, tmp_path: Path) -> No
     assert code == 0
     records = json_lines(capsys)
     assert [r["frame"] for r in records] == list(range(40))
-    assert set(records[0]) == {"frame", "t_s", "found", "u", "v", "du", "dv", "area", "ms"}
+    assert set(records[0]) == {
+        "frame",
+        "t_s",
+        "found",
+        "u",
+        "v",
+        "du",
+        "dv",
+        "area",
+        "ms",
+        "movers",
+    }
     assert records[10]["t_s"] == pytest.approx(10 / FPS)
     found = [r for r in records if r["found"]]
     assert len(found) >= 35

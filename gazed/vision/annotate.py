@@ -1,8 +1,9 @@
 """Drawing a detector's answer on a frame, for a person to look at (`gazed detect --annotate`).
 
-Yellow: the window searched (fovea, search window or blob box). Green: the detection — a circle
-at a centroid or a bar at a ground-contact point — and its velocity as an arrow showing where
-it would be in `ARROW_S`. Blue dots: the motion candidates, numbered by rank.
+Yellow: the window searched (fovea, search window or blob box). Magenta: every mover's box,
+numbered in the detector's order (0: the target's own). Green: the detection — a circle at a
+centroid or a bar at a ground-contact point — and its velocity as an arrow showing where it
+would be in `ARROW_S`. Blue dots: the motion candidates, numbered by rank.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from gazed.vision.detector import DetectorOutput
 
 ARROW_S = 0.5
 YELLOW, GREEN, BLUE, WHITE = (0, 220, 255), (0, 230, 0), (255, 140, 0), (255, 255, 255)
+MAGENTA = (255, 0, 255)
 
 
 def annotate(
@@ -23,8 +25,13 @@ def annotate(
     candidates: list[MotionRegion] | None,
     caption: str,
 ) -> np.ndarray:
-    """A copy of the frame with the detection, its window, velocity and candidates drawn."""
+    """A copy of the frame with the detection, its window, velocity, movers and candidates
+    drawn."""
     image = frame_bgr.copy()
+    for index, mover in enumerate(output.movers):
+        x, y, w, h = (round(c) for c in mover.box)
+        cv2.rectangle(image, (x, y), (x + w - 1, y + h - 1), MAGENTA, 1)
+        cv2.putText(image, str(index), (x + 1, y + 10), 0, 0.35, MAGENTA, 1, cv2.LINE_AA)
     for rank, c in enumerate(candidates or [], start=1):
         centre = (round(c.u_px), round(c.v_px))
         cv2.circle(image, centre, 3, BLUE, -1, cv2.LINE_AA)

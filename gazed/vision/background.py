@@ -10,6 +10,10 @@ started moves the image centre by more than `still_px`, the model is dropped and
 (`learning_frames` frames with no detection). The model runs `level` pyramid levels down
 (level 1: half resolution) to keep within the frame budget; positions are in full-resolution
 pixels. The velocity is the least-squares slope of the last contact points.
+
+Every blob is also reported as movers (`gazed.vision.movers`): split into the walkers it holds
+side by side, each with its own ground contact point, box and velocity (the slope of its own
+recent contact points, `RegionTracks`); the one under the target's point comes first.
 """
 
 from __future__ import annotations
@@ -19,10 +23,11 @@ import numpy as np
 
 from gazed.vision.detector import DetectorOutput, FramePair
 from gazed.vision.ego_motion import apply_homography
+from gazed.vision.movers import Blob, MoverRegion, blobs
 from gazed.vision.position_history import PositionHistory
+from gazed.vision.region_tracks import RegionTracks
 
 VELOCITY_POINTS = 6
-FOOT_FRACTION = 0.1  # the bottom tenth of the blob gives the contact point's u
 
 
 class BackgroundDetector:
@@ -50,10 +55,12 @@ class BackgroundDetector:
         self._learned = 0
         self._drift = np.eye(3)  # the head's rotation since the model was started
         self._history = PositionHistory(VELOCITY_POINTS)
+        self._tracks = RegionTracks(VELOCITY_POINTS)
 
     def reset(self) -> None:
         self._model = None
         self._history.clear()
+        self._tracks.reset()
 
     def detect(self, pair: FramePair) -> DetectorOutput:
         if self._model is not None and self._head_moved(pair):
@@ -72,7 +79,7 @@ class BackgroundDetector:
         self._learned += 1
         if self._learned <= self.learning_frames:
             return DetectorOutput.nothing()
-        return self._largest_blob(mask, pair.t_s)
+        return self._largest_blob(mask, pair)
 
     def _head_moved(self, pair: FramePair) -> bool:
         """Has the image centre moved by more than `still_px` since the model started?"""
@@ -84,26 +91,21 @@ class BackgroundDetector:
         moved = max(np.hypot(u - cu, v - cv), np.hypot(step_u - cu, step_v - cv))
         return bool(moved > self.still_px)
 
-    def _largest_blob(self, mask: np.ndarray, t_s: float) -> DetectorOutput:
+    def _largest_blob(self, mask: np.ndarray, pair: FramePair) -> DetectorOutput:
         kernel = np.ones((3, 3), np.uint8)
         mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, kernel)
         mask = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, np.ones((5, 5), np.uint8))
-        count, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
         scale = 1 << self.level
-        areas = stats[1:, cv2.CC_STAT_AREA] * scale * scale
-        if count <= 1 or areas.max() < self.min_area_px:
+        found = blobs(mask, self.min_area_px / (scale * scale), split=True)
+        if not found:
             self._history.clear()
+            self._tracks.reset()
             return DetectorOutput.nothing()
-        best = 1 + int(np.argmax(areas))
-        x, y, w, h = (int(stats[best, i]) for i in range(4))
-        bottom = y + h - 1
-        foot_rows = max(1, round(h * FOOT_FRACTION))
-        feet = labels[bottom - foot_rows + 1 : bottom + 1, x : x + w] == best
-        foot_u = x + float(np.nonzero(feet)[1].mean())
-        # level-k pixel i is centred on level-0 pixel scale*i and spans scale pixels
-        u = foot_u * scale
-        v = bottom * scale + (scale - 1) / 2.0
-        self._history.add(t_s, u, v, gate_px=0.5 * scale * max(w, h))
+        total = float(np.count_nonzero(mask)) * scale * scale
+        largest, _ = found[0]
+        u, v = self._full_resolution(largest.ground_contact())
+        area = float(largest.area * scale * scale)
+        self._history.add(pair.t_s, u, v, gate_px=0.5 * scale * max(largest.width, largest.height))
         du, dv = self._history.velocity() or (0.0, 0.0)
         return DetectorOutput(
             found=True,
@@ -111,8 +113,38 @@ class BackgroundDetector:
             v_px=v,
             du_px_s=du,
             dv_px_s=dv,
-            area_px=float(areas[best - 1]),
-            confidence=float(areas[best - 1] / areas.sum()),
+            area_px=area,
+            confidence=area / total,
             point="ground-contact",
-            window=(x * scale, y * scale, w * scale, h * scale),
+            window=tuple(int(x) for x in largest.box_at(scale)),
+            movers=self._movers(found, u, pair, total),
         )
+
+    def _full_resolution(self, point: tuple[float, float]) -> tuple[float, float]:
+        """A model-level ground contact point in level-0 pixels: level-k pixel i is centred on
+        level-0 pixel scale*i and spans scale pixels."""
+        scale = 1 << self.level
+        return point[0] * scale, point[1] * scale + (scale - 1) / 2.0
+
+    def _movers(
+        self, found: list[tuple[Blob, list[Blob]]], target_u: float, pair: FramePair, total: float
+    ) -> tuple[MoverRegion, ...]:
+        """Every body of every blob, the one of the largest blob under the target's point
+        first, with velocities from their tracks."""
+        scale = 1 << self.level
+        bodies = [body for _, parts in found for body in parts]
+        first = min(
+            range(len(found[0][1])),
+            key=lambda i: abs((bodies[i].x + bodies[i].width / 2.0) * scale - target_u),
+        )
+        bodies.insert(0, bodies.pop(first))
+        points = [self._full_resolution(body.ground_contact()) for body in bodies]
+        boxes = [body.box_at(scale) for body in bodies]
+        velocities = self._tracks.update(
+            pair.step, points, [0.5 * max(box[2], box[3]) for box in boxes], pair.t_s
+        )
+        movers = []
+        for body, (u, v), (du, dv), box in zip(bodies, points, velocities, boxes, strict=True):
+            area = float(body.area * scale * scale)
+            movers.append(MoverRegion(u, v, du, dv, box, area, min(1.0, area / total)))
+        return tuple(movers)

@@ -5,12 +5,9 @@ image [that] distinguishes between different regions using magnitude of motion, 
 motion, and area of the moving region". Here: the ego-compensated motion-energy pyramid (see
 `motion_energy`) at a coarse level, its active pixels grouped into 8-connected regions, each
 region's centroid, area and energy (summed |L0| in grey levels, per level-0 pixel), and its
-velocity: each region is matched to the nearest region of the previous frame (that frame's
-regions moved by the head's rotation) and inherits its recent centroids, whose least-squares
-slope over up to `VELOCITY_POINTS` frames is the velocity (`PositionHistory`). A coarse level's
-centroid wobbles by a pixel or two from frame to frame, so a velocity from the last two frames
-alone is far off; a saccade aims with it over the visual latency and the move, and misses by
-that error times their duration (`tests/bench/saccade_aim.py` measures the aim).
+velocity, the slope of its recent centroids over up to `VELOCITY_POINTS` frames, matched frame
+to frame (`RegionTracks`). A saccade aims with it over the visual latency and the move, and
+misses by its error times their duration (`tests/bench/saccade_aim.py` measures the aim).
 
 The interest value is hand-coded, as in the paper: each region's share of the frame's total
 energy, area and speed, averaged — `score = (e/Σe + a/Σa + s/Σs) / 3` over the terms with a
@@ -26,7 +23,7 @@ import numpy as np
 
 from gazed.vision.detector import FramePair
 from gazed.vision.motion_energy import UNITS_PER_GREY
-from gazed.vision.position_history import PositionHistory
+from gazed.vision.region_tracks import RegionTracks
 
 VELOCITY_POINTS = 6  # a region's centroids its velocity is fitted to
 
@@ -56,10 +53,10 @@ class CandidateFinder:
         self.energy_threshold = energy_threshold * UNITS_PER_GREY  # in the pyramid's units
         self.min_area_px = min_area_px
         self.max_count = max_count
-        self._previous: list[tuple[PositionHistory, float]] = []  # a region's track, radius
+        self._tracks = RegionTracks(VELOCITY_POINTS)
 
     def reset(self) -> None:
-        self._previous = []
+        self._tracks.reset()
 
     def find(self, pair: FramePair) -> list[MotionRegion]:
         """The frame's moving regions, best first (at most `max_count`)."""
@@ -85,14 +82,12 @@ class CandidateFinder:
                 continue
             u, v = su[i] / sums[i] * scale, sv[i] / sums[i] * scale
             found.append((u, v, area, float(sums[i] * scale * scale) / UNITS_PER_GREY))
-        for history, _ in self._previous:
-            history.transport(pair.step)
-        histories = self._tracks([(u, v) for u, v, _, _ in found], pair.t_s)
-        self._previous = [
-            (history, max(np.sqrt(a), 2.0 * scale))
-            for history, (_, _, a, _) in zip(histories, found, strict=True)
-        ]
-        velocities = [history.velocity() or (0.0, 0.0) for history in histories]
+        velocities = self._tracks.update(
+            pair.step,
+            [(u, v) for u, v, _, _ in found],
+            [max(np.sqrt(a), 2.0 * scale) for _, _, a, _ in found],
+            pair.t_s,
+        )
         speeds = [float(np.hypot(*d)) for d in velocities]
         totals = (
             sum(f[3] for f in found),
@@ -106,31 +101,3 @@ class CandidateFinder:
             regions.append(MotionRegion(u, v, du, dv, area, e, score))
         regions.sort(key=lambda r: r.score, reverse=True)
         return regions[: self.max_count]
-
-    def _tracks(self, centroids: list[tuple[float, float]], t_s: float) -> list[PositionHistory]:
-        """Each region's recent centroids, its own added: the previous regions' tracks, nearest
-        pair first, a track going to the region within twice its radius (one each); a new track
-        for a region none is that near. A centroid further than that radius from where its
-        track predicts it (two regions merged, one split) starts the track afresh."""
-        matched: dict[int, PositionHistory] = {}
-        if self._previous and centroids:
-            ends = np.array([history.last()[1:] for history, _ in self._previous])
-            radii = np.array([radius for _, radius in self._previous])
-            offsets = np.array(centroids)[:, None, :] - ends[None, :, :]
-            distance = np.hypot(offsets[..., 0], offsets[..., 1])
-            taken = np.zeros(len(self._previous), bool)
-            near = np.flatnonzero(distance <= 2.0 * radii[None, :])  # the pairs within reach
-            for k in near[np.argsort(distance.ravel()[near], kind="stable")]:
-                i, j = divmod(int(k), len(self._previous))
-                if i in matched or taken[j]:
-                    continue
-                history, radius = self._previous[j]
-                history.add(t_s, *centroids[i], gate_px=radius)
-                matched[i], taken[j] = history, True
-        tracks = []
-        for i, (u, v) in enumerate(centroids):
-            if i not in matched:
-                matched[i] = PositionHistory(VELOCITY_POINTS)
-                matched[i].add(t_s, u, v)
-            tracks.append(matched[i])
-        return tracks

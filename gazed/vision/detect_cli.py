@@ -10,10 +10,11 @@ of `--hfov-deg` over the video's size; the detector settings are the rig's `[vis
 without `--rig`). `--json` prints one line per frame:
 
     {"frame": i, "t_s": ..., "found": bool, "u": ..., "v": ..., "du": ..., "dv": ...,
-     "area": ..., "ms": ...}
+     "area": ..., "ms": ..., "movers": [{"u", "v", "du", "dv", "box": [x, y, w, h]}, ...]}
 
-(position and velocity null when nothing is found); otherwise a summary. `--annotate` writes a
-video with the detection, its window, velocity and the candidates drawn. Exit 2 on a video that
+(position and velocity null when nothing is found; the movers in the detector's order, the
+target's own first); otherwise a summary. `--annotate` writes a video with the detection, its
+window, velocity, every mover's box and index, and the candidates drawn. Exit 2 on a video that
 cannot be read or bad input files.
 """
 
@@ -113,7 +114,7 @@ def _run(args: argparse.Namespace, rig: Rig | None, capture: cv2.VideoCapture) -
             frame = CapturedFrame(pixels, "bgr8" if pixels.ndim == 3 else "gray8", t_ns, index)
             gray = gray_frame(frame, width, height)
             head = history.pose_at(t_ns) if history is not None else None
-            result = pipeline.process(gray, t_ns, head)
+            result = pipeline.process(gray, t_ns, head, colour=pixels, encoding=frame.encoding)
             out = result.output
             times_ms.append(out.processing_ms)
             found += int(out.found)
@@ -174,6 +175,16 @@ def _frame_record(index: int, t_s: float, out: DetectorOutput) -> dict[str, obje
         "dv": number(out.dv_px_s),
         "area": number(out.area_px),
         "ms": round(out.processing_ms, 3),
+        "movers": [
+            {
+                "u": round(m.u_px, 3),
+                "v": round(m.v_px, 3),
+                "du": round(m.du_px_s, 3),
+                "dv": round(m.dv_px_s, 3),
+                "box": [round(x, 1) for x in m.box],
+            }
+            for m in out.movers
+        ],
     }
 
 

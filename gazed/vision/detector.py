@@ -2,7 +2,8 @@
 
 A detector sees one `FramePair` at a time (the current grey frame, the previous one, and the
 head's rotation between them) and returns a `DetectorOutput`: found or not, the target's pixel
-and its velocity, the region's area, a confidence and the time spent.
+and its velocity, the region's area, a confidence, the time spent, and every mover it segmented
+(`gazed.vision.movers`).
 
 Velocities are *independent* image velocities: the target's motion against the world, in pixels
 per second of the current frame, with the flow of the head's own rotation removed (seed 000 §2,
@@ -17,6 +18,7 @@ from typing import Literal, Protocol
 import numpy as np
 
 from gazed.vision.ego_motion import HeadStep
+from gazed.vision.movers import MoverRegion
 
 PointKind = Literal["centroid", "ground-contact"]
 
@@ -55,6 +57,8 @@ class DetectorOutput:
     point: PointKind = "centroid"
     window: tuple[int, int, int, int] | None = None
     """The region searched (x, y, width, height) in pixels, for display."""
+    movers: tuple[MoverRegion, ...] = ()
+    """Every separate mover segmented in the frame, the target's own first when found."""
 
     @classmethod
     def nothing(cls, window: tuple[int, int, int, int] | None = None) -> DetectorOutput:

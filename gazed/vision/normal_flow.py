@@ -34,6 +34,11 @@ can win that keeps its place in the world (|d| within the noise plus `EGO_ERROR`
 displacement). That is background: its pixels are dropped and the rest fitted again; a region
 with nothing else is not a target (a lone residual would otherwise be pursued as one).
 
+Besides the target, the window's other regions that move against the background are movers
+(`gazed.vision.movers`), each with the velocity of its recent centroids (`RegionTracks`); the
+target's own comes first, with the fitted velocity. The window is a fovea, not the frame: the
+movers are those it covers.
+
 The window follows the target: it is centred on the predicted position while the target is
 found, and returns to the principal point when it is lost.
 """
@@ -57,6 +62,8 @@ from gazed.vision.flow_constraints import (
     Fovea,
     window_offsets_px,
 )
+from gazed.vision.movers import MoverRegion, blobs, trimmed
+from gazed.vision.region_tracks import RegionTracks
 
 MARGIN_PX = 6  # the window keeps this far from the image border
 ACQUIRED_SCORE = 0.3  # a fit explaining less of the region than this tries the coarse scale
@@ -64,6 +71,7 @@ MIN_SCORE = 0.2  # ... and one explaining less than this is not reported
 REFINE_ITERATIONS = 6  # further fits of the chosen hypothesis
 CONVERGED_PX = 0.02  # stop refining when d changes by less than this (px per frame)
 REFINE_RANGE_PX = 1.0  # constraints this far from a hypothesis pull it once it is chosen
+VELOCITY_POINTS = 6  # the other movers' centroids their velocities are fitted to
 EGO_ERROR = 0.05  # the fraction of the head's turn between frames the odometry can be off by
 _CLOSING_KERNEL = np.ones((3, 3), np.uint8)
 
@@ -97,9 +105,11 @@ class NormalFlowDetector:
         self.min_area_px = min_area_px
         self._offsets_px = window_offsets_px(self.side)
         self._track: tuple[float, float, np.ndarray] | None = None  # u, v, d (px/frame)
+        self._tracks = RegionTracks(VELOCITY_POINTS)
 
     def reset(self) -> None:
         self._track = None
+        self._tracks.reset()
 
     def detect(self, pair: FramePair) -> DetectorOutput:
         if pair.previous is None:
@@ -144,16 +154,46 @@ class NormalFlowDetector:
             return DetectorOutput.nothing(fovea.rect)
         self._track = (u, v, fit.d)
         dt = pair.step.dt_s
+        du, dv = float(fit.d[0] / dt), float(fit.d[1] / dt)
+        box = trimmed(fovea.x0, fovea.y0, target)
+        assert box is not None  # the target holds pixels: its area is at least min_area_px
+        own = MoverRegion(u, v, du, dv, box.box_at(1), area, fit.score)
         return DetectorOutput(
             found=True,
             u_px=u,
             v_px=v,
-            du_px_s=float(fit.d[0] / dt),
-            dv_px_s=float(fit.d[1] / dt),
+            du_px_s=du,
+            dv_px_s=dv,
             area_px=area,
             confidence=fit.score,
             window=fovea.rect,
+            movers=self._movers(pair, fovea, moving & ~target, own),
         )
+
+    def _movers(
+        self, pair: FramePair, fovea: Fovea, rest: np.ndarray, own: MoverRegion
+    ) -> tuple[MoverRegion, ...]:
+        """The target's own mover, then the other regions of the window that move against the
+        background, each with the velocity of its recent centroids."""
+        closed = cv2.morphologyEx(rest.view(np.uint8), cv2.MORPH_CLOSE, _CLOSING_KERNEL)
+        others = [blob for blob, _ in blobs(closed, self.min_area_px, split=False)]
+        centroids = [(own.u_px, own.v_px)]
+        for blob in others:
+            cu, cv = blob.centroid()
+            centroids.append((fovea.x0 + cu, fovea.y0 + cv))
+        boxes = [own.box] + [
+            (fovea.x0 + b.x, fovea.y0 + b.y, float(b.width), float(b.height)) for b in others
+        ]
+        velocities = self._tracks.update(
+            pair.step, centroids, [0.5 * max(b[2], b[3]) for b in boxes], pair.t_s
+        )
+        movers = [own]
+        total = own.area_px + sum(blob.area for blob in others)
+        for blob, (u, v), (du, dv), box in zip(
+            others, centroids[1:], velocities[1:], boxes[1:], strict=True
+        ):
+            movers.append(MoverRegion(u, v, du, dv, box, float(blob.area), blob.area / total))
+        return tuple(movers)
 
     @staticmethod
     def _explained(region: np.ndarray, window: FlowWindow, fit: FlowFit) -> np.ndarray:

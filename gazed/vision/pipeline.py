@@ -7,7 +7,9 @@ compensation is off: no pose for either frame, or `[vision] compensate_ego_motio
 computes the motion-energy pyramid once if the detector or the candidates need it, and runs
 both. Frames out of time order or further apart than `frame_gap_max_ms` restart the detectors.
 A camera with lens distortion has its frames remapped to the ideal pinhole first and the results
-mapped back to its own pixels (see `undistort`).
+mapped back to its own pixels (see `undistort`). The movers' appearance is the colour histogram
+of each one's box (`appearance`) in the frame as captured, which the caller passes beside the
+grey one: vision converts to grey on intake, and only the boxes are looked at in colour.
 """
 
 from __future__ import annotations
@@ -22,11 +24,13 @@ from gazed.config import VisionSection
 from gazed.geometry.camera import CameraModel
 from gazed.geometry.kinematics import HeadKinematics
 from gazed.messages import HeadPose
+from gazed.vision.appearance import colour_histogram
 from gazed.vision.background import BackgroundDetector
 from gazed.vision.candidates import CandidateFinder, MotionRegion
 from gazed.vision.detector import Detector, DetectorOutput, FramePair
 from gazed.vision.ego_motion import EgoMotion
 from gazed.vision.motion_energy import MotionEnergy
+from gazed.vision.movers import MoverRegion
 from gazed.vision.normal_flow import NormalFlowDetector
 from gazed.vision.pyramid_search import PyramidDetector
 from gazed.vision.undistort import Undistortion
@@ -72,6 +76,20 @@ class VisionResult:
     candidates_ms: float = 0.0
 
 
+def with_appearance(
+    movers: tuple[MoverRegion, ...], frame: np.ndarray, encoding: str
+) -> tuple[MoverRegion, ...]:
+    """The movers, each with the colour histogram of its box in `frame` (none where the box
+    holds too few usable pixels)."""
+    described = []
+    for mover in movers:
+        x, y, w, h = mover.box
+        histogram = colour_histogram(frame, (x + w / 2.0, y + h / 2.0, w, h), encoding)
+        appearance = () if histogram is None else tuple(float(p) for p in histogram)
+        described.append(dataclasses.replace(mover, appearance=appearance))
+    return tuple(described)
+
+
 class VisionPipeline:
     def __init__(
         self,
@@ -113,9 +131,13 @@ class VisionPipeline:
         head: HeadPose | None,
         *,
         with_candidates: bool = True,
+        colour: np.ndarray | None = None,
+        encoding: str = "bgr8",
     ) -> VisionResult:
         """Run the detector (and candidates, unless `with_candidates` is false — the gaze
-        controller needs none while it pursues) on one grey frame captured at `t_capture_ns`."""
+        controller needs none while it pursues) on one grey frame captured at `t_capture_ns`.
+        `colour`: the same frame as captured (`encoding`), where the movers' appearance is
+        taken; the grey frame's brightness without it."""
         started = time.perf_counter()
         if self.undistortion is not None:
             gray = self.undistortion.frame(gray)
@@ -154,6 +176,9 @@ class VisionPipeline:
         output = self.detector.detect(pair)
         if self.undistortion is not None:
             output = self.undistortion.output(output)
+        if output.movers:
+            frame, kind = (gray, "gray8") if colour is None else (colour, encoding)
+            output = dataclasses.replace(output, movers=with_appearance(output.movers, frame, kind))
         detector_s = time.perf_counter() - started + undistort_s
         if self.detector.needs_energy:
             detector_s += energy_s

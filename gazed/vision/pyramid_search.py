@@ -22,10 +22,15 @@ The difference image holds the target at both captures, so a centroid is the tar
 at mid-interval; it is moved to the capture time with the tracked velocity (`+ v dt / 2`). The
 velocity is the least-squares slope of the last centroids, kept in current-frame coordinates
 (see `position_history`).
+
+The regions of the final window are its movers (`gazed.vision.movers`): the target's own first,
+the others with the velocity of their recent centroids (`RegionTracks`). The window is small:
+the movers are those it covers.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from typing import Literal
@@ -35,7 +40,9 @@ import numpy as np
 
 from gazed.vision.detector import DetectorOutput, FramePair
 from gazed.vision.motion_energy import UNITS_PER_GREY
+from gazed.vision.movers import MoverRegion, trimmed
 from gazed.vision.position_history import PositionHistory
+from gazed.vision.region_tracks import RegionTracks
 
 SearchMode = Literal["full", "predictive"]
 
@@ -125,10 +132,12 @@ class PyramidDetector:
         self.fill_count = fill_fraction * window_px * window_px
         self.level: int | None = None  # the tracked object's level ℓ (predictive search)
         self._history = PositionHistory(VELOCITY_POINTS)
+        self._tracks = RegionTracks(VELOCITY_POINTS)
 
     def reset(self) -> None:
         self.level = None
         self._history.clear()
+        self._tracks.reset()
 
     def detect(self, pair: FramePair) -> DetectorOutput:
         pyramid = pair.energy
@@ -150,16 +159,60 @@ class PyramidDetector:
         half_dt = pair.step.dt_s / 2.0
         level = pyramid[final.level]
         level_energy = float(level[level > self.energy_threshold].sum())
-        return DetectorOutput(
-            found=True,
+        own = MoverRegion(
             u_px=final.u_px + du * half_dt,
             v_px=final.v_px + dv * half_dt,
             du_px_s=du,
             dv_px_s=dv,
+            box=(0.0, 0.0, 0.0, 0.0),
             area_px=float(final.active << (2 * final.level)),
             confidence=min(1.0, final.energy / level_energy) if level_energy > 0 else 0.0,
-            window=final.rect,
         )
+        return DetectorOutput(
+            found=True,
+            u_px=own.u_px,
+            v_px=own.v_px,
+            du_px_s=du,
+            dv_px_s=dv,
+            area_px=own.area_px,
+            confidence=own.confidence,
+            window=final.rect,
+            movers=self._movers(pyramid, final, own, pair),
+        )
+
+    def _movers(
+        self, pyramid: list[np.ndarray], final: WindowLook, own: MoverRegion, pair: FramePair
+    ) -> tuple[MoverRegion, ...]:
+        """The regions of the final window (joined across one-pixel gaps, as `_centroid` groups
+        them): the target's own first, with its box, then the others, each with the velocity of
+        its recent centroids."""
+        scale = 1 << final.level
+        window = pyramid[final.level][
+            final.y0 : final.y0 + final.size, final.x0 : final.x0 + final.size
+        ]
+        active = window > self.energy_threshold
+        joined = cv2.dilate(active.astype(np.uint8), np.ones((3, 3), np.uint8))
+        count, labels = cv2.connectedComponents(joined, connectivity=8)
+        energies = np.bincount(labels[active], weights=window[active], minlength=count)
+        strongest = int(np.argmax(energies))
+        regions = [strongest] + [i for i in range(1, count) if i != strongest and energies[i] > 0]
+        blobs = [trimmed(final.x0, final.y0, active & (labels == i)) for i in regions]
+        centroids = [(final.u_px, final.v_px)]
+        centroids += [(cu * scale, cv * scale) for cu, cv in (b.centroid() for b in blobs[1:])]
+        boxes = [b.box_at(scale) for b in blobs]
+        velocities = self._tracks.update(
+            pair.step, centroids, [0.5 * max(b[2], b[3]) for b in boxes], pair.t_s
+        )
+        total = float(energies.sum())
+        half_dt = pair.step.dt_s / 2.0  # a centroid is at mid-interval, as the target's
+        movers = [dataclasses.replace(own, box=boxes[0])]
+        for i, (u, v), (du, dv), box, blob in zip(
+            regions[1:], centroids[1:], velocities[1:], boxes[1:], blobs[1:], strict=True
+        ):
+            area = float(blob.area * scale * scale)
+            u, v = u + du * half_dt, v + dv * half_dt
+            movers.append(MoverRegion(u, v, du, dv, box, area, float(energies[i]) / total))
+        return tuple(movers)
 
     def _coarsest(self, pyramid: list[np.ndarray]) -> WindowLook | None:
         top = len(pyramid) - 1

@@ -9,8 +9,9 @@ controller does (`gaze/state`):
 - while it traces a ground line (`trace`): the edge under the fovea (`EdgeTracer`), nothing else;
 - otherwise the detector, and the candidates unless the controller pursues or saccades: it has
   no use for them then, and the whole-frame motion energy is the most expensive part of a frame.
-A detection whose result is not finite is dropped and counted; candidates that are not finite
-are left out.
+A detection whose result is not finite is dropped and counted; candidates and movers that are
+not finite are left out. The movers' appearance is taken from the frame as captured (colour
+where it has colour), before the grey conversion is all that is kept.
 """
 
 from __future__ import annotations
@@ -32,11 +33,13 @@ from gazed.messages import (
     Detection,
     EdgeObservation,
     HeadPose,
+    Mover,
     Odometry,
 )
 from gazed.vision.candidates import MotionRegion
 from gazed.vision.edge_trace import EdgePoint, EdgeTracer
 from gazed.vision.frames import CapturedFrame, FrameError, FrameIntake
+from gazed.vision.movers import MAX_MOVERS, MoverRegion
 from gazed.vision.odometry_history import OdometryHistory
 from gazed.vision.pipeline import VisionPipeline, VisionResult
 
@@ -104,7 +107,14 @@ class VisionStage:
         if self.gaze_state == "trace":  # line calibration: the edge under the fovea, nothing else
             return VisionOutput(edge=self._edge(frame, head, self.edges.observe(gray)))
         wanted = self.gaze_state not in CANDIDATES_UNUSED
-        result = self.pipeline.process(gray, frame.t_capture_ns, head, with_candidates=wanted)
+        result = self.pipeline.process(
+            gray,
+            frame.t_capture_ns,
+            head,
+            with_candidates=wanted,
+            colour=frame.pixels,
+            encoding=frame.encoding,
+        )
         return self._detection(frame, head, result)
 
     def candidates(self, output: VisionOutput) -> Candidates | None:
@@ -206,7 +216,28 @@ class VisionStage:
             height_px=self.camera.height_px,
             processing_ms=out.processing_ms,
             head=head,
+            movers=tuple(mover_message(m) for m in out.movers if _finite(m))[:MAX_MOVERS],
         )
         if result.candidates is not None:
             self.candidates_time.add(result.candidates_ms * 1e-3)
         return VisionOutput(detection, result.candidates)
+
+
+def _finite(mover: MoverRegion) -> bool:
+    values = (mover.u_px, mover.v_px, mover.du_px_s, mover.dv_px_s, *mover.box, mover.area_px)
+    return bool(np.all(np.isfinite(values)))
+
+
+def mover_message(mover: MoverRegion) -> Mover:
+    """A mover as `Detection.movers` carries it."""
+    return Mover(
+        u_px=mover.u_px,
+        v_px=mover.v_px,
+        du_px_s=mover.du_px_s,
+        dv_px_s=mover.dv_px_s,
+        box_width_px=mover.box[2],
+        box_height_px=mover.box[3],
+        area_px=mover.area_px,
+        confidence=min(max(mover.confidence, 0.0), 1.0),
+        appearance=mover.appearance,
+    )

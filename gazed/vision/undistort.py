@@ -18,6 +18,7 @@ import numpy as np
 from gazed.geometry.camera import CameraModel
 from gazed.vision.candidates import MotionRegion
 from gazed.vision.detector import DetectorOutput
+from gazed.vision.movers import MoverRegion
 
 JACOBIAN_STEP_PX = 0.5
 
@@ -53,20 +54,40 @@ class Undistortion:
         du, dv = np.column_stack(columns) @ np.array([du_px_s, dv_px_s])
         return float(du), float(dv)
 
+    def box(self, box: tuple[float, float, float, float]) -> tuple[float, float, float, float]:
+        """An ideal-image box (x, y, width, height) as its corners' box in the camera's own
+        pixels."""
+        x, y, w, h = box
+        corners = np.array([self.pixel(cx, cy) for cx in (x, x + w) for cy in (y, y + h)])
+        x0, y0 = np.floor(corners.min(axis=0))
+        x1, y1 = np.ceil(corners.max(axis=0))
+        return float(x0), float(y0), float(x1 - x0), float(y1 - y0)
+
     def output(self, out: DetectorOutput) -> DetectorOutput:
         """A detector's answer in the camera's own pixels (the window: its corners' box)."""
         window = out.window
         if window is not None:
-            x, y, w, h = window
-            corners = np.array([self.pixel(cx, cy) for cx in (x, x + w) for cy in (y, y + h)])
-            x0, y0 = np.floor(corners.min(axis=0)).astype(int)
-            x1, y1 = np.ceil(corners.max(axis=0)).astype(int)
-            window = (int(x0), int(y0), int(x1 - x0), int(y1 - y0))
+            window = tuple(int(x) for x in self.box(window))
         if not out.found:
             return dataclasses.replace(out, window=window)
         u, v = self.pixel(out.u_px, out.v_px)
         du, dv = self.velocity(out.u_px, out.v_px, out.du_px_s, out.dv_px_s)
-        return dataclasses.replace(out, u_px=u, v_px=v, du_px_s=du, dv_px_s=dv, window=window)
+        return dataclasses.replace(
+            out,
+            u_px=u,
+            v_px=v,
+            du_px_s=du,
+            dv_px_s=dv,
+            window=window,
+            movers=tuple(self.mover(m) for m in out.movers),
+        )
+
+    def mover(self, mover: MoverRegion) -> MoverRegion:
+        u, v = self.pixel(mover.u_px, mover.v_px)
+        du, dv = self.velocity(mover.u_px, mover.v_px, mover.du_px_s, mover.dv_px_s)
+        return dataclasses.replace(
+            mover, u_px=u, v_px=v, du_px_s=du, dv_px_s=dv, box=self.box(mover.box)
+        )
 
     def region(self, region: MotionRegion) -> MotionRegion:
         u, v = self.pixel(region.u_px, region.v_px)
