@@ -1,0 +1,135 @@
+"""A still camera's walkers: background subtraction, its foreground split into silhouettes.
+
+OpenCV's Gaussian-mixture background model (MOG2, seed 003 §IV) learns the still scene,
+`level` pyramid levels down (level 1: half resolution) to keep within the frame budget. Its
+foreground is cleaned (a 3x3 opening drops speckle, a 5x5 closing joins a silhouette's parts),
+grouped into blobs of at least `min_area_px` full-resolution pixels, and each blob is split into
+the walkers it holds side by side (`gazed.vision.movers.split_blob`).
+
+Each walker is a mover: its point (the ground contact point at the bottom of its silhouette, or
+its centroid), box and area in full-resolution pixels, its confidence the share of the frame's
+foreground it covers, and its velocity the slope of its own recent points (`RegionTracks`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+import cv2
+import numpy as np
+
+from gazed.vision.ego_motion import HeadStep
+from gazed.vision.movers import Blob, MoverRegion, blobs
+from gazed.vision.region_tracks import RegionTracks
+
+VELOCITY_POINTS = 6  # a mover's recent points its velocity is fitted to
+_OPENING_KERNEL = np.ones((3, 3), np.uint8)
+_CLOSING_KERNEL = np.ones((5, 5), np.uint8)
+
+PointKind = Literal["centroid", "ground-contact"]
+
+
+@dataclass(frozen=True)
+class Foreground:
+    """One frame's silhouettes: each blob with the walkers it holds, largest blob first (model
+    pixels), and the foreground's whole area in full-resolution pixels."""
+
+    found: list[tuple[Blob, list[Blob]]]
+    total_px: float
+
+
+class SilhouetteModel:
+    def __init__(
+        self,
+        *,
+        level: int,
+        history_frames: int,
+        threshold: float,
+        min_area_px: float,
+        learning_frames: int,
+    ) -> None:
+        self.level = level
+        self.scale = 1 << level
+        self.history_frames = history_frames
+        self.threshold = threshold
+        self.min_area_px = min_area_px
+        self.learning_frames = learning_frames
+        self.resets = 0
+        self._model: cv2.BackgroundSubtractorMOG2 | None = None
+        self._learned = 0
+        self._tracks = RegionTracks(VELOCITY_POINTS)
+
+    @property
+    def started(self) -> bool:
+        return self._model is not None
+
+    def reset(self) -> None:
+        """Forget the scene: the next frame starts learning it afresh."""
+        self._model = None
+        self._tracks.reset()
+
+    def reset_tracks(self) -> None:
+        """Nothing in view: no mover's track continues."""
+        self._tracks.reset()
+
+    def segment(self, gray: np.ndarray) -> Foreground | None:
+        """The frame's silhouettes, or None while the model is still learning the scene."""
+        if self._model is None:
+            self._model = cv2.createBackgroundSubtractorMOG2(
+                history=self.history_frames, varThreshold=self.threshold, detectShadows=False
+            )
+            self._learned = 0
+            self.resets += 1
+        small = gray
+        for _ in range(self.level):
+            small = cv2.pyrDown(small)
+        mask = self._model.apply(small)
+        self._learned += 1
+        if self._learned <= self.learning_frames:
+            return None
+        mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, _OPENING_KERNEL)
+        mask = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, _CLOSING_KERNEL)
+        area_scale = self.scale * self.scale
+        found = blobs(mask, self.min_area_px / area_scale, split=True)
+        return Foreground(found, float(np.count_nonzero(mask)) * area_scale)
+
+    def point(self, blob: Blob, kind: PointKind) -> tuple[float, float]:
+        """A blob's ground contact point or centroid in full-resolution pixels (level-k pixel
+        i is centred on level-0 pixel scale*i and spans scale pixels)."""
+        scale = self.scale
+        if kind == "ground-contact":
+            u, v = blob.ground_contact()
+            return u * scale, v * scale + (scale - 1) / 2.0
+        u, v = blob.centroid()
+        return u * scale, v * scale
+
+    def movers(
+        self,
+        foreground: Foreground,
+        kind: PointKind,
+        step: HeadStep,
+        t_s: float,
+        first_u_px: float | None = None,
+    ) -> tuple[MoverRegion, ...]:
+        """Every walker of every blob, each with the velocity of its own track; first the one
+        of the largest blob nearest column `first_u_px` (the target's), when given."""
+        bodies = [body for _, parts in foreground.found for body in parts]
+        if first_u_px is not None and bodies:
+            scale = self.scale
+            first = min(
+                range(len(foreground.found[0][1])),
+                key=lambda i: abs((bodies[i].x + bodies[i].width / 2.0) * scale - first_u_px),
+            )
+            bodies.insert(0, bodies.pop(first))
+        points = [self.point(body, kind) for body in bodies]
+        boxes = [body.box_at(self.scale) for body in bodies]
+        radii = [0.5 * max(box[2], box[3]) for box in boxes]
+        velocities = self._tracks.update(step, points, radii, t_s)
+        area_scale = self.scale * self.scale
+        total = max(foreground.total_px, 1.0)
+        movers = []
+        for body, (u, v), (du, dv), box in zip(bodies, points, velocities, boxes, strict=True):
+            area = float(body.area * area_scale)
+            movers.append(MoverRegion(u, v, du, dv, box, area, min(1.0, area / total)))
+        return tuple(movers)
