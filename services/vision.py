@@ -6,8 +6,9 @@ Inputs:  frames from the rig's `[camera] source` — the simulator's `sim/frame`
          "digital"`) the views rendered from `[wide]`'s frames, also served as MJPEG on
          `[wide] stream_host:stream_port` —, `servo/odometry` and `gaze/state`.
 Outputs: `vision/detection` for every frame processed, found or not, with the head pose
-         interpolated at capture time and `compensated` telling whether the head's rotation
-         was removed; `vision/candidates` (when `[vision] candidates`, and not while `gaze/state`
+         interpolated at capture time, `compensated` telling whether the head's rotation
+         was removed, and every mover in view (a digital head's: every mover its still wide
+         camera segments); `vision/candidates` (when `[vision] candidates`, and not while `gaze/state`
          says the controller pursues, saccades or traces); while it traces a ground line
          (`trace`), `vision/edge` instead: the edge under the fovea.
 Settings: [camera] (source, size, intrinsics, reopen_max_s, timeout_ms), [head] kinematics,
@@ -48,12 +49,14 @@ def open_source(rig: Rig, bus: Bus, stage: VisionStage, stream: MjpegServer | No
     the bus, or an OpenCV capture."""
     camera = rig.camera
     if rig.servo.protocol == "digital":
-        return open_digital_camera(
+        digital = open_digital_camera(
             rig,
             stage.history.pose_at,
             on_frame=bus.notify,
             on_view=stream.publish if stream is not None else None,
         )
+        stage.watch_wide(digital)
+        return digital
     if camera.source == "sim":
         return BusFrameSource(bus, silence_s=camera.timeout_ms * 1e-3)
     return OpenCvCamera(

@@ -10,7 +10,8 @@ controller does (`gaze/state`):
 - otherwise the detector, and the candidates unless the controller pursues or saccades: it has
   no use for them then, and the whole-frame motion energy is the most expensive part of a frame.
 A detection whose result is not finite is dropped and counted; candidates and movers that are
-not finite are left out. The movers' appearance is taken from the frame as captured (colour
+not finite are left out. With a digital head (`watch_wide`) the movers are those of its still
+wide camera (`wide_movers`), seen from the view. The movers' appearance is taken from the frame as captured (colour
 where it has colour), before the grey conversion is all that is kept.
 """
 
@@ -37,11 +38,14 @@ from gazed.messages import (
     Odometry,
 )
 from gazed.vision.candidates import MotionRegion
+from gazed.vision.detector import DetectorOutput
+from gazed.vision.digital_camera import DigitalCamera
 from gazed.vision.edge_trace import EdgePoint, EdgeTracer
 from gazed.vision.frames import CapturedFrame, FrameError, FrameIntake
 from gazed.vision.movers import MAX_MOVERS, MoverRegion
 from gazed.vision.odometry_history import OdometryHistory
 from gazed.vision.pipeline import VisionPipeline, VisionResult
+from gazed.vision.wide_movers import WideMovers, target_first
 
 CANDIDATES_UNUSED = ("pursuit", "saccade", "trace")  # gaze states that ignore candidates
 TIMING_WINDOW = 100  # frames over which the stage times are reported
@@ -85,8 +89,17 @@ class VisionStage:
         self.counters: Counter[str] = Counter()
         self.last_drop: str | None = None
         self.compensated: bool | None = None
+        self.wide_movers: WideMovers | None = None
         self.detector_time = LatencyWindow(default_s=0.0, size=TIMING_WINDOW)
         self.candidates_time = LatencyWindow(default_s=0.0, size=TIMING_WINDOW)
+
+    def watch_wide(self, camera: DigitalCamera) -> None:
+        """Take the movers from a digital head's wide frames (`wide_movers`): its wide camera
+        is still, so it sees every walker; they are segmented as its frames are read."""
+        detector = self.pipeline.detector.name
+        point = "ground-contact" if detector == "background" else "centroid"
+        self.wide_movers = WideMovers(camera.view, self.pipeline.vision, point)
+        camera.wide = self.wide_movers.tap(camera.wide)
 
     def add_odometry(self, odometry: Odometry, now_ns: int) -> None:
         """A head pose; one stamped ahead of `now_ns` is dropped and counted."""
@@ -186,6 +199,19 @@ class VisionStage:
             head=head,
         )
 
+    def _movers(
+        self, frame: CapturedFrame, head: HeadPose | None, out: DetectorOutput
+    ) -> tuple[MoverRegion, ...]:
+        """The detector's movers, or a digital head's wide movers with the target's first."""
+        movers = out.movers if out.found else ()
+        if self.wide_movers is None or head is None:
+            return movers
+        wide = self.wide_movers.in_view(frame.seq, head)
+        if wide is None:
+            return movers
+        target = (out.u_px, out.v_px) if out.found else None
+        return target_first(movers[0] if movers else None, target, wide)
+
     def _detection(
         self, frame: CapturedFrame, head: HeadPose | None, result: VisionResult
     ) -> VisionOutput:
@@ -216,7 +242,9 @@ class VisionStage:
             height_px=self.camera.height_px,
             processing_ms=out.processing_ms,
             head=head,
-            movers=tuple(mover_message(m) for m in out.movers if _finite(m))[:MAX_MOVERS],
+            movers=tuple(mover_message(m) for m in self._movers(frame, head, out) if _finite(m))[
+                :MAX_MOVERS
+            ],
         )
         if result.candidates is not None:
             self.candidates_time.add(result.candidates_ms * 1e-3)
