@@ -28,10 +28,6 @@ def annotate(
     """A copy of the frame with the detection, its window, velocity, movers and candidates
     drawn."""
     image = frame_bgr.copy()
-    for index, mover in enumerate(output.movers):
-        x, y, w, h = (round(c) for c in mover.box)
-        cv2.rectangle(image, (x, y), (x + w - 1, y + h - 1), MAGENTA, 1)
-        cv2.putText(image, str(index), (x + 1, y + 10), 0, 0.35, MAGENTA, 1, cv2.LINE_AA)
     for rank, c in enumerate(candidates or [], start=1):
         centre = (round(c.u_px), round(c.v_px))
         cv2.circle(image, centre, 3, BLUE, -1, cv2.LINE_AA)
@@ -39,6 +35,10 @@ def annotate(
     if output.window is not None:
         x, y, w, h = output.window
         cv2.rectangle(image, (x, y), (x + w - 1, y + h - 1), YELLOW, 1)
+    for index, mover in enumerate(output.movers):
+        x, y, w, h = (round(c) for c in mover.box)
+        cv2.rectangle(image, (x, y), (x + w - 1, y + h - 1), MAGENTA, 1)
+        cv2.putText(image, str(index), (x + 1, y + 10), 0, 0.35, MAGENTA, 1, cv2.LINE_AA)
     if output.found:
         u, v = round(output.u_px), round(output.v_px)
         if output.point == "ground-contact":

@@ -101,13 +101,17 @@ def trimmed(x: int, y: int, mask: np.ndarray) -> Blob | None:
     return Blob(x + left, y + top, mask[top : rows[-1] + 1, left : columns[-1] + 1])
 
 
-def split_blob(blob: Blob) -> list[Blob]:
-    """The blob cut into the bodies it holds side by side (see the module docstring)."""
+def split_blob(blob: Blob, evidence: np.ndarray | None = None) -> list[Blob]:
+    """The blob cut into the bodies it holds side by side (see the module docstring).
+    `evidence`: the whole mask before it was closed, where the gaps between bodies show (the
+    blob's own pixels without it)."""
     h, w = blob.height, blob.width
     if w <= PERSON_WIDTH_RATIO * h or w < 3:
         return [blob]
-    columns = blob.mask.sum(axis=0).astype(float)
-    profile = np.convolve(columns, np.ones(3) / 3.0, mode="same")  # one-column holes aside
+    pixels = blob.mask
+    if evidence is not None:
+        pixels = pixels & evidence[blob.y : blob.y + h, blob.x : blob.x + w].astype(bool)
+    profile = pixels.sum(axis=0).astype(float)
     left_peak = np.maximum.accumulate(profile)
     right_peak = np.maximum.accumulate(profile[::-1])[::-1]
     cuts = np.arange(1, w - 1)
@@ -121,13 +125,16 @@ def split_blob(blob: Blob) -> list[Blob]:
     for x0, part in ((0, blob.mask[:, :cut]), (cut, blob.mask[:, cut:])):
         piece = trimmed(blob.x + x0, blob.y, part)
         if piece is not None:
-            parts.extend(split_blob(piece))
+            parts.extend(split_blob(piece, evidence))
     return parts
 
 
-def blobs(mask: np.ndarray, min_area: float, *, split: bool) -> list[tuple[Blob, list[Blob]]]:
+def blobs(
+    mask: np.ndarray, min_area: float, *, split: bool, evidence: np.ndarray | None = None
+) -> list[tuple[Blob, list[Blob]]]:
     """The 8-connected blobs of `mask` (uint8 or bool) of at least `min_area` mask pixels, each
-    with the bodies it holds (`split_blob`; itself alone unless `split`), largest blob first."""
+    with the bodies it holds (`split_blob` with `evidence`; itself alone unless `split`),
+    largest blob first."""
     _, labels, stats, _ = cv2.connectedComponentsWithStats(mask.view(np.uint8), connectivity=8)
     found = []
     for i in np.argsort(-stats[1:, cv2.CC_STAT_AREA], kind="stable") + 1:
@@ -135,5 +142,5 @@ def blobs(mask: np.ndarray, min_area: float, *, split: bool) -> list[tuple[Blob,
             break
         x, y, w, h = (int(stats[i, k]) for k in range(4))
         blob = Blob(x, y, labels[y : y + h, x : x + w] == i)
-        found.append((blob, split_blob(blob) if split else [blob]))
+        found.append((blob, split_blob(blob, evidence) if split else [blob]))
     return found

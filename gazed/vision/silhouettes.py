@@ -88,10 +88,10 @@ class SilhouetteModel:
         self._learned += 1
         if self._learned <= self.learning_frames:
             return None
-        mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, _OPENING_KERNEL)
-        mask = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, _CLOSING_KERNEL)
+        opened = cv2.morphologyEx(mask, cv2.MORPH_OPEN, _OPENING_KERNEL)
+        mask = cv2.morphologyEx(opened, cv2.MORPH_CLOSE, _CLOSING_KERNEL)
         area_scale = self.scale * self.scale
-        found = blobs(mask, self.min_area_px / area_scale, split=True)
+        found = blobs(mask, self.min_area_px / area_scale, split=True, evidence=opened)
         return Foreground(found, float(np.count_nonzero(mask)) * area_scale)
 
     def point(self, blob: Blob, kind: PointKind) -> tuple[float, float]:
