@@ -7,7 +7,8 @@
 - flow and pyramid: the target's own mover comes first, with the target's point and velocity;
 - the stage puts the movers on the Detection; `--annotate` draws every mover's box;
 - a digital head's wide camera: its movers land in the view where the rendered view shows them;
-- on the PETS footage (where present): the movers against the annotated people.
+- on the PETS footage (where present): the movers against the annotated people, and the PETS
+  rig's detections carrying its wide camera's walkers.
 """
 
 from __future__ import annotations
@@ -21,11 +22,13 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
+from conftest import REPO, write_rig
+from vision_scene import CAMERA_BODY, T0_NS, captured, odometry, scene
 
-from gazed.config import VisionSection
+from gazed.config import VisionSection, load_rig
 from gazed.geometry.camera import CameraModel
 from gazed.geometry.kinematics import HeadKinematics
-from gazed.messages import HeadPose
+from gazed.messages import Detection, HeadPose
 from gazed.vision.annotate import MAGENTA, annotate
 from gazed.vision.appearance import GREY_BINS
 from gazed.vision.detector import DetectorOutput
@@ -34,6 +37,7 @@ from gazed.vision.frames import CapturedFrame
 from gazed.vision.movers import Blob, MoverRegion, split_blob
 from gazed.vision.pipeline import VisionPipeline
 from gazed.vision.silhouettes import SilhouetteModel
+from gazed.vision.stage import VisionStage
 from gazed.vision.wide_movers import WideMovers, target_first
 
 RATE_HZ = 25.0
@@ -126,7 +130,9 @@ def street_run() -> list[tuple[DetectorOutput, list[tuple[float, float]]]]:
     for n in range(ENTER + 12):
         frame, feet = street(n)
         gray = cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY)
-        out = pipeline.process(gray, round(n / RATE_HZ * 1e9), None, colour=frame).output
+        out = pipeline.process(
+            gray, round(n / RATE_HZ * 1e9), None, colour=frame, with_candidates=False
+        ).output
         results.append((out, feet))
     return results
 
@@ -206,7 +212,9 @@ def test_the_targets_own_mover_comes_first(detector: str) -> None:
     found = 0
     for image, truth in scene.frames(RATE_HZ, 20):
         gray = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
-        out = pipeline.process(gray, round(truth.t_s * 1e9), truth.head).output
+        out = pipeline.process(
+            gray, round(truth.t_s * 1e9), truth.head, with_candidates=False
+        ).output
         if not out.found:
             assert out.movers == ()
             continue
@@ -222,6 +230,30 @@ def test_the_targets_own_mover_comes_first(detector: str) -> None:
         assert x - 2 <= out.u_px <= x + w + 2 and y - 2 <= out.v_px <= y + h + 2
         assert len(own.appearance) == GREY_BINS
     assert found >= 10
+
+
+def test_the_stage_puts_the_movers_on_the_detection(tmp_path: Path) -> None:
+    stage = VisionStage(load_rig(write_rig(tmp_path, CAMERA_BODY)))
+    synthetic = scene()
+    for k in range(100):
+        stage.add_odometry(odometry(k / 100.0), T0_NS + 10**9)
+    found = 0
+    for i in range(12):
+        frame = captured(*synthetic.render(i / RATE_HZ, i), i)
+        grey = cv2.cvtColor(frame.pixels, cv2.COLOR_BGR2GRAY)  # as the sim rig sends them
+        frame = CapturedFrame(grey, "gray8", frame.t_capture_ns, frame.seq, frame.stamps)
+        detection = stage.process(frame).detection
+        assert detection is not None
+        if not detection.found:
+            assert detection.movers == ()
+            continue
+        found += 1
+        own = detection.movers[0]
+        assert (own.u_px, own.v_px) == (detection.u_px, detection.v_px)
+        assert own.box_width_px > 0 and own.box_height_px > 0 and own.area_px > 0
+        assert len(own.appearance) == GREY_BINS
+        assert Detection.model_validate_json(detection.to_json()).movers == detection.movers
+    assert found >= 6
 
 
 def test_target_first_puts_the_mover_holding_the_target_first() -> None:
@@ -271,6 +303,7 @@ def test_a_digital_heads_movers_come_from_its_wide_camera() -> None:
 PETS_TRUTH = Path("footage/pets09-s2l1/truth_frames_0000-0399.csv")
 PETS_VIDEO = Path("video/vtest_480x360.avi")
 SCORED = range(60, 160, 10)  # frames scored (the background model learns before)
+RIG_SCORED = range(40, 90, 10)
 
 
 def test_movers_on_the_pets_footage_against_the_annotated_people(shared_data: Path) -> None:
@@ -289,7 +322,9 @@ def test_movers_on_the_pets_footage_against_the_annotated_people(shared_data: Pa
         ok, frame = capture.read()
         assert ok
         gray = cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY)
-        out = pipeline.process(gray, round(n / 7.0 * 1e9), None, colour=frame).output  # 7 Hz
+        out = pipeline.process(
+            gray, round(n / 7.0 * 1e9), None, colour=frame, with_candidates=False
+        ).output  # 7 Hz
         if n not in SCORED:
             continue
         reported += len(out.movers)
@@ -318,3 +353,46 @@ def test_movers_on_the_pets_footage_against_the_annotated_people(shared_data: Pa
     )
     assert annotated >= 50
     assert recall >= 0.4
+
+
+def test_the_pets_rigs_detections_carry_the_walkers_of_its_wide_camera(shared_data: Path) -> None:
+    """configs/pets.toml's vision stage, its digital head still at park: each Detection lists
+    the walkers its wide camera segments, mapped into the view, most of the annotated people."""
+    rig = load_rig(REPO / "configs" / "pets.toml")
+    wide_camera = CameraModel.from_intrinsics(
+        rig.wide.width_px,
+        rig.wide.height_px,
+        rig.wide.fx_px,
+        rig.wide.fy_px,
+        rig.wide.cx_px,
+        rig.wide.cy_px,
+        tuple(rig.wide.distortion),
+    )
+    view = DigitalView(wide_camera, CameraModel.from_section(rig.camera), KINEMATICS)
+    stage = VisionStage(rig)
+    stage.wide_movers = WideMovers(view, rig.vision, "centroid")
+    people = defaultdict(int)
+    with (shared_data / PETS_TRUTH).open() as rows:
+        for row in csv.DictReader(rows):
+            people[int(row["frame"])] += 1
+    capture = cv2.VideoCapture(str(shared_data / PETS_VIDEO))
+    park = HeadPose(pan_rad=0.0, tilt_rad=0.0)
+    counts, coloured = [], 0
+    for n in range(RIG_SCORED[-1] + 1):
+        ok, wide = capture.read()
+        assert ok
+        t_ns = T0_NS + round(n / 7.0 * 1e9)
+        stage.wide_movers.observe(CapturedFrame(wide, "bgr8", t_ns, n))
+        rendered = view.render(wide, 0.0, 0.0)
+        output = stage.process(CapturedFrame(rendered, "bgr8", t_ns, n, head=park))
+        detection = output.detection
+        assert detection is not None
+        if n in RIG_SCORED:
+            described = [m for m in detection.movers if m.appearance]
+            assert all(len(m.appearance) == GREY_BINS for m in described)
+            coloured += len(described)
+            counts.append(len(detection.movers) / people[n])
+    capture.release()
+    print(f"PETS rig: movers per annotated person {np.mean(counts):.2f}")
+    assert np.mean(counts) >= 0.5
+    assert coloured > 0  # dark or grey clothes have no reliable hue, and no descriptor

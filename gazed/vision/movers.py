@@ -18,6 +18,7 @@ its appearance (`gazed.vision.appearance`) is added by the pipeline from the col
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import cv2
 import numpy as np
@@ -65,7 +66,7 @@ class Blob:
     def height(self) -> int:
         return self.mask.shape[0]
 
-    @property
+    @cached_property
     def area(self) -> int:
         return int(np.count_nonzero(self.mask))
 

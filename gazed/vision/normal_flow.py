@@ -34,8 +34,8 @@ can win that keeps its place in the world (|d| within the noise plus `EGO_ERROR`
 displacement). That is background: its pixels are dropped and the rest fitted again; a region
 with nothing else is not a target (a lone residual would otherwise be pursued as one).
 
-Besides the target, the window's other regions that move against the background are movers
-(`gazed.vision.movers`), each with the velocity of its recent centroids (`RegionTracks`); the
+Besides the target, the window's other regions that move against the background clear of the
+target (outside its box grown by half its size) are movers (`gazed.vision.movers`), each with the velocity of its recent centroids (`RegionTracks`); the
 target's own comes first, with the fitted velocity. The window is a fovea, not the frame: the
 movers are those it covers.
 
@@ -174,9 +174,20 @@ class NormalFlowDetector:
         self, pair: FramePair, fovea: Fovea, rest: np.ndarray, own: MoverRegion
     ) -> tuple[MoverRegion, ...]:
         """The target's own mover, then the other regions of the window that move against the
-        background, each with the velocity of its recent centroids."""
+        background clear of the target: outside its box grown by half its size on every side
+        (nearer, they are parts of the target its velocity does not explain), each with the
+        velocity of its recent centroids."""
+        x, y, w, h = own.box
+        top, left = max(0, round(y - h / 2) - fovea.y0), max(0, round(x - w / 2) - fovea.x0)
+        rest[top : round(y + 1.5 * h) - fovea.y0, left : round(x + 1.5 * w) - fovea.x0] = False
+        if not rest.any():
+            self._tracks.reset()
+            return (own,)
         closed = cv2.morphologyEx(rest.view(np.uint8), cv2.MORPH_CLOSE, _CLOSING_KERNEL)
         others = [blob for blob, _ in blobs(closed, self.min_area_px, split=False)]
+        if not others:
+            self._tracks.reset()
+            return (own,)
         centroids = [(own.u_px, own.v_px)]
         for blob in others:
             cu, cv = blob.centroid()
