@@ -100,6 +100,10 @@ def test_json_lines_follow_the_target(walker_clip, capsys, tmp_path: Path) -> No
     assert records[10]["t_s"] == pytest.approx(10 / FPS)
     found = [r for r in records if r["found"]]
     assert len(found) >= 35
+    for r in found:  # the target's own mover first, with its box
+        own = r["movers"][0]
+        assert (own["u"], own["v"]) == (r["u"], r["v"]) and len(own["box"]) == 4
+    assert all(r["movers"] == [] for r in records if not r["found"])
     assert all(r["ms"] >= 0 for r in records)
     assert records[0]["found"] is False and records[0]["u"] is None
     errors = [
