@@ -85,7 +85,7 @@ def with_appearance(
     for mover in movers:
         x, y, w, h = mover.box
         histogram = colour_histogram(frame, (x + w / 2.0, y + h / 2.0, w, h), encoding)
-        appearance = () if histogram is None else tuple(float(p) for p in histogram)
+        appearance = () if histogram is None else tuple(histogram.tolist())
         described.append(dataclasses.replace(mover, appearance=appearance))
     return tuple(described)
 

@@ -197,6 +197,9 @@ class PyramidDetector:
         strongest = int(np.argmax(energies))
         regions = [strongest] + [i for i in range(1, count) if i != strongest and energies[i] > 0]
         blobs = [trimmed(final.x0, final.y0, active & (labels == i)) for i in regions]
+        if len(blobs) == 1:  # the target alone: no other track to keep
+            self._tracks.reset()
+            return (dataclasses.replace(own, box=blobs[0].box_at(scale)),)
         centroids = [(final.u_px, final.v_px)]
         centroids += [(cu * scale, cv * scale) for cu, cv in (b.centroid() for b in blobs[1:])]
         boxes = [b.box_at(scale) for b in blobs]

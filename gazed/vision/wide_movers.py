@@ -130,7 +130,7 @@ class WideMovers:
         histogram = colour_histogram(frame.pixels, (x + w / 2.0, y + h / 2.0, w, h), frame.encoding)
         if histogram is None:
             return mover
-        return dataclasses.replace(mover, appearance=tuple(float(p) for p in histogram))
+        return dataclasses.replace(mover, appearance=tuple(histogram.tolist()))
 
     def _to_view(
         self, points: np.ndarray, pose: HeadPose
