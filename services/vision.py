@@ -7,9 +7,9 @@ Inputs:  frames from the rig's `[camera] source` — the simulator's `sim/frame`
          `[wide] stream_host:stream_port` —, `servo/odometry` and `gaze/state`.
 Outputs: `vision/detection` for every frame processed, found or not, with the head pose
          interpolated at capture time, `compensated` telling whether the head's rotation
-         was removed, and every mover in view (a digital head's: every mover its still wide
-         camera segments); `vision/candidates` (when `[vision] candidates`, and not while `gaze/state`
-         says the controller pursues, saccades or traces); while it traces a ground line
+         was removed, and the movers (a digital head's: every mover its still wide camera
+         segments); `vision/candidates` (when `[vision] candidates`, and not while
+         `gaze/state` says the controller pursues, saccades or traces); while it traces a ground line
          (`trace`), `vision/edge` instead: the edge under the fovea.
 Settings: [camera] (source, size, intrinsics, reopen_max_s, timeout_ms), [head] kinematics,
          [servo] protocol, [wide] (the digital head's wide camera and stream),

@@ -348,9 +348,8 @@ def test_movers_on_the_pets_footage_against_the_annotated_people(shared_data: Pa
                 taken.add(min(close)[1])
     capture.release()
     recall = recalled / annotated
-    print(
-        f"PETS frames {SCORED.start}-{SCORED.stop - 1}: {annotated} people, {recall:.2f} recalled, {reported} movers"
-    )
+    frames = f"{SCORED.start}-{SCORED.stop - 1}"
+    print(f"PETS frames {frames}: {annotated} people, {recall:.2f} recalled, {reported} movers")
     assert annotated >= 50
     assert recall >= 0.4
 

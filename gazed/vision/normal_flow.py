@@ -35,9 +35,9 @@ displacement). That is background: its pixels are dropped and the rest fitted ag
 with nothing else is not a target (a lone residual would otherwise be pursued as one).
 
 Besides the target, the window's other regions that move against the background clear of the
-target (outside its box grown by half its size) are movers (`gazed.vision.movers`), each with the velocity of its recent centroids (`RegionTracks`); the
-target's own comes first, with the fitted velocity. The window is a fovea, not the frame: the
-movers are those it covers.
+target (outside its box grown by half its size) are movers (`gazed.vision.movers`), each with
+the velocity of its recent centroids (`RegionTracks`); the target's own comes first, with the
+fitted velocity. The window is a fovea, not the frame: the movers are those it covers.
 
 The window follows the target: it is centred on the predicted position while the target is
 found, and returns to the principal point when it is lost.

@@ -10,9 +10,10 @@ controller does (`gaze/state`):
 - otherwise the detector, and the candidates unless the controller pursues or saccades: it has
   no use for them then, and the whole-frame motion energy is the most expensive part of a frame.
 A detection whose result is not finite is dropped and counted; candidates and movers that are
-not finite are left out. With a digital head (`watch_wide`) the movers are those of its still
-wide camera (`wide_movers`), seen from the view. The movers' appearance is taken from the frame as captured (colour
-where it has colour), before the grey conversion is all that is kept.
+not finite are left out. The movers' appearance is taken from the frame as captured (in colour
+where it has colour), which the stage hands to the pipeline beside the grey one. With a digital
+head (`watch_wide`) the movers are those of its still wide camera (`wide_movers`), seen from
+the view.
 """
 
 from __future__ import annotations
