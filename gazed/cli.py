@@ -50,6 +50,9 @@ COMMANDS: dict[str, Command | Group] = {
     "replay": Command(
         "gazed.record.replay_cli", "publish an MCAP recording back on a rig's bus, in its timing"
     ),
+    "view": Command(
+        "gazed.view.view_cli", "the live view in the browser: frames, overlays, map, plots"
+    ),
     "calibrate": Group(
         "solve the frontal-plane -> ground homography",
         {

@@ -1,0 +1,90 @@
+"""The view's session on the rig's bus: what it reads into the page's state, and `gaze/select`.
+
+The view is a bus client like `gazed tail` (DESIGN §11): it never sits inside the loop. Frames
+are subscribed newest-only; every sample is decoded in zenoh's receive thread and handed to the
+page's event loop in one coalesced call, so a busy page never queues samples behind it. Opening
+the session is retried until the rig's bus answers (the page is served meanwhile); after that
+zenoh reconnects by itself when the rig restarts.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+from typing import Any
+
+from gazed.backoff import Backoff
+from gazed.bus import Bus, BusError, Subscription
+from gazed.config import Rig
+from gazed.messages import GazeSelect
+from gazed.topics import TOOLS
+from gazed.view.frame_feed import FrameFeed
+from gazed.view.live_state import LiveState
+
+PROCESS = "view"
+# what the view reads and publishes, as `gazed.topics.TOOLS` declares it
+CONTRACT = next(tool for tool in TOOLS if tool.name == "gazed view")
+RETRY_INITIAL_S = 0.5
+RETRY_MAX_S = 5.0
+
+log = logging.getLogger("gazed.view")
+
+
+class ViewLink:
+    """The bus session feeding `state` and `feed` in the event loop `loop`."""
+
+    def __init__(
+        self, rig: Rig, state: LiveState, feed: FrameFeed, loop: asyncio.AbstractEventLoop
+    ) -> None:
+        self.bus = Bus(rig, PROCESS)
+        self.state = state
+        self.feed = feed
+        self.loop = loop
+        self.connected = False
+        self._subscriptions: list[Subscription[Any]] = []
+        self._select: Any = None
+        self._scheduled = False
+
+    async def connect(self) -> None:
+        """Open the session, retrying with a backoff until the rig's bus answers."""
+        backoff = Backoff(RETRY_INITIAL_S, RETRY_MAX_S)
+        while True:
+            try:
+                await asyncio.to_thread(self.bus.open)
+                break
+            except BusError as exc:
+                delay_s = backoff.next_delay_s()
+                log.warning("no bus yet (%s); trying again in %.1f s", exc, delay_s)
+                await asyncio.sleep(delay_s)
+        self.bus.on_arrival(self._arrived)
+        self._subscriptions = [self.bus.subscribe(topic) for topic in CONTRACT.reads]
+        (select,) = CONTRACT.publishes
+        self._select = self.bus.publisher(select)
+        self.bus.declare_alive()
+        self.connected = True
+
+    def publish_select(self, selection: GazeSelect) -> None:
+        if self._select is None:
+            raise BusError("the view is not on the bus yet")
+        self._select.put(selection)
+
+    def close(self) -> None:
+        self.bus.close()
+
+    def _arrived(self) -> None:
+        """From zenoh's receive thread: drain in the event loop, once per burst of samples."""
+        if not self._scheduled:
+            self._scheduled = True
+            self.loop.call_soon_threadsafe(self.drain)
+
+    def drain(self) -> None:
+        """Hand what arrived to the page's state and the frame feed (in the event loop)."""
+        self._scheduled = False
+        for subscription in self._subscriptions:
+            if subscription.topic.frames:
+                frame = subscription.latest()
+                if frame is not None:
+                    self.feed.offer(frame)
+            else:
+                for message in subscription.take():
+                    self.state.take(message)
