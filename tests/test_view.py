@@ -201,8 +201,18 @@ def serve(password: str | None = None) -> tuple[ViewServer, LiveState, FrameFeed
         state.take(Odometry(t_capture_ns=T0 + k * 100_000_000, pan_rad=0.1, tilt_rad=0.2))
     feed = FrameFeed(jpeg_quality=80)
     published: list[GazeSelect] = []
-    server = ViewServer(state, feed, published.append, password=password, state_period_s=0.05)
+    server = ViewServer(
+        state,
+        feed,
+        published.append,
+        password=password,
+        state_period_s=0.05,
+        on_clients=lambda n: PAGES.append(n),
+    )
     return server, state, feed, published
+
+
+PAGES: list[int] = []  # the open pages as the server reported them
 
 
 def test_frames_go_out_one_at_a_time_after_each_acknowledgement() -> None:
@@ -248,7 +258,9 @@ def test_frames_go_out_one_at_a_time_after_each_acknowledgement() -> None:
             assert published[1].pixel_px is None and published[1].track_id is None
             await ws.close()
 
+    PAGES.clear()
     asyncio.run(scenario())
+    assert PAGES == [1, 0]  # the frames are wanted while the page is open
 
 
 def test_with_a_password_every_request_needs_it() -> None:

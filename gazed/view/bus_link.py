@@ -44,6 +44,8 @@ class ViewLink:
         self._subscriptions: list[Subscription[Any]] = []
         self._select: Any = None
         self._scheduled = False
+        self._watching = False
+        self._frames: Subscription[Any] | None = None
 
     async def connect(self) -> None:
         """Open the session, retrying with a backoff until the rig's bus answers."""
@@ -57,11 +59,28 @@ class ViewLink:
                 log.warning("no bus yet (%s); trying again in %.1f s", exc, delay_s)
                 await asyncio.sleep(delay_s)
         self.bus.on_arrival(self._arrived)
-        self._subscriptions = [self.bus.subscribe(topic) for topic in CONTRACT.reads]
+        self._subscriptions = [
+            self.bus.subscribe(topic) for topic in CONTRACT.reads if not topic.frames
+        ]
         (select,) = CONTRACT.publishes
         self._select = self.bus.publisher(select)
         self.bus.declare_alive()
         self.connected = True
+        self.watch_frames(self._watching)
+
+    def watch_frames(self, on: bool) -> None:
+        """Subscribe the frames while a page is open, and only then: without a page the view
+        takes no frame off the bus."""
+        self._watching = on
+        if not self.connected:
+            return  # `connect` subscribes them if a page is open by then
+        if on and self._frames is None:
+            (frames,) = (topic for topic in CONTRACT.reads if topic.frames)
+            self._frames = self.bus.subscribe(frames)
+        elif not on and self._frames is not None:
+            self._frames.close()
+            self._frames.take()  # let go of its last frame
+            self._frames = None
 
     def publish_select(self, selection: GazeSelect) -> None:
         if self._select is None:
@@ -81,10 +100,7 @@ class ViewLink:
         """Hand what arrived to the page's state and the frame feed (in the event loop)."""
         self._scheduled = False
         for subscription in self._subscriptions:
-            if subscription.topic.frames:
-                frame = subscription.latest()
-                if frame is not None:
-                    self.feed.offer(frame)
-            else:
-                for message in subscription.take():
-                    self.state.take(message)
+            for message in subscription.take():
+                self.state.take(message)
+        if self._frames is not None and (frame := self._frames.latest()) is not None:
+            self.feed.offer(frame)

@@ -50,12 +50,14 @@ class ViewServer:
         *,
         password: str | None = None,
         state_period_s: float = 0.1,
+        on_clients: Callable[[int], None] = lambda n: None,
     ) -> None:
         self.state = state
         self.feed = feed
         self.publish_select = publish_select
         self.password = password
         self.state_period_s = state_period_s
+        self.on_clients = on_clients  # told the number of open pages when it changes
         self.clients = 0
         self.frames_sent = 0
         self.selects = 0
@@ -90,6 +92,7 @@ class ViewServer:
         ws = web.WebSocketResponse(heartbeat=10.0)
         await ws.prepare(request)
         self.clients += 1
+        self.on_clients(self.clients)
         acked = asyncio.Event()
         acked.set()
         poses: OrderedDict[int, HeadPose | None] = OrderedDict()
@@ -112,10 +115,11 @@ class ViewServer:
                 elif request_body.get("type") == "select":
                     await ws.send_json(self._select(request_body, poses))
         finally:
+            self.clients -= 1
+            self.on_clients(self.clients)
             for task in senders:
                 task.cancel()
             await asyncio.gather(*senders, return_exceptions=True)
-            self.clients -= 1
         return ws
 
     async def _send_frames(
