@@ -53,6 +53,7 @@ COMMANDS: dict[str, Command | Group] = {
     "view": Command(
         "gazed.view.view_cli", "the live view in the browser: frames, overlays, map, plots"
     ),
+    "plot": Command("gazed.plots.plot_cli", "the paper's figures (PNG) from an MCAP recording"),
     "calibrate": Group(
         "solve the frontal-plane -> ground homography",
         {
