@@ -1,16 +1,19 @@
 """What `gazed replay --reprocess` compares, without processes: detections frame by frame, the
 most likely model at each capture (the fresh ones retimed), the gaze's transitions; and how a
-retimed replay moves every time in a message."""
+retimed replay moves every time in a message; the progress bar of replays."""
 
 from __future__ import annotations
 
+import sys
 import threading
+from pathlib import Path
 from typing import Any
 
 import pytest
+from test_record_mcap import odometry_sample, write_file
 
 from gazed.messages import Detection, EstimatorState, GazeState
-from gazed.record.replay_cli import Replayer
+from gazed.record.replay_cli import Replayer, progress
 from gazed.record.reprocess import compare
 
 T0 = 1_700_000_000_000_000_000
@@ -77,3 +80,23 @@ def test_a_retimed_replay_moves_every_time_in_a_message() -> None:
     }
     replayer.shift_ns = 0
     assert replayer._shifted(body) == body
+
+
+def test_progress_shows_on_a_terminal_only_and_knows_the_recordings_length(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    path = tmp_path / "run.mcap"
+    write_file(path, [odometry_sample(i) for i in range(101)])  # 100 intervals of 10.0005 ms
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True)
+    with progress(path, "replay", quiet=False) as bar:
+        assert not bar.disable and bar.total == pytest.approx(1.00005)
+    with progress(path, "replay", quiet=True) as bar:  # --json
+        assert bar.disable
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(path.read_bytes()[:-200])  # no summary: no length, no time left
+    with progress(cut, "replay", quiet=False) as bar:
+        assert not bar.disable and bar.total is None
+        bar.update(0.5)
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: False)
+    with progress(path, "replay", quiet=False) as bar:
+        assert bar.disable

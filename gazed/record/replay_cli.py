@@ -18,13 +18,19 @@ from pathlib import Path
 from typing import Any
 
 import zenoh
+from tqdm import tqdm
 
 from gazed.bus import JSON, OCTETS
 from gazed.bustools.listen import common_arguments, target_of
 from gazed.config import load_rig_or_exit
 from gazed.messages import FrameHeader
 from gazed.record import frame_image
-from gazed.record.mcap_reader import DamagedRecording, Recorded, read_recording
+from gazed.record.mcap_reader import (
+    DamagedRecording,
+    Recorded,
+    read_recording,
+    recording_span_s,
+)
 from gazed.record.stopping import stop_on_signals
 from gazed.session import BusError, open_session
 from gazed.topics import PREFIX, split_key, topic_for
@@ -65,12 +71,13 @@ def replay_command(args: argparse.Namespace) -> int:
     except BusError as exc:
         print(f"gazed replay: no bus answers: {exc}", file=sys.stderr)
         return 1
-    with stop_on_signals() as stop:
+    with stop_on_signals() as stop, progress(args.recording, "replay", args.json) as bar:
         replayer = Replayer(session, target.rig, args.rate, stop)
         try:
             for recorded in read_recording(args.recording):
                 if not replayer.publish(recorded):
                     break
+                bar.update(replayer.position_s - bar.n)
         except DamagedRecording as exc:
             print(f"gazed replay: {exc}", file=sys.stderr)
             return 1
@@ -81,6 +88,22 @@ def replay_command(args: argparse.Namespace) -> int:
             else:
                 print(replayer.summary(), file=sys.stderr)
     return 0
+
+
+def progress(recording: Path, what: str, quiet: bool) -> tqdm:
+    """A progress bar on the terminal over the recording's seconds (with the time left when the
+    file's summary gives its length); silent when stderr is not a terminal or with --json."""
+    span_s = recording_span_s(recording)
+    return tqdm(
+        total=span_s,
+        desc=f"{what} {recording.name}",
+        unit="s",
+        bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.1f}/{total:.1f} s [{elapsed}<{remaining}]"
+        if span_s
+        else "{desc}: {n:.1f} s [{elapsed}]",
+        disable=quiet or not sys.stderr.isatty(),
+        leave=False,
+    )
 
 
 def _reprocess(args: argparse.Namespace) -> int:
@@ -95,7 +118,8 @@ def _reprocess(args: argparse.Namespace) -> int:
         port = probe.getsockname()[1]
     with stop_on_signals() as stop:
         try:
-            report = reprocess(args.recording, args.rig, args.rate, stop, port)
+            with progress(args.recording, "reprocess", args.json) as bar:
+                report = reprocess(args.recording, args.rig, args.rate, stop, port, bar)
         except RuntimeError as exc:
             print(f"gazed replay --reprocess: {exc}", file=sys.stderr)
             return 1
@@ -128,6 +152,7 @@ class Replayer:
         self.shift_ns = 0
         self._publishers: dict[str, zenoh.Publisher] = {}
         self._start: tuple[int, float] | None = None  # (first log time ns, monotonic s)
+        self.position_s = 0.0  # recorded time of the last message published, from the first
         self.published: Counter[str] = Counter()
         self.skipped: Counter[str] = Counter()
 
@@ -138,6 +163,7 @@ class Replayer:
             self._start = (recorded.log_time_ns, time.monotonic())
             self.shift_ns = time.time_ns() - recorded.log_time_ns if self._retime else 0
         first_ns, started_s = self._start
+        self.position_s = (recorded.log_time_ns - first_ns) / 1e9
         due_s = started_s + (recorded.log_time_ns - first_ns) / 1e9 / self._rate
         if self._stop.wait(max(0.0, due_s - time.monotonic())):
             return False

@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 import tomlkit
+from tqdm import tqdm
 
 from gazed.eval.loop import observed
 from gazed.messages import Detection, EstimatorState, GazeState, Message
@@ -67,10 +68,16 @@ def reprocess_rig(rig_path: Path, directory: Path, port: int) -> Path:
 
 
 def reprocess(
-    recording: Path, rig_path: Path, rate: float, stop: threading.Event, port: int
+    recording: Path,
+    rig_path: Path,
+    rate: float,
+    stop: threading.Event,
+    port: int,
+    bar: tqdm | None = None,
 ) -> dict[str, Any]:
     """Replay the recording's frames and odometry into fresh processes; compare their
-    decisions with the recorded ones. A damaged file is reprocessed up to the damage."""
+    decisions with the recorded ones. A damaged file is reprocessed up to the damage. `bar`
+    follows the recorded seconds replayed."""
     messages: list[Recorded] = []
     damage: DamagedRecording | None = None
     try:
@@ -89,6 +96,8 @@ def reprocess(
                 parts = split_key(message.key)
                 if parts is not None and parts[1] in FED and not replayer.publish(message):
                     break
+                if bar is not None:
+                    bar.update(replayer.position_s - bar.n)
             stop.wait(SETTLE_S)
             fresh = {suffix: s.take() for suffix, s in subscriptions.items()}
     report = compare(recorded, fresh, replayer.shift_ns)
