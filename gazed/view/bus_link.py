@@ -50,14 +50,18 @@ class ViewLink:
     async def connect(self) -> None:
         """Open the session, retrying with a backoff until the rig's bus answers."""
         backoff = Backoff(RETRY_INITIAL_S, RETRY_MAX_S)
+        failures = 0
         while True:
             try:
                 await asyncio.to_thread(self.bus.open)
                 break
             except BusError as exc:
-                delay_s = backoff.next_delay_s()
-                log.warning("no bus yet (%s); trying again in %.1f s", exc, delay_s)
-                await asyncio.sleep(delay_s)
+                if failures == 0:
+                    log.warning("no bus yet, trying until it answers: %s", str(exc)[:200])
+                failures += 1
+                await asyncio.sleep(backoff.next_delay_s())
+        if failures:
+            log.info("on the rig's bus")
         self.bus.on_arrival(self._arrived)
         self._subscriptions = [
             self.bus.subscribe(topic) for topic in CONTRACT.reads if not topic.frames
