@@ -183,7 +183,7 @@ def test_a_pedestrian_files_walker_is_plotted() -> None:
     path = SHARED_DATA / "pedestrians" / "biwi_hotel.txt"
     if not path.is_file():
         pytest.skip(f"{path} is absent (the shared data sits beside the repository only in CI)")
-    run = track_file_series(EstimatorSection(), str(path), "imm", 0.0, 0, 0.4)
+    run = track_file_series(EstimatorSection(), path, "imm", 0.0, 0, 0.4)
     walked_m = np.linalg.norm(np.diff(run.truth_xy_m, axis=0), axis=1).sum()
     assert walked_m > 5.0
     assert len(run.prediction_xy_m) == len(run.estimate_xy_m) > 10
@@ -228,3 +228,13 @@ def test_gazed_plot_draws_a_recording(
     assert "damaged from byte" in capsys.readouterr().err
     assert (tmp_path / "cut" / "trajectory.png").read_bytes()[:8] == PNG
     assert cli.main(["plot", str(tmp_path / "none.mcap"), "--plot", str(out)]) == 2
+
+
+def test_eval_estimator_writes_its_figures(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(figures, "DPI", 30)
+    out = tmp_path / "figures"
+    assert cli.main(["eval", "estimator", "--scenario", "kelly", "--plot", str(out)]) == 0
+    assert "kelly" in capsys.readouterr().out  # the report as before
+    assert sorted(p.name for p in out.iterdir()) == ["model_probabilities.png", "trajectory.png"]

@@ -5,6 +5,8 @@ ahead and the model probabilities."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
 from gazed.config import EstimatorSection
@@ -48,7 +50,7 @@ def scenario_series(
 
 
 def track_file_series(
-    section: EstimatorSection, path: str, mode: str, noise_m: float, seed: int, horizon_s: float
+    section: EstimatorSection, path: Path, mode: str, noise_m: float, seed: int, horizon_s: float
 ) -> RunSeries:
     """The series of the file's track that walks furthest (position only, `noise_m` of noise
     added)."""

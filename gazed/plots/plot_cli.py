@@ -72,7 +72,7 @@ def plot_estimator_run(args: argparse.Namespace, section: Any, directory: Path) 
     """The figures of a `gazed eval estimator` run (its arguments) into `directory`."""
     from gazed.plots.estimator_series import scenario_series, track_file_series
 
-    horizons = [float(h) for h in str(getattr(args, "horizons", "")).split(",") if h.strip()]
+    horizons = [float(h) for h in args.horizons.split(",") if h.strip()]
     horizon_s = horizons[0] if horizons else DEFAULT_HORIZON_S
     if args.scenario is not None:
         run = scenario_series(
