@@ -8,13 +8,14 @@ import asyncio
 import base64
 import json
 import math
+import socket
 import struct
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
-from aiohttp import WSMsgType
+from aiohttp import WSMsgType, web
 from aiohttp.test_utils import TestClient, TestServer
 
 from gazed.bus import Frame
@@ -38,6 +39,7 @@ from gazed.view.frame_feed import FrameFeed
 from gazed.view.live_state import LiveState
 from gazed.view.projection import ImageProjection
 from gazed.view.server import ViewServer
+from gazed.view.view_cli import _listen
 
 T0 = 1_700_000_000_000_000_000
 
@@ -277,5 +279,23 @@ def test_with_a_password_every_request_needs_it() -> None:
                 await client.get("/", headers={"Authorization": f"Basic {right}"})
             ).status == 200
             assert (await client.get("/ws")).status == 401
+
+    asyncio.run(scenario())
+
+
+def test_a_taken_port_stops_gazed_view_but_not_a_supervised_view() -> None:
+    async def scenario() -> None:
+        with socket.socket() as taken:
+            taken.bind(("127.0.0.1", 0))
+            taken.listen()
+            view = ViewSection(port=taken.getsockname()[1])
+            runner = web.AppRunner(web.Application())
+            await runner.setup()
+            stop = asyncio.Event()
+            with pytest.raises(OSError):
+                await _listen(runner, view, stop, keep_trying=False)
+            asyncio.get_running_loop().call_later(0.2, stop.set)
+            assert await _listen(runner, view, stop, keep_trying=True) is False  # kept trying
+            await runner.cleanup()
 
     asyncio.run(scenario())

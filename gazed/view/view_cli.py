@@ -18,6 +18,7 @@ from pathlib import Path
 
 from aiohttp import web
 
+from gazed.backoff import Backoff
 from gazed.config import Rig, load_rig_or_exit
 from gazed.config.view import ViewError, ViewSection
 from gazed.geometry.camera import CameraModel
@@ -30,10 +31,14 @@ from gazed.view.server import ViewServer
 
 log = logging.getLogger("gazed.view")
 
+LISTEN_RETRY_INITIAL_S = 1.0
+LISTEN_RETRY_MAX_S = 10.0
+
 
 def view_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--rig", type=Path, required=True, help="rig file: its bus and [view]")
     parser.add_argument("--port", type=int, help="port of the page (default: the rig's [view])")
+    parser.set_defaults(supervised=False)
 
 
 def view_command(args: argparse.Namespace) -> int:
@@ -51,13 +56,15 @@ def view_command(args: argparse.Namespace) -> int:
         print(f"gazed view: {exc}", file=sys.stderr)
         return 2
     try:
-        return asyncio.run(serve(rig, view, password))
+        return asyncio.run(serve(rig, view, password, args.supervised))
     except OSError as exc:
         print(f"gazed view: cannot serve on {view.host}:{view.port}: {exc}", file=sys.stderr)
         return 1
 
 
-async def serve(rig: Rig, view: ViewSection, password: str | None) -> int:
+async def serve(
+    rig: Rig, view: ViewSection, password: str | None, keep_trying: bool = False
+) -> int:
     """Serve the page until SIGTERM or SIGINT."""
     loop = asyncio.get_running_loop()
     projection = ImageProjection(
@@ -81,16 +88,38 @@ async def serve(rig: Rig, view: ViewSection, password: str | None) -> int:
         loop.add_signal_handler(signum, stop.set)
     runner = web.AppRunner(server.app(), handle_signals=False, access_log=None)
     await runner.setup()
+    connecting = asyncio.create_task(link.connect())
     try:
-        await web.TCPSite(runner, view.host, view.port).start()
-        log.info("rig %s: the live view is on http://%s:%d/", rig.name, view.host, view.port)
-        connecting = asyncio.create_task(link.connect())
-        await stop.wait()
-        connecting.cancel()
+        if await _listen(runner, view, stop, keep_trying):
+            log.info("rig %s: the live view is on http://%s:%d/", rig.name, view.host, view.port)
+            await stop.wait()
     finally:
+        connecting.cancel()
         await runner.cleanup()
         link.close()
     return 0
+
+
+async def _listen(
+    runner: web.AppRunner, view: ViewSection, stop: asyncio.Event, keep_trying: bool
+) -> bool:
+    """Listen on the view's address; False if stopped first. An address in use raises
+    OSError, or, with `keep_trying` (under the supervisor: a page that cannot listen must not
+    take the rig down through restarts), is tried again until it is free."""
+    backoff = Backoff(LISTEN_RETRY_INITIAL_S, LISTEN_RETRY_MAX_S)
+    while True:
+        try:
+            await web.TCPSite(runner, view.host, view.port).start()
+            return True
+        except OSError as exc:
+            if not keep_trying:
+                raise
+            log.error("cannot serve on %s:%d (%s); trying again", view.host, view.port, exc)
+        try:
+            await asyncio.wait_for(stop.wait(), backoff.next_delay_s())
+            return False
+        except TimeoutError:
+            continue
 
 
 if __name__ == "__main__":  # as the supervisor starts it
@@ -99,4 +128,5 @@ if __name__ == "__main__":  # as the supervisor starts it
     die_with_supervisor()
     parser = argparse.ArgumentParser(prog="gazed.view.view_cli")
     view_arguments(parser)
+    parser.set_defaults(supervised=True)
     raise SystemExit(view_command(parser.parse_args()))
