@@ -35,6 +35,7 @@ from gazed.messages import (
     Track,
 )
 from gazed.plots.latency_hops import hop_latencies_ms
+from gazed.view.bus_link import CONTRACT, ViewLink
 from gazed.view.frame_feed import FrameFeed
 from gazed.view.live_state import LiveState
 from gazed.view.projection import ImageProjection
@@ -297,5 +298,70 @@ def test_a_taken_port_stops_gazed_view_but_not_a_supervised_view() -> None:
             asyncio.get_running_loop().call_later(0.2, stop.set)
             assert await _listen(runner, view, stop, keep_trying=True) is False  # kept trying
             await runner.cleanup()
+
+    asyncio.run(scenario())
+
+
+class FakeSubscription:
+    def __init__(self, topic: Any) -> None:
+        self.topic = topic
+        self.closed = False
+        self.items: list[Any] = []
+
+    def close(self) -> None:
+        self.closed = True
+
+    def take(self) -> list[Any]:
+        items, self.items = self.items, []
+        return items
+
+    def latest(self) -> Any:
+        items = self.take()
+        return items[-1] if items else None
+
+
+class FakeBus:
+    """What the view's link uses of its bus."""
+
+    def __init__(self) -> None:
+        self.subscriptions: list[FakeSubscription] = []
+
+    def open(self) -> None:
+        pass
+
+    def on_arrival(self, notify: Any) -> None:
+        pass
+
+    def subscribe(self, topic: Any) -> FakeSubscription:
+        self.subscriptions.append(FakeSubscription(topic))
+        return self.subscriptions[-1]
+
+    def publisher(self, topic: Any) -> Any:
+        return None
+
+    def declare_alive(self) -> None:
+        pass
+
+    def open_suffixes(self) -> list[str]:
+        return sorted(s.topic.suffix for s in self.subscriptions if not s.closed)
+
+
+def test_the_view_takes_frames_and_streams_off_the_bus_only_while_a_page_is_open() -> None:
+    async def scenario() -> None:
+        state, feed = LiveState(projection()), FrameFeed(80)
+        link = ViewLink(parse_rig('[rig]\nname = "t"\n'), state, feed, asyncio.get_running_loop())
+        bus = FakeBus()
+        link.bus = bus  # type: ignore[assignment]
+        await link.connect()
+        assert bus.open_suffixes() == ["gaze/state"]  # no page: only the rare transitions
+        link.watch(True)
+        assert bus.open_suffixes() == sorted(t.suffix for t in CONTRACT.reads)
+        frames = next(s for s in bus.subscriptions if s.topic.frames)
+        frames.items.append(frame(4))
+        link.drain()
+        assert feed.newest is not None and feed.newest.frame.header.seq == 4
+        frames.items.append(frame(5))
+        link.watch(False)
+        assert bus.open_suffixes() == ["gaze/state"] and frames.items == []  # let go
 
     asyncio.run(scenario())

@@ -1,8 +1,9 @@
 """The view's session on the rig's bus: what it reads into the page's state, and `gaze/select`.
 
-The view is a bus client like `gazed tail` (DESIGN §11): it never sits inside the loop. Frames
-are subscribed newest-only; every sample is decoded in zenoh's receive thread and handed to the
-page's event loop in one coalesced call, so a busy page never queues samples behind it. Opening
+The view is a bus client like `gazed tail` (DESIGN §11): it never sits inside the loop. What a
+page shows is subscribed only while a page is open (frames newest-only); every sample is
+decoded in zenoh's receive thread and handed to the page's event loop in one coalesced call,
+so a busy page never queues samples behind it. Opening
 the session is retried until the rig's bus answers (the page is served meanwhile); after that
 zenoh reconnects by itself when the rig restarts.
 """
@@ -17,13 +18,14 @@ from gazed.backoff import Backoff
 from gazed.bus import Bus, BusError, Subscription
 from gazed.config import Rig
 from gazed.messages import GazeSelect
-from gazed.topics import TOOLS
+from gazed.topics import GAZE_STATE, TOOLS
 from gazed.view.frame_feed import FrameFeed
 from gazed.view.live_state import LiveState
 
 PROCESS = "view"
 # what the view reads and publishes, as `gazed.topics.TOOLS` declares it
 CONTRACT = next(tool for tool in TOOLS if tool.name == "gazed view")
+KEPT = (GAZE_STATE,)
 RETRY_INITIAL_S = 0.5
 RETRY_MAX_S = 5.0
 
@@ -41,11 +43,11 @@ class ViewLink:
         self.feed = feed
         self.loop = loop
         self.connected = False
-        self._subscriptions: list[Subscription[Any]] = []
+        self._kept: list[Subscription[Any]] = []
+        self._watched: list[Subscription[Any]] = []
         self._select: Any = None
         self._scheduled = False
         self._watching = False
-        self._frames: Subscription[Any] | None = None
 
     async def connect(self) -> None:
         """Open the session, retrying with a backoff until the rig's bus answers."""
@@ -63,28 +65,29 @@ class ViewLink:
         if failures:
             log.info("on the rig's bus")
         self.bus.on_arrival(self._arrived)
-        self._subscriptions = [
-            self.bus.subscribe(topic) for topic in CONTRACT.reads if not topic.frames
-        ]
+        # kept always: the gaze's transitions are rare, and a page that opens shows the last
+        self._kept = [self.bus.subscribe(topic) for topic in CONTRACT.reads if topic in KEPT]
         (select,) = CONTRACT.publishes
         self._select = self.bus.publisher(select)
         self.bus.declare_alive()
         self.connected = True
-        self.watch_frames(self._watching)
+        self.watch(self._watching)
 
-    def watch_frames(self, on: bool) -> None:
-        """Subscribe the frames while a page is open, and only then: without a page the view
-        takes no frame off the bus."""
+    def watch(self, on: bool) -> None:
+        """Subscribe the frames and the streams while a page is open, and only then: without
+        a page the view takes nothing off the bus but the gaze's transitions."""
         self._watching = on
         if not self.connected:
             return  # `connect` subscribes them if a page is open by then
-        if on and self._frames is None:
-            (frames,) = (topic for topic in CONTRACT.reads if topic.frames)
-            self._frames = self.bus.subscribe(frames)
-        elif not on and self._frames is not None:
-            self._frames.close()
-            self._frames.take()  # let go of its last frame
-            self._frames = None
+        if on and not self._watched:
+            self._watched = [
+                self.bus.subscribe(topic) for topic in CONTRACT.reads if topic not in KEPT
+            ]
+        elif not on and self._watched:
+            for subscription in self._watched:
+                subscription.close()
+                subscription.take()  # let go of what it held (a frame)
+            self._watched = []
 
     def publish_select(self, selection: GazeSelect) -> None:
         if self._select is None:
@@ -103,8 +106,10 @@ class ViewLink:
     def drain(self) -> None:
         """Hand what arrived to the page's state and the frame feed (in the event loop)."""
         self._scheduled = False
-        for subscription in self._subscriptions:
-            for message in subscription.take():
-                self.state.take(message)
-        if self._frames is not None and (frame := self._frames.latest()) is not None:
-            self.feed.offer(frame)
+        for subscription in (*self._kept, *self._watched):
+            if subscription.topic.frames:
+                if (frame := subscription.latest()) is not None:
+                    self.feed.offer(frame)
+            else:
+                for message in subscription.take():
+                    self.state.take(message)

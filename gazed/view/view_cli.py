@@ -81,7 +81,7 @@ async def serve(
         link.publish_select,
         password=password,
         state_period_s=1.0 / view.state_rate_hz,
-        on_clients=lambda pages: link.watch_frames(pages > 0),
+        on_clients=lambda pages: link.watch(pages > 0),
     )
     stop = asyncio.Event()
     for signum in (signal.SIGTERM, signal.SIGINT):
