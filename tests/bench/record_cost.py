@@ -14,10 +14,12 @@ import signal
 import subprocess
 import sys
 import tempfile
+import time
 from collections.abc import Iterator
 from pathlib import Path
 
-from loop_cost import measure, sim_rig, summary
+import psutil
+from loop_cost import cpu_seconds, measure, sim_rig, summary
 
 
 @contextlib.contextmanager
@@ -30,9 +32,13 @@ def recorder(rig_path: Path, output: Path) -> Iterator[None]:
     )
     assert process.stderr is not None
     process.stderr.readline()  # "gazed record: ... -> FILE": subscribed
+    handle = psutil.Process(process.pid)
+    cpu0_s, t0_s = cpu_seconds(handle), time.monotonic()
     try:
         yield
     finally:
+        share = (cpu_seconds(handle) - cpu0_s) / (time.monotonic() - t0_s)
+        print(f"  the recorder took {100 * share:.1f} % of a core")
         process.send_signal(signal.SIGINT)
         out, _ = process.communicate(timeout=60)
         size_mib = output.stat().st_size / 2**20
