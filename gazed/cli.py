@@ -50,6 +50,10 @@ COMMANDS: dict[str, Command | Group] = {
     "replay": Command(
         "gazed.record.replay_cli", "publish an MCAP recording back on a rig's bus, in its timing"
     ),
+    "view": Command(
+        "gazed.view.view_cli", "the live view in the browser: frames, overlays, map, plots"
+    ),
+    "plot": Command("gazed.plots.plot_cli", "the paper's figures (PNG) from an MCAP recording"),
     "calibrate": Group(
         "solve the frontal-plane -> ground homography",
         {

@@ -174,6 +174,21 @@ TOOLS: tuple[Process, ...] = (
         publishes=(GAZE_COMMAND,),
     ),
     Process(
+        "gazed view",
+        "the live view in the browser (also under `gazed run` with a [view])",
+        reads=(
+            SIM_FRAME,
+            SERVO_ODOMETRY,
+            VISION_DETECTION,
+            VISION_CANDIDATES,
+            ESTIMATOR_STATE,
+            ESTIMATOR_PREDICTION,
+            GAZE_STATE,
+            SERVO_COMMAND,
+        ),
+        publishes=(GAZE_SELECT,),
+    ),
+    Process(
         "gazed eval loop",
         "scores the running loop against the simulator's truth",
         reads=(

@@ -188,6 +188,7 @@ def test_schema_is_json_schema_with_every_section(capsys: pytest.CaptureFixture[
         "sim",
         "services",
         "wide",
+        "view",
     }
     assert set(schema["properties"]) == sections
     assert schema["required"] == ["rig"]

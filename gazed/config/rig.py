@@ -17,6 +17,7 @@ from gazed.config.section import Section
 from gazed.config.services import ServicesSection
 from gazed.config.servo import SERVO_LINK_KEYS, PelcoDServo, ServoSection
 from gazed.config.sim import SimSection
+from gazed.config.view import ViewSection
 from gazed.config.vision import VisionSection
 from gazed.config.wide import WideSection
 
@@ -44,6 +45,7 @@ class Rig(Section):
     sim: SimSection = Field(default_factory=SimSection)
     services: ServicesSection = Field(default_factory=ServicesSection)
     wide: WideSection = Field(default_factory=WideSection)
+    view: ViewSection = Field(default_factory=ViewSection)
 
     _source_path: Path | None = PrivateAttr(None)
 
@@ -57,6 +59,11 @@ class Rig(Section):
         """`[wide] source` with a relative file path taken from the rig file's folder."""
         folder = self.source_path.parent if self.source_path is not None else Path.cwd()
         return self.wide.source_in(folder)
+
+    @property
+    def serves_view(self) -> bool:
+        """The file has a `[view]`: `gazed run` serves the live view."""
+        return "view" in self.model_fields_set
 
     @property
     def name(self) -> str:

@@ -59,6 +59,7 @@ def estimator_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=int, default=0, help="seed of the simulated noise")
     parser.add_argument("--rig", type=Path, help="take the [estimator] settings from this rig file")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
+    parser.add_argument("--plot", type=Path, help="write the run's figures (PNG) into this folder")
 
 
 def _refuse(message: str) -> int:
@@ -108,6 +109,10 @@ def estimator_command(args: argparse.Namespace) -> int:
             print(f"gazed eval estimator: {exc}", file=sys.stderr)
             return 2
     print(json.dumps(report, indent=2) if args.json else format_report(report))
+    if args.plot is not None:
+        from gazed.plots.plot_cli import plot_estimator_run
+
+        plot_estimator_run(args, section, args.plot)
     return 0
 
 

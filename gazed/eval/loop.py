@@ -81,6 +81,7 @@ def loop_arguments(parser: argparse.ArgumentParser) -> None:
         help="run imm, image-cv, none, pid and move-wait-move on the same seed",
     )
     parser.add_argument("--json", action="store_true", help="print JSON")
+    parser.add_argument("--plot", type=Path, help="write the run's figures (PNG) into this folder")
 
 
 def loop_command(args: argparse.Namespace) -> int:
@@ -102,6 +103,7 @@ def loop_command(args: argparse.Namespace) -> int:
                     args.latency_ms,
                     args.seed,
                     control,
+                    args.plot / f"{mode}-{control}" if args.plot and args.compare else args.plot,
                 )
             )
         except (RuntimeError, RigError) as exc:
@@ -122,8 +124,10 @@ def run_loop(
     latency_ms: float | None = None,
     seed: int | None = None,
     control: str | None = None,
+    plot_dir: Path | None = None,
 ) -> dict[str, Any]:
-    """Run the rig's processes on a private bus for `seconds` after they are all up; score."""
+    """Run the rig's processes on a private bus for `seconds` after they are all up; score;
+    with `plot_dir`, draw the run's figures there."""
     with tempfile.TemporaryDirectory(prefix="gazed-eval-") as directory:
         private = private_rig(
             rig_path, Path(directory), scenario, filter_mode, latency_ms, seed, control
@@ -138,6 +142,10 @@ def run_loop(
         }
         pose, reach = CameraPose.from_rig(rig), FieldOfRegard.for_scoring(rig)
         result.update(score(record, pose, rig.gaze.fovea_half_angle_deg, reach))
+        if plot_dir is not None:
+            from gazed.plots.plot_cli import plot_loop_run
+
+            plot_loop_run(record, rig, f"{scenario} {result['filter']}", plot_dir)
         del result["frames"]
         result["cpu_percent"] = cpu
         result["servo"] = servo_summary(servo)

@@ -56,17 +56,23 @@ SCHEMA: dict[str, Any] = {
 FRAME_ID = "camera"
 
 
-def encode_frame(header: FrameHeader, pixels: np.ndarray, quality: int = 90) -> bytes:
-    """A raw frame as the JSON of a CompressedImage with its header."""
+def jpeg_bytes(header: FrameHeader, pixels: np.ndarray, quality: int) -> bytes:
+    """A raw frame as JPEG (grey stays grey)."""
     image = cv2.cvtColor(pixels, cv2.COLOR_RGB2BGR) if header.encoding == "rgb8" else pixels
     ok, jpeg = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, quality])
     if not ok:
         raise ValueError(f"frame {header.seq} could not be JPEG-encoded")
+    return jpeg.tobytes()
+
+
+def encode_frame(header: FrameHeader, pixels: np.ndarray, quality: int = 90) -> bytes:
+    """A raw frame as the JSON of a CompressedImage with its header."""
+    jpeg = jpeg_bytes(header, pixels, quality)
     sec, nsec = divmod(header.t_capture_ns, 1_000_000_000)
     message = {
         "timestamp": {"sec": sec, "nsec": nsec},
         "frame_id": FRAME_ID,
-        "data": base64.b64encode(jpeg.tobytes()).decode("ascii"),
+        "data": base64.b64encode(jpeg).decode("ascii"),
         "format": "jpeg",
         "gazed_header": header.model_dump(mode="json"),
     }

@@ -11,6 +11,7 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
+from mcap.reader import make_reader
 from mcap.records import Channel, Message, Schema
 from mcap.stream_reader import StreamReader
 
@@ -66,3 +67,17 @@ def read_recording(path: Path) -> Iterator[Recorded]:
                 key, schema_name = channels[record.channel_id]
                 count += 1
                 yield Recorded(key, schema_name, record.log_time, record.publish_time, record.data)
+
+
+def recording_span_s(path: Path) -> float | None:
+    """Seconds from the first message's log time to the last's, from the file's summary; None
+    when it has none (a file cut short) or cannot be read."""
+    try:
+        with path.open("rb") as stream:
+            summary = make_reader(stream).get_summary()
+    except Exception:  # a damaged file: the replay itself reports where
+        return None
+    if summary is None or summary.statistics is None:
+        return None
+    statistics = summary.statistics
+    return (statistics.message_end_time - statistics.message_start_time) / 1e9

@@ -11,6 +11,7 @@ bounded queue (a full queue drops the sample and counts it); a thread encodes an
 
 from __future__ import annotations
 
+import functools
 import json
 import queue
 import threading
@@ -22,7 +23,7 @@ from typing import IO
 import numpy as np
 from mcap.writer import CompressionType, Writer
 
-from gazed.messages import FrameHeader
+from gazed.messages import FrameHeader, Message
 from gazed.record import frame_image
 from gazed.topics import split_key, topic_for
 
@@ -114,11 +115,16 @@ def _encode(sample: Sample) -> tuple[bytes, int, tuple[str, bytes] | None]:
         return frame_image.encode_frame(header, pixels), header.t_capture_ns, schema
     if topic is not None:
         message = topic.model.model_validate_json(sample.payload)
-        schema = (topic.model.schema_id(), json.dumps(topic.model.model_json_schema()).encode())
-        return sample.payload, message.t_capture_ns, schema
+        return sample.payload, message.t_capture_ns, _json_schema(topic.model)
     body = json.loads(sample.payload)  # not one of gazed's keys: kept if it is JSON
     stamp = body.get("t_capture_ns") if isinstance(body, dict) else None
     return sample.payload, stamp if isinstance(stamp, int) else sample.received_ns, None
+
+
+@functools.cache
+def _json_schema(model: type[Message]) -> tuple[str, bytes]:
+    """A model's schema name and JSON Schema text, generated once per model."""
+    return model.schema_id(), json.dumps(model.model_json_schema()).encode()
 
 
 class QueuedRecorder:

@@ -20,6 +20,8 @@ from gazed.topics import SUPERVISOR_STATUS
 
 log = logging.getLogger("gazed.supervisor")
 
+VIEW = "view"  # the live view's process: `gazed.view.view_cli` under the supervisor
+VIEW_MODULE = "gazed.view.view_cli"
 STATUS_PERIOD_S = 1.0
 EXIT_GRACE_S = 0.5  # a token can vanish just before its process's exit is seen
 IDLE_WAKE_S = 0.25
@@ -51,6 +53,17 @@ class Supervisor:
     def start(self, now_s: float) -> None:
         for name in SERVICE_NAMES:
             self._start_child(name, now_s)
+        self._start_view(now_s)
+
+    def _start_view(self, now_s: float) -> None:
+        """The live view (`[view]`), supervised like the rig's processes: a bus client in a
+        process of its own, so that serving browsers never takes the loop's CPU time."""
+        if not self.rig.serves_view:
+            self.children.pop(VIEW, None)
+            return
+        child = self.children.get(VIEW) or Child(VIEW, VIEW_MODULE)
+        self.children[VIEW] = child
+        self._spawn(child, now_s)
 
     def _start_child(self, name: str, now_s: float) -> None:
         spec = self.rig.services.spec(name)
@@ -228,6 +241,7 @@ class Supervisor:
             self.notifier.status("reload refused: [rig]/[bus] changed (restart gazed run)")
             return False
         changed = processes_to_restart(self.rig, new)
+        view_changed = (new.serves_view, new.view) != (self.rig.serves_view, self.rig.view)
         self.rig = new
         for name in changed:
             child = self.children[name]
@@ -236,10 +250,22 @@ class Supervisor:
             child.alive, child.backoff = False, None
             child.restart_times_s.clear()
             self._start_child(name, now_s)
+        if view_changed:
+            self._restart_view(now_s)
+            changed.append(VIEW)
         log.info("reloaded %s: restarted %s", self.rig_path, ", ".join(changed) or "nothing")
         self.notifier.status(f"reloaded; restarted {', '.join(changed) or 'nothing'}")
         self._changed = True
         return True
+
+    def _restart_view(self, now_s: float) -> None:
+        child = self.children.get(VIEW)
+        if child is not None and child.popen is not None and child.popen.poll() is None:
+            child.terminate(self.rig.services.stop_grace_s)
+        if child is not None:
+            child.alive, child.backoff, child.state = False, None, State.STOPPED
+            child.restart_times_s.clear()
+        self._start_view(now_s)
 
     # -- reporting ---------------------------------------------------------------------------
 
