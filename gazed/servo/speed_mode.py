@@ -1,0 +1,248 @@
+"""Speed mode: a head driven by speed commands (ONVIF ContinuousMove) follows the same
+set-points as a head driven by position.
+
+Each set-point the writer sends becomes a rate: the set-points' own rate (the demand's
+feed-forward, as the set-point generator shapes it) plus `gain_per_s` times the position error
+(set-point minus where the head is, from its last position reading moved on at the rate it was
+told). Each poll of the position closes the loop again on the newest reading. The rate is then
+
+- capped, on the way to a joint limit, to what the head can still brake from before it
+  (sqrt(2·a·d) over the distance left once it has run one poll period at its present rate), and
+  zero at or past the limit: the head never runs out of its limits;
+- quantised to the device's speed steps (`SpeedSteps`, a table of rates per step), never to a
+  step faster than the cap;
+- sent only when a step changes, or again before the device's own timeout runs out.
+
+The hold is the writer's (no demand within the command timeout: the set-points decelerate to
+rest); once no set-point has come for the command timeout, the head is told Stop, since a speed
+command would otherwise run on.
+"""
+
+from __future__ import annotations
+
+import bisect
+import math
+import time
+from collections.abc import Callable, Sequence
+from typing import Protocol
+
+from gazed.config import HeadSection
+from gazed.servo.driver import DevicePosition
+from gazed.sim.head_mechanics import device_bounds
+
+DEFAULT_STEPS = 32
+
+
+class SpeedDevice(Protocol):
+    """A head that takes speed commands as fractions of its fastest step (ONVIF head)."""
+
+    codec: object
+    transport: object
+    counters: object
+
+    @property
+    def is_connected(self) -> bool: ...
+
+    def connect(self) -> None: ...
+
+    def disconnect(self) -> None: ...
+
+    def set_speed(self, pan_fraction: float, tilt_fraction: float, timeout_s: float) -> int: ...
+
+    def stop(self) -> int: ...
+
+    def set_position(self, pan_rad: float, tilt_rad: float) -> int: ...
+
+    def query_position(self, between: Callable[[], None] | None = None) -> DevicePosition: ...
+
+
+class SpeedSteps:
+    """One axis's speed steps: step k (1..N) runs at `rates_rad_s[k-1]`; step 0 is stopped."""
+
+    def __init__(self, rates_rad_s: Sequence[float]) -> None:
+        if not rates_rad_s or any(
+            b <= a for a, b in zip([0.0, *rates_rad_s], rates_rad_s, strict=False)
+        ):
+            raise ValueError("speed steps: expected positive rates rising with the step")
+        self.rates_rad_s = list(rates_rad_s)
+
+    @classmethod
+    def even(cls, rate_max_rad_s: float, steps: int = DEFAULT_STEPS) -> SpeedSteps:
+        return cls([rate_max_rad_s * k / steps for k in range(1, steps + 1)])
+
+    @property
+    def count(self) -> int:
+        return len(self.rates_rad_s)
+
+    def rate_rad_s(self, step: int) -> float:
+        return math.copysign(self.rates_rad_s[abs(step) - 1], step) if step else 0.0
+
+    def quantise(self, rate_rad_s: float, cap_rad_s: float = math.inf) -> int:
+        """The signed step nearest `rate_rad_s`, none faster than `cap_rad_s`."""
+        speed = min(abs(rate_rad_s), cap_rad_s)
+        rates = [0.0, *self.rates_rad_s]
+        i = bisect.bisect_left(rates, speed)
+        if i == len(rates):
+            step = len(rates) - 1
+        elif i > 0 and speed - rates[i - 1] <= rates[i] - speed:
+            step = i - 1
+        else:
+            step = i
+        while step > 0 and rates[step] > cap_rad_s:
+            step -= 1
+        return int(math.copysign(step, rate_rad_s)) if step else 0
+
+
+class SpeedHead:
+    """`device` driven by speed towards the set-points written to it, inside `head`'s limits
+    (device angles), when `by_speed(device)` says so once it is connected (otherwise the
+    set-points go to it as positions); `mono_s` and `wall_ns` are the clocks."""
+
+    def __init__(
+        self,
+        device: SpeedDevice,
+        head: HeadSection,
+        steps: tuple[SpeedSteps, SpeedSteps],
+        *,
+        gain_per_s: float,
+        command_timeout_s: float,
+        poll_period_s: float,
+        mono_s: Callable[[], float] = time.monotonic,
+        wall_ns: Callable[[], int] = time.time_ns,
+        by_speed: Callable[[SpeedDevice], bool] = lambda _device: True,
+    ) -> None:
+        self.device = device
+        self._by_speed = by_speed
+        self.by_speed = True
+        self.codec = device.codec
+        self.transport = device.transport
+        self.counters = device.counters
+        self.steps = steps
+        self.gain_per_s = gain_per_s
+        self.command_timeout_s = command_timeout_s
+        self.poll_period_s = poll_period_s
+        self._mono_s = mono_s
+        self._wall_ns = wall_ns
+        self._bounds = device_bounds(head)
+        self._accel_rad_s2 = head.accel_max_rad_s2
+        self.sent: tuple[int, int] = (0, 0)
+        self._sent_s = -math.inf
+        self._setpoint: tuple[float, float, float, float, float] | None = None  # p, t, rates, s
+        self._reading: tuple[float, float, float] | None = None  # pan, tilt, mono s
+        self.stopped = True
+
+    @property
+    def is_connected(self) -> bool:
+        return self.device.is_connected
+
+    def connect(self) -> None:
+        self.device.connect()
+        self.by_speed = self._by_speed(self.device)
+        self.sent, self._sent_s, self._setpoint, self._reading = (0, 0), -math.inf, None, None
+        self.stopped = True
+
+    def disconnect(self) -> None:
+        self.device.disconnect()
+
+    # --- the driver's calls ------------------------------------------------------------------
+
+    def set_position(self, pan_rad: float, tilt_rad: float) -> int:
+        """A set-point (device angles): the rate towards it, sent as speed steps; when the
+        command went out (or now, where the one running stands)."""
+        if not self.by_speed:
+            return self.device.set_position(pan_rad, tilt_rad)
+        now_s = self._mono_s()
+        pan_rate = tilt_rate = 0.0
+        if self._setpoint is not None:
+            last_pan, last_tilt, _, _, last_s = self._setpoint
+            dt_s = now_s - last_s
+            if 0.0 < dt_s <= self.command_timeout_s:
+                pan_rate, tilt_rate = (pan_rad - last_pan) / dt_s, (tilt_rad - last_tilt) / dt_s
+        self._setpoint = (pan_rad, tilt_rad, pan_rate, tilt_rate, now_s)
+        return self._command(now_s) or self._wall_ns()
+
+    def query_position(self, between: Callable[[], None] | None = None) -> DevicePosition:
+        """The device's position; the loop closed again on it, or Stop once the set-points
+        have stopped coming for the command timeout."""
+        position = self.device.query_position(between)
+        if not self.by_speed:
+            return position
+        now_s = self._mono_s()
+        self._reading = (position.pan_rad, position.tilt_rad, now_s)
+        if self._setpoint is not None and now_s - self._setpoint[4] > self.command_timeout_s:
+            if not self.stopped:
+                self.stop()
+        elif self._setpoint is not None:
+            self._command(now_s)
+        return position
+
+    def stop(self) -> int:
+        t_ns = self.device.stop()
+        self.sent, self._sent_s, self.stopped = (0, 0), self._mono_s(), True
+        self._setpoint = None
+        return t_ns
+
+    # --- the law -----------------------------------------------------------------------------
+
+    def rates_rad_s(self, now_s: float) -> tuple[float, float]:
+        """The rate each axis is to run at now (before quantisation)."""
+        assert self._setpoint is not None
+        pan_sp, tilt_sp, pan_ff, tilt_ff, set_s = self._setpoint
+        ahead_s = now_s - set_s
+        pan_sp, tilt_sp = pan_sp + pan_ff * ahead_s, tilt_sp + tilt_ff * ahead_s
+        pan_at, tilt_at = self.where(now_s)
+        return (
+            pan_ff + self.gain_per_s * (pan_sp - pan_at),
+            tilt_ff + self.gain_per_s * (tilt_sp - tilt_at),
+        )
+
+    def where(self, now_s: float) -> tuple[float, float]:
+        """The head's position now: its last reading moved on at the rate it was told."""
+        if self._reading is None:
+            assert self._setpoint is not None
+            return self._setpoint[0], self._setpoint[1]
+        pan, tilt, read_s = self._reading
+        since_s = max(0.0, now_s - read_s)
+        return (
+            pan + self.steps[0].rate_rad_s(self.sent[0]) * since_s,
+            tilt + self.steps[1].rate_rad_s(self.sent[1]) * since_s,
+        )
+
+    def cap_rad_s(self, axis: int, position_rad: float, rate_rad_s: float) -> float:
+        """The fastest the axis may run in the direction of `rate_rad_s` from `position_rad`
+        and still stop inside its limits."""
+        lower, upper = self._bounds[axis]
+        room_rad = upper - position_rad if rate_rad_s > 0 else position_rad - lower
+        room_rad -= abs(rate_rad_s) * self.poll_period_s
+        if room_rad <= 0.0:
+            return 0.0
+        return math.sqrt(2.0 * self._accel_rad_s2[axis] * room_rad)
+
+    def _command(self, now_s: float) -> int:
+        """Send the steps due now, if they differ from those running or are to be renewed;
+        when they went out (ns), 0 if nothing was sent."""
+        rates = self.rates_rad_s(now_s)
+        position = self.where(now_s)
+        wanted = tuple(
+            self.steps[axis].quantise(
+                rates[axis], self.cap_rad_s(axis, position[axis], rates[axis])
+            )
+            for axis in (0, 1)
+        )
+        pan_step, tilt_step = wanted
+        if wanted == (0, 0):
+            if self.stopped:
+                return 0
+            t_ns = self.device.stop()
+            self.sent, self._sent_s, self.stopped = (0, 0), now_s, True
+            return t_ns
+        renew = now_s - self._sent_s > self.command_timeout_s / 2.0
+        if wanted == self.sent and not renew:
+            return 0
+        t_ns = self.device.set_speed(
+            pan_step / self.steps[0].count,
+            tilt_step / self.steps[1].count,
+            self.command_timeout_s,
+        )
+        self.sent, self._sent_s, self.stopped = (pan_step, tilt_step), now_s, False
+        return t_ns
