@@ -5,7 +5,8 @@ reply decoded.
     gazed servo jog --rig RIG --stop
     gazed servo jog --rig RIG --query
 
-It opens the rig's `[servo] port` (or `--port`, any pyserial URL), runs the protocol's start-up
+An ONVIF camera is jogged over its own protocol (`onvif_jog`). Otherwise it opens the rig's
+`[servo] port` (or `--port`, any pyserial URL), runs the protocol's start-up
 handshake, writes the command's frames one by one and prints every byte sent and every reply
 with its meaning, then listens `--listen-ms` for what the device sends unasked (VISCA
 completions, PTU limit notices). Exit 0 when the head answered as the protocol says, 1 when the
@@ -20,9 +21,12 @@ import time
 from pathlib import Path
 
 from gazed.config import Rig, load_rig_or_exit
+from gazed.config.servo import OnvifServo
 from gazed.geometry.kinematics import device_from_joint, joint_from_device
 from gazed.servo import CODECS, CodecError, HandshakeError, Reply, make_codec
 from gazed.servo.driver import ServoDriver
+from gazed.servo.onvif_head import OnvifHead
+from gazed.servo.onvif_jog import onvif_jog
 from gazed.servo.transport import LinkError
 from gazed.servo.visca_ip_transport import open_transport
 
@@ -55,6 +59,10 @@ def jog_command(args: argparse.Namespace) -> int:
         if problem:
             print(f"gazed servo jog: {problem}")
             return 2
+    if isinstance(rig.servo, OnvifServo):
+        servo = rig.servo.model_copy(update={"port": args.port}) if args.port else rig.servo
+        folder = rig.source_path.parent if rig.source_path is not None else None
+        return onvif_jog(rig, OnvifHead(servo, folder=folder), args)
     if rig.servo.protocol not in CODECS:
         print(f"gazed servo jog: the {rig.servo.protocol} head has no serial port to jog")
         return 2

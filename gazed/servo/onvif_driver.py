@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
+from pathlib import Path
 
 import httpx
 
@@ -23,6 +24,20 @@ def speed_steps(steps_deg_s: list[float], rate_max_deg_s: float) -> SpeedSteps:
     return SpeedSteps.even(math.radians(rate_max_deg_s))
 
 
+def rig_folder(rig: Rig) -> Path | None:
+    """The rig file's folder, which a relative password file is taken from."""
+    return rig.source_path.parent if rig.source_path is not None else None
+
+
+def camera_stream_uri(rig: Rig) -> str:
+    """`[camera] source = "onvif"`: the camera's own stream, as GetStreamUri gives it (raises
+    `LinkError`, `HandshakeError`, `DeviceError`)."""
+    servo = rig.servo
+    assert isinstance(servo, OnvifServo)
+    with OnvifHead(servo, folder=rig_folder(rig)) as camera:
+        return camera.stream_uri()
+
+
 def onvif_driver(
     rig: Rig,
     *,
@@ -34,9 +49,8 @@ def onvif_driver(
     """The rig's ONVIF camera; `password` and `transport` replace the rig's (tests)."""
     servo = rig.servo
     assert isinstance(servo, OnvifServo)
-    folder = rig.source_path.parent if rig.source_path is not None else None
     camera = OnvifHead(
-        servo, folder=folder, password=password, transport=transport, wall_ns=wall_ns
+        servo, folder=rig_folder(rig), password=password, transport=transport, wall_ns=wall_ns
     )
 
     def by_speed(_device: SpeedDevice) -> bool:

@@ -246,9 +246,13 @@ class OnvifHead:
             self._client = None
 
     def stream_uri(self) -> str:
-        """The profile's stream URI (GetStreamUri)."""
+        """The profile's stream URI (GetStreamUri), carrying the credentials."""
         client = self._connected()
-        return str(self._guarded(lambda: client.get_stream_uri(profile_token=self.profile)))
+        return str(
+            self._guarded(
+                lambda: client.get_stream_uri(profile_token=self.profile, with_credentials=True)
+            )
+        )
 
     # --- requests ----------------------------------------------------------------------------
 
