@@ -13,9 +13,12 @@ told). Each poll of the position closes the loop again on the newest reading. Th
   step faster than the cap;
 - sent only when a step changes, or again before the device's own timeout runs out.
 
-The hold is the writer's (no demand within the command timeout: the set-points decelerate to
-rest); once no set-point has come for the command timeout, the head is told Stop, since a speed
-command would otherwise run on.
+The hold is the writer's: no demand within the command timeout, and the set-points decelerate
+to rest, which the head follows until its rate rounds to no step, when it is told Stop. A
+set-point older than the command timeout is a target standing still (its rate is dropped).
+Every speed command carries the command timeout as the device's own (ONVIF's ContinuousMove
+Timeout), so a head whose servo process stalls stops by itself; a running command is renewed
+before half of it has passed.
 """
 
 from __future__ import annotations
@@ -162,17 +165,13 @@ class SpeedHead:
         return self._command(now_s) or self._wall_ns()
 
     def query_position(self, between: Callable[[], None] | None = None) -> DevicePosition:
-        """The device's position; the loop closed again on it, or Stop once the set-points
-        have stopped coming for the command timeout."""
+        """The device's position, and the loop closed again on it."""
         position = self.device.query_position(between)
         if not self.by_speed:
             return position
         now_s = self._mono_s()
         self._reading = (position.pan_rad, position.tilt_rad, now_s)
-        if self._setpoint is not None and now_s - self._setpoint[4] > self.command_timeout_s:
-            if not self.stopped:
-                self.stop()
-        elif self._setpoint is not None:
+        if self._setpoint is not None:
             self._command(now_s)
         return position
 
@@ -189,6 +188,8 @@ class SpeedHead:
         assert self._setpoint is not None
         pan_sp, tilt_sp, pan_ff, tilt_ff, set_s = self._setpoint
         ahead_s = now_s - set_s
+        if ahead_s > self.command_timeout_s:  # the set-points have stopped coming: stand still
+            pan_ff = tilt_ff = ahead_s = 0.0
         pan_sp, tilt_sp = pan_sp + pan_ff * ahead_s, tilt_sp + tilt_ff * ahead_s
         pan_at, tilt_at = self.where(now_s)
         return (

@@ -109,6 +109,7 @@ class OnvifDevice:
     # --- the request -------------------------------------------------------------------------
 
     def handle(self, xml: bytes, now_s: float) -> tuple[int, str]:
+        self._end_continuous(now_s)
         try:
             root = fromstring(xml)
         except (ParseError, ValueError):
@@ -207,7 +208,6 @@ class OnvifDevice:
 
     def _op_GetStatus(self, _request: Element, now_s: float) -> str:
         self.mechanics.advance(now_s)
-        self._end_continuous(now_s)
         pan_rad, tilt_rad = self.mechanics.encoder()
         moving = "IDLE" if self.mechanics.settled else "MOVING"
         utc = datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%S.%fZ")
@@ -290,7 +290,10 @@ class OnvifDevice:
         if self.continuous_until_s is not None and now_s >= self.continuous_until_s:
             until_s, self.continuous_until_s = self.continuous_until_s, None
             self.mechanics.advance(until_s)
-            self.mechanics.schedule(until_s, lambda m: (m.pan.hold(), m.tilt.hold()))
+            acts_s = max(
+                until_s - self.mechanics.latency_s, self.mechanics.t_s - self.mechanics.latency_s
+            )
+            self.mechanics.schedule(acts_s, lambda m: (m.pan.hold(), m.tilt.hold()))
 
     def advance(self, now_s: float) -> None:
         self._end_continuous(now_s)
