@@ -163,8 +163,6 @@ def link_on(rig: Rig, clock: Clock) -> tuple[HeadLink, Demands]:
         wall_ns=clock.now_ns,
         sleep=clock.sleep,
     )
-    inner = link.driver.device  # type: ignore[union-attr]
-    inner._password = PASSWORD  # noqa: SLF001 - the rig's file is the test's
     return link, demands
 
 

@@ -131,7 +131,7 @@ class SpeedHead:
         self.sent: tuple[int, int] = (0, 0)
         self._sent_s = -math.inf
         self._setpoint: tuple[float, float, float, float, float] | None = None  # p, t, rates, s
-        self._reading: tuple[float, float, float] | None = None  # pan, tilt, mono s
+        self._reading: tuple[float, float, float] | None = None  # where, from when (mono s)
         self.stopped = True
 
     @property
@@ -177,6 +177,7 @@ class SpeedHead:
 
     def stop(self) -> int:
         t_ns = self.device.stop()
+        self._anchor(self._mono_s())
         self.sent, self._sent_s, self.stopped = (0, 0), self._mono_s(), True
         self._setpoint = None
         return t_ns
@@ -198,7 +199,7 @@ class SpeedHead:
         )
 
     def where(self, now_s: float) -> tuple[float, float]:
-        """The head's position now: its last reading moved on at the rate it was told."""
+        """The head's position now: its last reading moved on at the rates it was told since."""
         if self._reading is None:
             assert self._setpoint is not None
             return self._setpoint[0], self._setpoint[1]
@@ -208,6 +209,11 @@ class SpeedHead:
             pan + self.steps[0].rate_rad_s(self.sent[0]) * since_s,
             tilt + self.steps[1].rate_rad_s(self.sent[1]) * since_s,
         )
+
+    def _anchor(self, now_s: float) -> None:
+        """Before the rates change: where the head is now becomes what they move on from."""
+        if self._reading is not None:
+            self._reading = (*self.where(now_s), now_s)
 
     def cap_rad_s(self, axis: int, position_rad: float, rate_rad_s: float) -> float:
         """The fastest the axis may run in the direction of `rate_rad_s` from `position_rad`
@@ -235,6 +241,7 @@ class SpeedHead:
             if self.stopped:
                 return 0
             t_ns = self.device.stop()
+            self._anchor(now_s)
             self.sent, self._sent_s, self.stopped = (0, 0), now_s, True
             return t_ns
         renew = now_s - self._sent_s > self.command_timeout_s / 2.0
@@ -245,5 +252,6 @@ class SpeedHead:
             tilt_step / self.steps[1].count,
             self.command_timeout_s,
         )
+        self._anchor(now_s)
         self.sent, self._sent_s, self.stopped = (pan_step, tilt_step), now_s, False
         return t_ns
