@@ -25,9 +25,11 @@ def test_each_steps_rate_is_measured_inside_the_limits(tmp_path: Path) -> None:
         pose = camera.pose_at(clock.mono_s)
         poses.append((math.degrees(pose.pan_rad), math.degrees(pose.tilt_rad)))
 
-    with OnvifEmulator(rig, clock=clock.now) as camera:
-        with OnvifHead(rig.servo, password=PASSWORD, wall_ns=clock.now_ns) as onvif:
-            pan, tilt = measure_speeds(onvif, head, 2, 0.8, 0.04, clock.now, sleep)
+    with (
+        OnvifEmulator(rig, clock=clock.now) as camera,
+        OnvifHead(rig.servo, password=PASSWORD, wall_ns=clock.now_ns) as onvif,
+    ):
+        pan, tilt = measure_speeds(onvif, head, 2, 0.8, 0.04, clock.now, sleep)
     # the emulated camera runs velocity 1 at 120 and 100 deg/s (sim-onvif.toml)
     assert pan == pytest.approx([60.0, 120.0], rel=0.02)
     assert tilt == pytest.approx([50.0, 100.0], rel=0.02)
