@@ -29,7 +29,7 @@ def test_each_steps_rate_is_measured_inside_the_limits(tmp_path: Path) -> None:
         OnvifEmulator(rig, clock=clock.now) as camera,
         OnvifHead(rig.servo, password=PASSWORD, wall_ns=clock.now_ns) as onvif,
     ):
-        pan, tilt = measure_speeds(onvif, head, 2, 0.8, 0.04, clock.now, sleep)
+        pan, tilt = measure_speeds(onvif, head, (2, 2), 0.8, 0.04, clock.now, sleep)
     # the emulated camera runs velocity 1 at 120 and 100 deg/s (sim-onvif.toml)
     assert pan == pytest.approx([60.0, 120.0], rel=0.02)
     assert tilt == pytest.approx([50.0, 100.0], rel=0.02)
@@ -39,5 +39,5 @@ def test_each_steps_rate_is_measured_inside_the_limits(tmp_path: Path) -> None:
 
 def test_the_command_refuses_a_serial_head_and_bad_arguments(capsys) -> None:
     assert main(["calibrate", "speeds", "--rig", "configs/sim.toml"]) == 2
-    assert "takes no speed steps" in capsys.readouterr().out
+    assert "takes no speed commands" in capsys.readouterr().out
     assert main(["calibrate", "speeds", "--rig", "configs/sim-onvif.toml", "--seconds", "0.1"]) == 2

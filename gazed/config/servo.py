@@ -8,6 +8,8 @@ from pydantic import BaseModel, Field, model_validator
 
 from gazed.config.section import Section
 
+SPEED_PROTOCOLS = ("pelco-d", "visca", "onvif")
+
 
 class ServoLink(Section):
     """Keys shared by every protocol: the serial link and the servo process's timing."""
@@ -39,6 +41,36 @@ class ServoLink(Section):
     reconnect_max_s: float = Field(
         10.0, gt=0, le=600, description="Longest wait between reconnection attempts."
     )
+    mode: Literal["position", "speed"] = Field(
+        "position",
+        description="position: set-points as absolute moves; speed (pelco-d, visca, onvif): "
+        "speed commands (Pelco-D drive, VISCA Pan-tiltDrive, ONVIF ContinuousMove) at the "
+        "demand's rate plus a term on the position error. An ONVIF camera without absolute "
+        "moves is driven by speed whatever this says.",
+    )
+    pan_speed_steps_deg_s: list[float] = Field(
+        default_factory=list,
+        description="Speed mode: the pan rate of each speed step 1..N, step k being k/N of the "
+        "fastest speed command (`gazed calibrate speeds` measures it); empty: even steps up to "
+        "pan_speed_max_deg_s (as many as the protocol's speed codes, 32 for ONVIF).",
+    )
+    tilt_speed_steps_deg_s: list[float] = Field(
+        default_factory=list, description="Speed mode: the tilt rate of each speed step."
+    )
+    speed_gain_per_s: float = Field(
+        4.0, gt=0, le=100, description="Speed mode: rate added per radian of position error."
+    )
+
+    @model_validator(mode="after")
+    def _speed_mode(self) -> ServoLink:
+        protocol = getattr(self, "protocol", "")
+        if self.mode == "speed" and protocol not in SPEED_PROTOCOLS:
+            raise ValueError(f"mode: {protocol} heads take no speed commands (position only)")
+        for key in ("pan_speed_steps_deg_s", "tilt_speed_steps_deg_s"):
+            steps = getattr(self, key)
+            if any(b <= a for a, b in zip([0.0, *steps], steps, strict=False)):
+                raise ValueError(f"{key}: expected positive rates rising with the step")
+        return self
 
     @model_validator(mode="after")
     def _visca_over_ip_carries_visca(self) -> ServoLink:
@@ -188,24 +220,6 @@ class OnvifServo(ServoLink):
     tilt_speed_max_deg_s: float = Field(
         90.0, gt=0, le=3600, description="Tilt rate at velocity 1 (ContinuousMove)."
     )
-    mode: Literal["position", "speed"] = Field(
-        "position",
-        description="position: AbsoluteMove set-points; speed: ContinuousMove at the demand's "
-        "rate plus a term on the position error (a camera without absolute moves is driven "
-        "by speed whatever this says).",
-    )
-    pan_speed_steps_deg_s: list[float] = Field(
-        default_factory=list,
-        description="Pan rate of each speed step 1..N, which the camera takes as velocity k/N "
-        "(`gazed calibrate speeds` measures it); empty: 32 even steps up to "
-        "pan_speed_max_deg_s.",
-    )
-    tilt_speed_steps_deg_s: list[float] = Field(
-        default_factory=list, description="Tilt rate of each speed step, as for pan."
-    )
-    speed_gain_per_s: float = Field(
-        4.0, gt=0, le=100, description="Speed mode: rate added per radian of position error."
-    )
     park_preset: str | None = Field(
         None, description="Preset token to go to on stop instead of [head] park angles."
     )
@@ -216,10 +230,6 @@ class OnvifServo(ServoLink):
             low, high = getattr(self, key)
             if low == high:
                 raise ValueError(f"{key}: both ends are {low} (expected two different angles)")
-        for key in ("pan_speed_steps_deg_s", "tilt_speed_steps_deg_s"):
-            steps = getattr(self, key)
-            if any(b <= a for a, b in zip([0.0, *steps], steps, strict=False)):
-                raise ValueError(f"{key}: expected positive rates rising with the step")
         return self
 
 

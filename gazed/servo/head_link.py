@@ -34,6 +34,7 @@ from gazed.geometry.kinematics import device_from_joint
 from gazed.messages import GazeDemand
 from gazed.servo import CodecError, HandshakeError, make_codec
 from gazed.servo.digital_head import DigitalHead
+from gazed.servo.drive_speeds import DriveSpeeds, drive_rates_rad_s
 from gazed.servo.driver import DeviceError, ServoDriver, ServoTimeout
 from gazed.servo.line_load import LineLoadMeter
 from gazed.servo.odometry import JointReading, OdometryDating
@@ -41,7 +42,7 @@ from gazed.servo.onvif_driver import onvif_driver
 from gazed.servo.park import park
 from gazed.servo.response_lag import ResponseLag
 from gazed.servo.setpoint_writer import SetpointWriter
-from gazed.servo.speed_mode import SpeedHead
+from gazed.servo.speed_mode import SpeedHead, speed_head
 from gazed.servo.transport import LinkError, Transport
 from gazed.servo.visca_ip_transport import open_transport
 
@@ -131,6 +132,9 @@ class HeadLink:
                 transport or open_transport(rig.servo.port, rig.servo.baud, timeout_s),
                 timeout_s,
             )
+            if rig.servo.mode == "speed":  # drive commands (VISCA, Pelco-D)
+                drives = DriveSpeeds(self.driver, drive_rates_rad_s(rig.servo))
+                self.driver = speed_head(rig, drives, mono_s=mono_s, wall_ns=wall_ns)
         self.codec = self.driver.codec
         self.writer = SetpointWriter(
             rig.head,

@@ -4,7 +4,6 @@ set-points as AbsoluteMove in position mode and as ContinuousMove speeds in spee
 
 from __future__ import annotations
 
-import math
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -14,14 +13,7 @@ import httpx
 from gazed.config import Rig
 from gazed.config.servo import OnvifServo
 from gazed.servo.onvif_head import OnvifHead
-from gazed.servo.speed_mode import SpeedDevice, SpeedHead, SpeedSteps
-
-
-def speed_steps(steps_deg_s: list[float], rate_max_deg_s: float) -> SpeedSteps:
-    """The rig's table of rates per step, or even steps up to the rate at velocity 1."""
-    if steps_deg_s:
-        return SpeedSteps([math.radians(rate) for rate in steps_deg_s])
-    return SpeedSteps.even(math.radians(rate_max_deg_s))
+from gazed.servo.speed_mode import SpeedDevice, SpeedHead, speed_head
 
 
 def rig_folder(rig: Rig) -> Path | None:
@@ -58,17 +50,4 @@ def onvif_driver(
             camera.capabilities is not None and camera.capabilities.absolute
         )
 
-    return SpeedHead(
-        camera,
-        rig.head,
-        (
-            speed_steps(servo.pan_speed_steps_deg_s, servo.pan_speed_max_deg_s),
-            speed_steps(servo.tilt_speed_steps_deg_s, servo.tilt_speed_max_deg_s),
-        ),
-        gain_per_s=servo.speed_gain_per_s,
-        command_timeout_s=servo.command_timeout_ms / 1000.0,
-        poll_period_s=1.0 / servo.odometry_rate_hz,
-        mono_s=mono_s,
-        wall_ns=wall_ns,
-        by_speed=by_speed,
-    )
+    return speed_head(rig, camera, mono_s=mono_s, wall_ns=wall_ns, by_speed=by_speed)

@@ -1,5 +1,6 @@
-"""`gazed calibrate speeds`: measure the rate of each speed step of an ONVIF camera with its own
-position readings, and print the rig's table (`pan_speed_steps_deg_s`, `tilt_speed_steps_deg_s`).
+"""`gazed calibrate speeds`: measure the rate of each speed step of a head driven by speed (an
+ONVIF camera's ContinuousMove, a VISCA or Pelco-D drive) with its own position readings, and
+print the rig's tables (`pan_speed_steps_deg_s`, `tilt_speed_steps_deg_s`).
 
     gazed calibrate speeds --rig RIG [--steps N] [--seconds S]
 
@@ -13,21 +14,25 @@ and acceleration limit, so it never leaves the limits; then it stops and reads t
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import numpy as np
 
-from gazed.config import HeadSection, load_rig_or_exit
-from gazed.config.servo import OnvifServo
+from gazed.config import HeadSection, Rig, load_rig_or_exit
+from gazed.config.servo import SPEED_PROTOCOLS, OnvifServo
+from gazed.servo import make_codec
 from gazed.servo.codec import CodecError, HandshakeError
-from gazed.servo.driver import DeviceError
+from gazed.servo.drive_speeds import DriveSpeeds, drive_rates_rad_s
+from gazed.servo.driver import DeviceError, ServoDriver
 from gazed.servo.onvif_driver import rig_folder
 from gazed.servo.onvif_head import OnvifHead
-from gazed.servo.speed_mode import DEFAULT_STEPS
+from gazed.servo.speed_mode import SpeedDevice, rig_speed_steps
 from gazed.servo.transport import LinkError
+from gazed.servo.visca_ip_transport import open_transport
 from gazed.sim.head_mechanics import device_bounds
 
 SETTLE_S = 0.3
@@ -39,7 +44,7 @@ def speeds_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--steps",
         type=int,
-        help="speed steps per axis (default: the rig's table length, or 32)",
+        help="speed steps per axis (default: the rig's tables, or the protocol's speed codes)",
     )
     parser.add_argument(
         "--seconds", type=float, default=1.5, help="how long to run each step (default 1.5)"
@@ -49,17 +54,18 @@ def speeds_arguments(parser: argparse.ArgumentParser) -> None:
 def speeds_command(args: argparse.Namespace) -> int:
     rig = load_rig_or_exit(args.rig)
     servo = rig.servo
-    if not isinstance(servo, OnvifServo):
-        print(f"gazed calibrate speeds: the {servo.protocol} head takes no speed steps here")
+    if servo.protocol not in SPEED_PROTOCOLS:
+        print(f"gazed calibrate speeds: the {servo.protocol} head takes no speed commands")
         return 2
-    steps = args.steps or len(servo.pan_speed_steps_deg_s) or DEFAULT_STEPS
-    if steps < 1 or not args.seconds > SETTLE_S:
+    pan_steps, tilt_steps = (table.count for table in rig_speed_steps(rig))
+    steps = (args.steps, args.steps) if args.steps else (pan_steps, tilt_steps)
+    if min(steps) < 1 or not args.seconds > SETTLE_S:
         print(f"gazed calibrate speeds: expected --steps >= 1 and --seconds > {SETTLE_S}")
         return 2
     try:
-        with OnvifHead(servo, folder=rig_folder(rig)) as camera:
+        with connected_speed_device(rig) as device:
             tables = measure_speeds(
-                camera, rig.head, steps, args.seconds, 1.0 / servo.odometry_rate_hz
+                device, rig.head, steps, args.seconds, 1.0 / servo.odometry_rate_hz
             )
     except (LinkError, HandshakeError, DeviceError, CodecError, ValueError) as exc:
         print(f"failed: {exc}")
@@ -71,27 +77,50 @@ def speeds_command(args: argparse.Namespace) -> int:
     return 0
 
 
+@contextlib.contextmanager
+def connected_speed_device(rig: Rig) -> Iterator[SpeedDevice]:
+    """The rig's head as a speed device, connected for the `with` block."""
+    servo = rig.servo
+    device: OnvifHead | DriveSpeeds
+    if isinstance(servo, OnvifServo):
+        device = OnvifHead(servo, folder=rig_folder(rig))
+    else:
+        timeout_s = servo.timeout_ms / 1000.0
+        driver = ServoDriver(
+            make_codec(servo.protocol, **rig.servo_params()),
+            open_transport(servo.port, servo.baud, timeout_s),
+            timeout_s,
+        )
+        device = DriveSpeeds(driver, drive_rates_rad_s(servo))
+    device.connect()
+    try:
+        if isinstance(device, OnvifHead) and not (
+            device.capabilities and device.capabilities.continuous
+        ):
+            raise ValueError("the camera has no continuous moves to measure")
+        yield device
+    finally:
+        device.disconnect()
+
+
 def measure_speeds(
-    camera: OnvifHead,
+    device: SpeedDevice,
     head: HeadSection,
-    steps: int,
+    steps: tuple[int, int],
     seconds: float,
     poll_s: float,
     mono_s: Callable[[], float] = time.monotonic,
     sleep: Callable[[float], None] = time.sleep,
 ) -> tuple[list[float], list[float]]:
-    """Each axis's rate (deg/s) at steps 1..`steps`, measured on `camera`."""
-    caps = camera.capabilities
-    if caps is None or not caps.continuous:
-        raise ValueError("the camera has no continuous moves to measure")
+    """Each axis's rate (deg/s) at its steps 1..N (`steps` per axis), measured on `device`."""
     bounds = device_bounds(head)
     tables: tuple[list[float], list[float]] = ([], [])
     for axis in (0, 1):
-        for step in range(1, steps + 1):
+        for step in range(1, steps[axis] + 1):
             rate = _run_step(
-                camera,
+                device,
                 axis,
-                step / steps,
+                step / steps[axis],
                 bounds[axis],
                 head.accel_max_rad_s2[axis],
                 seconds,
@@ -104,7 +133,7 @@ def measure_speeds(
 
 
 def _run_step(
-    camera: OnvifHead,
+    camera: SpeedDevice,
     axis: int,
     fraction: float,
     bounds: tuple[float, float],

@@ -29,8 +29,9 @@ import time
 from collections.abc import Callable, Sequence
 from typing import Protocol
 
-from gazed.config import HeadSection
+from gazed.config import HeadSection, Rig
 from gazed.servo.driver import DevicePosition
+from gazed.servo.pelco_d import SPEED_MAX as PELCO_SPEED_MAX
 from gazed.sim.head_mechanics import device_bounds
 
 DEFAULT_STEPS = 32
@@ -255,3 +256,49 @@ class SpeedHead:
         self._anchor(now_s)
         self.sent, self._sent_s, self.stopped = (pan_step, tilt_step), now_s, False
         return t_ns
+
+
+def rig_speed_steps(rig: Rig) -> tuple[SpeedSteps, SpeedSteps]:
+    """The rig's tables of rates per step, or even steps up to the fastest speed commands, as
+    many as the protocol has speed codes (`DEFAULT_STEPS` for ONVIF, whose speeds are real)."""
+    servo = rig.servo
+    counts = {
+        "visca": (
+            getattr(servo, "pan_speed_max_code", 0),
+            getattr(servo, "tilt_speed_max_code", 0),
+        ),
+        "pelco-d": (PELCO_SPEED_MAX, PELCO_SPEED_MAX),
+    }.get(servo.protocol, (DEFAULT_STEPS, DEFAULT_STEPS))
+    tables = []
+    for table, rate_max_deg_s, count in (
+        (servo.pan_speed_steps_deg_s, getattr(servo, "pan_speed_max_deg_s", 0.0), counts[0]),
+        (servo.tilt_speed_steps_deg_s, getattr(servo, "tilt_speed_max_deg_s", 0.0), counts[1]),
+    ):
+        if table:
+            tables.append(SpeedSteps([math.radians(rate) for rate in table]))
+        else:
+            tables.append(SpeedSteps.even(math.radians(rate_max_deg_s), count))
+    return tables[0], tables[1]
+
+
+def speed_head(
+    rig: Rig,
+    device: SpeedDevice,
+    *,
+    mono_s: Callable[[], float] = time.monotonic,
+    wall_ns: Callable[[], int] = time.time_ns,
+    by_speed: Callable[[SpeedDevice], bool] = lambda _device: True,
+) -> SpeedHead:
+    """`device` driven by speed with the rig's steps, gain, command timeout and poll period."""
+    servo = rig.servo
+    return SpeedHead(
+        device,
+        rig.head,
+        rig_speed_steps(rig),
+        gain_per_s=servo.speed_gain_per_s,
+        command_timeout_s=servo.command_timeout_ms / 1000.0,
+        poll_period_s=1.0 / servo.odometry_rate_hz,
+        mono_s=mono_s,
+        wall_ns=wall_ns,
+        by_speed=by_speed,
+    )
