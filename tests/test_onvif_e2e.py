@@ -150,11 +150,14 @@ def test_the_servo_drives_ipycam_and_its_odometry_follows_ipycams_position(
             demands.put(demand(pan_deg, tilt_deg))
             newest.extend(odometry.take())
             time.sleep(0.05)
-            return len(newest) >= 3 and all(  # there, and at rest
-                abs(math.degrees(r.pan_rad) - pan_deg) < 0.5
-                and abs(math.degrees(r.tilt_rad) - tilt_deg) < 0.5
-                and abs(math.degrees(r.pan_rate_rad_s)) < 0.5
-                for r in newest[-3:]
+            return (
+                len(newest) >= 3
+                and all(  # there, and at rest
+                    abs(math.degrees(r.pan_rad) - pan_deg) < 0.5
+                    and abs(math.degrees(r.tilt_rad) - tilt_deg) < 0.5
+                    and abs(math.degrees(r.pan_rate_rad_s)) < 0.5
+                    for r in newest[-3:]
+                )
             )
 
         try:
