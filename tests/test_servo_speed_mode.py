@@ -56,7 +56,7 @@ class Device:
         return DevicePosition(*self.position, 0, 0)
 
 
-def speed_head() -> tuple[SpeedHead, Device, list[float]]:
+def speed_head(command_period_s: float = 0.0) -> tuple[SpeedHead, Device, list[float]]:
     """A head of ±60° pan, -40..20° tilt and 3000°/s² (`link_rig`), polled at 50 Hz."""
     device, now = Device(), [0.0]
     head = SpeedHead(
@@ -66,6 +66,7 @@ def speed_head() -> tuple[SpeedHead, Device, list[float]]:
         gain_per_s=4.0,
         command_timeout_s=TIMEOUT_S,
         poll_period_s=0.02,
+        command_period_s=command_period_s,
         mono_s=lambda: now[0],
         wall_ns=lambda: round(now[0] * 1e9),
     )
@@ -120,6 +121,25 @@ def test_a_running_command_is_renewed_before_the_devices_timeout() -> None:
     assert 4 <= len(renewals) <= 12  # about every half timeout over 1.95 s, never each set-point
 
 
+def test_at_most_one_command_a_command_period_but_stop_at_once() -> None:
+    head, device, now = speed_head(command_period_s=0.1)
+    head.set_position(0.0, 0.0)
+    head.query_position()
+    now[0] = 0.1
+    head.set_position(RAD(1.0), 0.0)  # 14 deg/s: step 4
+    now[0] = 0.15
+    head.set_position(RAD(3.0), 0.0)  # 40 deg/s and more: held back, too soon
+    assert device.commands == [(4, 0)]
+    now[0] = 0.21
+    head.set_position(RAD(5.4), 0.0)
+    assert device.commands[-1] == (6, 0)
+    device.position = (RAD(5.4), 0.0)
+    now[0] = 0.23
+    head.query_position()
+    head.set_position(RAD(5.4), 0.0)  # at rest on the head: Stop at once, not held back
+    assert device.commands[-1] == "stop"
+
+
 def test_stop_once_the_set_points_rest_on_the_head_and_a_stale_set_point_stands_still() -> None:
     head, device, now = speed_head()
     head.set_position(0.0, 0.0)
@@ -167,3 +187,51 @@ def test_a_head_that_takes_positions_gets_them_unchanged() -> None:
     head.connect()
     with pytest.raises(AssertionError, match="no positions"):
         head.set_position(0.1, 0.1)
+
+
+def test_speed_mode_is_for_heads_that_take_speed_commands() -> None:
+    from gazed.config import RigError
+
+    assert link_rig(protocol="visca", mode='"speed"').servo.mode == "speed"
+    with pytest.raises(RigError, match="take no speed commands"):
+        link_rig(protocol="flir-ptu", mode='"speed"')
+    with pytest.raises(RigError, match="rising with the step"):
+        link_rig(protocol="pelco-d", pan_speed_steps_deg_s="[2.0, 1.0]")
+    with pytest.raises(RigError, match="onvif://"):
+        link_rig(protocol="visca", port="onvif://127.0.0.1:80")
+
+
+def test_a_visca_camera_in_speed_mode_is_driven_by_pan_tilt_drives_only(tmp_path) -> None:
+    import time
+
+    from servo_link_support import Demands, demand
+    from test_servo_visca_ip_link import udp_rig
+
+    from gazed.servo.head_link import HeadLink
+    from gazed.sim.head_emulator import HeadEmulator
+
+    rig = udp_rig(tmp_path, mode='"speed"')
+    demands = Demands()
+    with HeadEmulator(rig) as camera:
+        link = HeadLink(rig, demands.take, lambda *_: None)
+
+        def no_positions(*_args: object) -> list[bytes]:
+            raise AssertionError("an absolute move in speed mode")
+
+        link.codec.encode_set_position = no_positions  # type: ignore[method-assign]
+
+        class Now:
+            immediate = False
+            mono_s = property(lambda _self: time.monotonic())
+            wall_ns = property(lambda _self: time.time_ns())
+
+        started = time.monotonic()
+        while time.monotonic() - started < 1.5:
+            demands.put(demand(15.0, 5.0))
+            link.step(Now())
+            time.sleep(0.01)
+        pose = camera.pose_at(time.monotonic())
+        link.driver.disconnect()
+    assert link.counts["errors"] == 0, link.last_error
+    assert math.degrees(pose.pan_rad) == pytest.approx(15.0, abs=1.0)
+    assert math.degrees(pose.tilt_rad) == pytest.approx(5.0, abs=1.0)

@@ -11,7 +11,9 @@ told). Each poll of the position closes the loop again on the newest reading. Th
   zero at or past the limit: the head never runs out of its limits;
 - quantised to the device's speed steps (`SpeedSteps`, a table of rates per step), never to a
   step faster than the cap;
-- sent only when a step changes, or again before the device's own timeout runs out.
+- sent only when a step changes, or again before the device's own timeout runs out, and at
+  most once a command period (`command_rate_hz`; a VISCA camera holds a socket per drive until
+  it acts on it); Stop is never held back.
 
 The hold is the writer's: no demand within the command timeout, and the set-points decelerate
 to rest, which the head follows until its rate rounds to no step, when it is told Stop. A
@@ -111,6 +113,7 @@ class SpeedHead:
         gain_per_s: float,
         command_timeout_s: float,
         poll_period_s: float,
+        command_period_s: float = 0.0,
         mono_s: Callable[[], float] = time.monotonic,
         wall_ns: Callable[[], int] = time.time_ns,
         by_speed: Callable[[SpeedDevice], bool] = lambda _device: True,
@@ -125,6 +128,7 @@ class SpeedHead:
         self.gain_per_s = gain_per_s
         self.command_timeout_s = command_timeout_s
         self.poll_period_s = poll_period_s
+        self.command_period_s = command_period_s
         self._mono_s = mono_s
         self._wall_ns = wall_ns
         self._bounds = device_bounds(head)
@@ -245,8 +249,10 @@ class SpeedHead:
             self._anchor(now_s)
             self.sent, self._sent_s, self.stopped = (0, 0), now_s, True
             return t_ns
-        renew = now_s - self._sent_s > self.command_timeout_s / 2.0
-        if wanted == self.sent and not renew:
+        since_s = now_s - self._sent_s
+        if wanted == self.sent and since_s <= self.command_timeout_s / 2.0:
+            return 0
+        if since_s < self.command_period_s:  # at most one a command period (VISCA's sockets)
             return 0
         t_ns = self.device.set_speed(
             pan_step / self.steps[0].count,
@@ -298,6 +304,7 @@ def speed_head(
         gain_per_s=servo.speed_gain_per_s,
         command_timeout_s=servo.command_timeout_ms / 1000.0,
         poll_period_s=1.0 / servo.odometry_rate_hz,
+        command_period_s=1.0 / servo.command_rate_hz,
         mono_s=mono_s,
         wall_ns=wall_ns,
         by_speed=by_speed,
