@@ -7,10 +7,12 @@ camera a link down and a reconnect); and a head link on it never leaves its limi
 from __future__ import annotations
 
 import math
+import time
 from pathlib import Path
 
 import httpx
 import pytest
+from conftest import poll_until
 from onvif_support import PASSWORD, Clock, onvif_rig
 from servo_link_support import Demands, demand
 
@@ -231,3 +233,23 @@ def test_park_goes_to_the_preset_and_a_dead_camera_is_reconnected(tmp_path: Path
         pose = camera.pose_at(run_s + 2.0)
         assert camera.device.requests["GotoPreset"] == 1
         assert (pose.pan_rad, pose.tilt_rad) == pytest.approx((0.0, 0.0), abs=1e-9)
+
+
+def test_jog_shows_the_cameras_units_and_refuses_moves_past_the_limits(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from gazed.cli import main
+
+    rig = onvif_rig(tmp_path)
+    jog = ["servo", "jog", "--rig", str(tmp_path / "rig.toml"), "--listen-ms", "0"]
+    with OnvifEmulator(rig) as camera:
+        assert main([*jog, "--pan-deg", "30", "--tilt-deg", "-10"]) == 0
+        poll_until(lambda: camera.pose_at(time.monotonic()) and camera.settled, 5.0)
+        assert main([*jog, "--query"]) == 0
+        assert "pan 0.16667, tilt -0.11111 (camera units)" in capsys.readouterr().out
+        assert main([*jog, "--pan-deg", "70", "--tilt-deg", "0", "--relative"]) == 2
+        assert "outside [head]'s limits" in capsys.readouterr().out
+        assert main([*jog, "--pan-deg", "-5", "--tilt-deg", "0", "--relative"]) == 0
+        assert main([*jog, "--stop"]) == 0
+        assert camera.device.requests["RelativeMove"] == 1
+        assert camera.device.requests["Stop"] == 1

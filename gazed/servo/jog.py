@@ -40,6 +40,11 @@ def jog_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--tilt-deg", type=float, help="go to this tilt (joint angle, with --pan-deg)"
     )
+    parser.add_argument(
+        "--relative",
+        action="store_true",
+        help="ONVIF: move by --pan-deg/--tilt-deg from where the camera is (RelativeMove)",
+    )
     parser.add_argument("--port", help="pyserial URL to use instead of the rig's [servo] port")
     parser.add_argument(
         "--listen-ms",
@@ -54,7 +59,7 @@ def jog_command(args: argparse.Namespace) -> int:
     if (args.pan_deg is None) != (args.tilt_deg is None):
         print("gazed servo jog: --pan-deg and --tilt-deg go together")
         return 2
-    if args.pan_deg is not None:
+    if args.pan_deg is not None and not args.relative:
         problem = _outside_limits(rig, args.pan_deg, args.tilt_deg)
         if problem:
             print(f"gazed servo jog: {problem}")
@@ -63,6 +68,9 @@ def jog_command(args: argparse.Namespace) -> int:
         servo = rig.servo.model_copy(update={"port": args.port}) if args.port else rig.servo
         folder = rig.source_path.parent if rig.source_path is not None else None
         return onvif_jog(rig, OnvifHead(servo, folder=folder), args)
+    if args.relative:
+        print("gazed servo jog: --relative is for ONVIF cameras")
+        return 2
     if rig.servo.protocol not in CODECS:
         print(f"gazed servo jog: the {rig.servo.protocol} head has no serial port to jog")
         return 2

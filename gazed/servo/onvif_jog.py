@@ -29,6 +29,9 @@ def onvif_jog(rig: Rig, camera: OnvifHead, args: argparse.Namespace) -> int:
             if args.stop:
                 camera.stop()
                 print("-> Stop")
+            elif args.pan_deg is not None and args.relative:
+                if not _relative_move(rig, camera, args.pan_deg, args.tilt_deg):
+                    return 2
             elif args.pan_deg is not None:
                 pan, tilt = device_from_joint(
                     rig.head, math.radians(args.pan_deg), math.radians(args.tilt_deg)
@@ -44,6 +47,28 @@ def onvif_jog(rig: Rig, camera: OnvifHead, args: argparse.Namespace) -> int:
         print(f"failed: {exc}")
         return 1
     return 0
+
+
+def _relative_move(rig: Rig, camera: OnvifHead, pan_deg: float, tilt_deg: float) -> bool:
+    """RelativeMove by joint angles, refused if it would end outside `[head]`'s limits."""
+    head = rig.head
+    at = camera.query_position()
+    pan, tilt = joint_from_device(head, at.pan_rad, at.tilt_rad)
+    to_pan, to_tilt = math.degrees(pan) + pan_deg, math.degrees(tilt) + tilt_deg
+    if not (
+        math.isfinite(to_pan)
+        and math.isfinite(to_tilt)
+        and head.pan_min_deg <= to_pan <= head.pan_max_deg
+        and head.tilt_min_deg <= to_tilt <= head.tilt_max_deg
+    ):
+        print(
+            f"gazed servo jog: the move would end at pan {to_pan:.3f}, tilt {to_tilt:.3f} deg, "
+            "outside [head]'s limits"
+        )
+        return False
+    camera.move_by(head.pan_sign * math.radians(pan_deg), head.tilt_sign * math.radians(tilt_deg))
+    print(f"-> RelativeMove by pan {pan_deg} deg, tilt {tilt_deg} deg")
+    return True
 
 
 def _describe(camera: OnvifHead) -> None:
