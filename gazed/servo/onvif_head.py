@@ -24,7 +24,7 @@ import os
 import time
 from collections import Counter
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -42,6 +42,7 @@ from onveef.transport import OnvifCredentials
 from gazed.config.servo import OnvifServo
 from gazed.servo import onvif_ptz
 from gazed.servo.codec import CodecError, HandshakeError
+from gazed.servo.digital_head import InstantLine
 from gazed.servo.driver import DeviceError, DevicePosition, ServoTimeout
 from gazed.servo.onvif_ptz import AxisSpace
 from gazed.servo.transport import LinkError, NotConnectedError
@@ -94,20 +95,6 @@ class OnvifTraits:
     bad_frames: int = 0
 
 
-@dataclass
-class HttpLine:
-    """The ONVIF head's line as the link measures it: HTTP, no baud rate, no line load."""
-
-    url: str
-    baud: int = 0
-    byte_time_s: float = 0.0
-    line_s: float = 0.0
-    counters: Counter[str] = field(default_factory=Counter)
-
-    def line_busy_s(self) -> float:
-        return 0.0
-
-
 @dataclass(frozen=True)
 class Capabilities:
     """What the camera's PTZ node offers."""
@@ -135,7 +122,7 @@ class OnvifHead:
         self.servo = servo
         self._folder = folder
         self.codec = OnvifTraits()
-        self.transport = HttpLine(servo.port)
+        self.transport = InstantLine(servo.port)
         self.counters: Counter[str] = Counter()
         self._password = password
         self._http = transport
