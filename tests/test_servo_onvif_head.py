@@ -20,7 +20,7 @@ from gazed.config import Rig
 from gazed.servo.codec import CodecError, HandshakeError
 from gazed.servo.driver import DeviceError, ServoTimeout
 from gazed.servo.head_link import HeadLink
-from gazed.servo.onvif_driver import onvif_driver
+from gazed.servo.onvif_driver import camera_stream_uri, onvif_driver
 from gazed.servo.onvif_head import OnvifHead, PasswordError, read_password
 from gazed.servo.transport import LinkError
 from gazed.sim.head_onvif import OnvifEmulator
@@ -51,8 +51,10 @@ def test_connect_reads_the_spaces_and_moves_map_to_degrees(tmp_path: Path) -> No
         head.goto_preset("home")
         clock.sleep(2.0)
         assert head.query_position().pan_rad == pytest.approx(0.0, abs=1e-9)
-        assert head.stream_uri() == "sim"
         assert camera.device.requests["GetNodes"] == 1
+        port = rig.servo.port.rsplit(":", 1)[1]
+        assert head.stream_uri() == f"rtsp://admin:{PASSWORD}@127.0.0.1:{port}/gazed"
+        assert camera_stream_uri(rig) == head.stream_uri()  # [camera] source = "onvif"
 
 
 def test_continuous_move_runs_until_its_timeout(tmp_path: Path) -> None:

@@ -184,7 +184,8 @@ class OnvifDevice:
 
     def _op_GetStreamUri(self, _request: Element, _now_s: float) -> str:
         return (
-            "<trt:GetStreamUriResponse><trt:MediaUri><tt:Uri>sim</tt:Uri></trt:MediaUri>"
+            "<trt:GetStreamUriResponse><trt:MediaUri><tt:Uri>"
+            f"{self.host.replace('http://', 'rtsp://')}/gazed</tt:Uri></trt:MediaUri>"
             "</trt:GetStreamUriResponse>"
         )
 
