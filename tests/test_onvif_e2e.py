@@ -1,7 +1,9 @@
 """ONVIF end to end. The real `servo` process drives ipycam, a virtual ONVIF camera nobody here
 wrote, over ONVIF on loopback while its MJPEG stream is read: the servo's odometry follows the
-position ipycam reports, in position and in speed mode, and it parks on SIGTERM. And the whole
-loop runs on the sim ONVIF rig (the emulated camera) and holds the target in the fovea.
+position ipycam reports, in position and in speed mode, and it parks on SIGTERM. The whole loop
+(`gazed run`) follows walkers in the PETS footage through ipycam's digital PTZ and stream. And
+the whole loop runs on the sim ONVIF rig (the emulated camera) and holds the target in the
+fovea.
 
 ipycam needs opencv-python, which clashes with the headless build gazed uses; CI installs it
 next to it without its dependencies: `pip install --no-deps ipycam==1.3.0`.
@@ -77,11 +79,13 @@ def ipycam(shared_data: Path, tmp_path: Path):
         process.wait(10)
 
 
-def ipycam_position_deg(client: OnvifClient, token: str) -> tuple[float, float]:
+def ipycam_position_deg(
+    client: OnvifClient, token: str, range_deg: tuple[float, float] = (RANGE_DEG, RANGE_DEG)
+) -> tuple[float, float]:
     """ipycam's own report of its pan and tilt, in the rig's degrees."""
     xml = client.call(service="ptz", operation="GetStatus", body_inner=get_status(token))
     status = parse_status(xml)
-    return status.pan * RANGE_DEG, status.tilt * RANGE_DEG
+    return status.pan * range_deg[0], status.tilt * range_deg[1]
 
 
 def ipycam_rig(tmp_path: Path, port: int, mode: str) -> Path:
@@ -182,6 +186,86 @@ def test_the_servo_drives_ipycam_and_its_odometry_follows_ipycams_position(
         assert status.errors == 0, status.last_error
     parked = ipycam_position_deg(client, token)
     assert parked == pytest.approx(rig.head.park_rad, abs=0.6)
+
+
+def loop_rig(tmp_path: Path, port: int) -> Path:
+    """configs/pets.toml's world (the PETS 2009 camera's calibration) seen through ipycam's
+    digital PTZ: a 192x144 crop of the 480x360 footage at zoom 0.5, served at 480x360, whose
+    pan and tilt of -1..1 move it 144 and 108 source pixels, about 11 and 8.2 degrees."""
+    pets = tomlkit.parse((REPO / "configs" / "pets.toml").read_text())
+    password_file = tmp_path / "password"
+    password_file.write_text(PASSWORD + "\n")
+    rig = tomlkit.parse(
+        f"""
+[rig]
+name = "ipycamloop{port}"
+[bus]
+listen = ["tcp/127.0.0.1:{free_tcp_port()}"]
+[camera]
+source = "http://{USER}:{PASSWORD}@127.0.0.1:{port}/stream.mjpeg"
+width_px = 480
+height_px = 360
+rate_hz = 10.0
+fx_px = 1851.6
+fy_px = 1866.6
+[head]
+pan_min_deg = -10
+pan_max_deg = 10
+tilt_min_deg = -7
+tilt_max_deg = 7
+pan_rate_max_deg_s = 20
+tilt_rate_max_deg_s = 20
+pan_accel_max_deg_s2 = 100
+tilt_accel_max_deg_s2 = 100
+[servo]
+protocol = "onvif"
+port = "onvif://127.0.0.1:{port}"
+username = "{USER}"
+password_file = "{password_file}"
+pan_range_deg = [-11.0, 11.0]
+tilt_range_deg = [-8.2, 8.2]
+timeout_ms = 1000
+command_timeout_ms = 500
+odometry_rate_hz = 20
+command_rate_hz = 20
+[services.sim]
+enabled = false
+"""
+    )
+    for section in ("calibration", "vision", "estimator", "gaze"):
+        rig[section] = pets[section]
+    path = tmp_path / "ipycam-loop.toml"
+    path.write_text(tomlkit.dumps(rig))
+    return path
+
+
+def test_the_whole_loop_follows_a_walker_through_ipycam(ipycam, tmp_path: Path) -> None:
+    port, client, token = ipycam
+    supervisor = RunningSupervisor(loop_rig(tmp_path, port), tmp_path)
+    states = supervisor.bus.subscribe(GAZE_STATE, capacity=10000)
+    odometry = supervisor.bus.subscribe(SERVO_ODOMETRY, capacity=100000)
+    seen_states, readings = [], []
+    try:
+        supervisor.wait_ready(60.0)
+        started = time.monotonic()
+        while time.monotonic() - started < 25.0:
+            supervisor.wakeup.wait(0.5)
+            seen_states.extend(states.take())
+            readings.extend(odometry.take())
+        ended_ns = time.time_ns()
+    finally:
+        code = supervisor.stop()
+    assert code == 0
+    # states are published on each change: the time in pursuit from the first acquisition on
+    changes = [(s.t_capture_ns, s.state) for s in seen_states]
+    first = next(t for t, state in changes if state == "pursuit")
+    spans = zip(changes, [*changes[1:], (ended_ns, "")], strict=True)
+    pursuing_s = sum((b - a) / 1e9 for (a, state), (b, _) in spans if state == "pursuit")
+    assert pursuing_s >= 0.6 * (ended_ns - first) / 1e9
+    pans = [math.degrees(r.pan_rad) for r in readings]
+    assert max(pans) - min(pans) > 1.0  # the head followed someone
+    parked = ipycam_position_deg(client, token, (11.0, 8.2))
+    assert parked == pytest.approx((0.0, 0.0), abs=0.3)
 
 
 @pytest.mark.parametrize("mode", ["position", "speed"])
