@@ -12,6 +12,7 @@ import httpx
 
 from gazed.config import Rig
 from gazed.config.servo import OnvifServo
+from gazed.servo.codec import HandshakeError
 from gazed.servo.onvif_head import OnvifHead
 from gazed.servo.speed_mode import SpeedDevice, SpeedHead, speed_head
 
@@ -25,7 +26,10 @@ def camera_stream_uri(rig: Rig) -> str:
     """`[camera] source = "onvif"`: the camera's own stream, as GetStreamUri gives it (raises
     `LinkError`, `HandshakeError`, `DeviceError`)."""
     servo = rig.servo
-    assert isinstance(servo, OnvifServo)
+    if not isinstance(servo, OnvifServo):
+        raise HandshakeError(
+            f'[camera] source = "onvif" asks an ONVIF camera, but [servo] is {servo.protocol}'
+        )
     with OnvifHead(servo, folder=rig_folder(rig)) as camera:
         return camera.stream_uri()
 
