@@ -173,6 +173,18 @@ def test_no_step_towards_a_limit_the_head_could_not_brake_before() -> None:
     assert device.commands[-1][0] < 0
 
 
+def test_a_running_head_is_stopped_before_the_link_closes() -> None:
+    head, device, now = speed_head()
+    head.set_position(0.0, 0.0)
+    now[0] = 0.1
+    head.set_position(RAD(2.0), 0.0)
+    head.disconnect()
+    assert device.commands == [(5, 0), "stop"] and not device.is_connected
+    head.connect()
+    head.disconnect()  # at rest: nothing to stop
+    assert device.commands == [(5, 0), "stop"]
+
+
 def test_a_head_that_takes_positions_gets_them_unchanged() -> None:
     device = Device()
     head = SpeedHead(

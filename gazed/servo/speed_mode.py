@@ -26,14 +26,17 @@ before half of it has passed.
 from __future__ import annotations
 
 import bisect
+import contextlib
 import math
 import time
 from collections.abc import Callable, Sequence
 from typing import Protocol
 
 from gazed.config import HeadSection, Rig
-from gazed.servo.driver import DevicePosition
+from gazed.servo.codec import CodecError
+from gazed.servo.driver import DeviceError, DevicePosition
 from gazed.servo.pelco_d import SPEED_MAX as PELCO_SPEED_MAX
+from gazed.servo.transport import LinkError
 from gazed.sim.head_mechanics import device_bounds
 
 DEFAULT_STEPS = 32
@@ -150,6 +153,11 @@ class SpeedHead:
         self.stopped = True
 
     def disconnect(self) -> None:
+        """Stop a head still running on a speed command (if it still answers), then close."""
+        if self.by_speed and not self.stopped and self.device.is_connected:
+            with contextlib.suppress(LinkError, DeviceError, CodecError):
+                self.device.stop()
+            self.stopped = True
         self.device.disconnect()
 
     # --- the driver's calls ------------------------------------------------------------------
