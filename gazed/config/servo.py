@@ -73,7 +73,7 @@ class ServoLink(Section):
         return self
 
     @model_validator(mode="after")
-    def _visca_over_ip_carries_visca(self) -> ServoLink:
+    def _port_fits_protocol(self) -> ServoLink:
         if self.port.startswith("visca-udp://") and getattr(self, "protocol", "visca") != "visca":
             raise ValueError('port: visca-udp:// carries VISCA only (set protocol = "visca")')
         if self.port.startswith("onvif://") != (getattr(self, "protocol", "") == "onvif"):
