@@ -150,7 +150,13 @@ def test_stop_once_the_set_points_rest_on_the_head_and_a_stale_set_point_stands_
     now[0] = 0.1 + TIMEOUT_S + 0.01  # no set-point since: the target stands at 2 deg
     head.query_position()
     assert head.rates_rad_s(now[0]) == pytest.approx((RAD(4.0 * 0.1), 0.0))
-    assert device.commands[-1] == "stop"  # 0.4 deg/s rounds to no step
+    # 0.4 deg/s rounds to no step, but 0.1 deg is more than the slowest step runs between two
+    # polls (0.02 deg): the slowest step, so the head ends on its set-point
+    assert device.commands[-1] == (1, 0)
+    device.position = (RAD(1.99), 0.0)
+    now[0] += 0.02
+    head.query_position()
+    assert device.commands[-1] == "stop"
 
 
 def test_no_step_towards_a_limit_the_head_could_not_brake_before() -> None:

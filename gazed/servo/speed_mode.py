@@ -199,6 +199,13 @@ class SpeedHead:
 
     def rates_rad_s(self, now_s: float) -> tuple[float, float]:
         """The rate each axis is to run at now (before quantisation)."""
+        (pan_ff, tilt_ff), (pan_error, tilt_error) = self._feed_forward_and_error(now_s)
+        return pan_ff + self.gain_per_s * pan_error, tilt_ff + self.gain_per_s * tilt_error
+
+    def _feed_forward_and_error(
+        self, now_s: float
+    ) -> tuple[tuple[float, float], tuple[float, float]]:
+        """The set-points' rates, and how far the head is from them now."""
         assert self._setpoint is not None
         pan_sp, tilt_sp, pan_ff, tilt_ff, set_s = self._setpoint
         ahead_s = now_s - set_s
@@ -206,10 +213,19 @@ class SpeedHead:
             pan_ff = tilt_ff = ahead_s = 0.0
         pan_sp, tilt_sp = pan_sp + pan_ff * ahead_s, tilt_sp + tilt_ff * ahead_s
         pan_at, tilt_at = self.where(now_s)
-        return (
-            pan_ff + self.gain_per_s * (pan_sp - pan_at),
-            tilt_ff + self.gain_per_s * (tilt_sp - tilt_at),
-        )
+        return (pan_ff, tilt_ff), (pan_sp - pan_at, tilt_sp - tilt_at)
+
+    def _step(self, axis: int, now_s: float, position_rad: float) -> int:
+        """The axis's speed step now. An error the gain would round to no step, yet larger than
+        the slowest step covers between two looks at the head, still gets the slowest step, so
+        the head ends on its set-point and not a dead band away."""
+        steps = self.steps[axis]
+        rate = self.rates_rad_s(now_s)[axis]
+        error = self._feed_forward_and_error(now_s)[1][axis]
+        slowest = steps.rates_rad_s[0]
+        if abs(error) > slowest * (self.poll_period_s + self.command_period_s):
+            rate = math.copysign(max(abs(rate), slowest), rate if rate else error)
+        return steps.quantise(rate, self.cap_rad_s(axis, position_rad, rate))
 
     def where(self, now_s: float) -> tuple[float, float]:
         """The head's position now: its last reading moved on at the rates it was told since."""
@@ -241,14 +257,8 @@ class SpeedHead:
     def _command(self, now_s: float) -> int:
         """Send the steps due now, if they differ from those running or are to be renewed;
         when they went out (ns), 0 if nothing was sent."""
-        rates = self.rates_rad_s(now_s)
         position = self.where(now_s)
-        wanted = tuple(
-            self.steps[axis].quantise(
-                rates[axis], self.cap_rad_s(axis, position[axis], rates[axis])
-            )
-            for axis in (0, 1)
-        )
+        wanted = tuple(self._step(axis, now_s, position[axis]) for axis in (0, 1))
         pan_step, tilt_step = wanted
         if wanted == (0, 0):
             if self.stopped:
