@@ -10,7 +10,8 @@ told). Each poll of the position closes the loop again on the newest reading. Th
   (sqrt(2·a·d) over the distance left once it has run one poll period at its present rate), and
   zero at or past the limit: the head never runs out of its limits;
 - quantised to the device's speed steps (`SpeedSteps`, a table of rates per step), never to a
-  step faster than the cap;
+  step faster than the cap; an error larger than the slowest step covers between two polls
+  gets at least the slowest step, so the head ends on its set-point, not a dead band away;
 - sent only when a step changes, or again before the device's own timeout runs out, and at
   most once a command period (`command_rate_hz`; a VISCA camera holds a socket per drive until
   it acts on it); Stop is never held back.
