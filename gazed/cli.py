@@ -74,6 +74,10 @@ COMMANDS: dict[str, Command | Group] = {
                 "trace 4+ ground lines with the running rig, then the line calibration "
                 "(seed 000 §3.2.1)",
             ),
+            "speeds": Command(
+                "gazed.servo.speed_calibration",
+                "measure an ONVIF camera's rate per speed step with its own position readings",
+            ),
         },
     ),
     "eval": Group(

@@ -26,6 +26,7 @@ from gazed.config import Rig
 from gazed.messages import FrameHeader
 from gazed.sim.camera_schedule import CameraSchedule, lower_render_priority
 from gazed.sim.head_emulator import HeadEmulator
+from gazed.sim.head_onvif import OnvifEmulator, head_emulator
 from gazed.sim.world import Scene, SimWorld
 from gazed.topics import SIM_FRAME, SIM_TRUTH
 from services.runtime import HealthReport, Now, main
@@ -34,9 +35,11 @@ STAGE = "sim"
 
 
 class SimService:
-    def __init__(self, rig: Rig, bus: Bus, emulator: HeadEmulator | None = None) -> None:
+    def __init__(
+        self, rig: Rig, bus: Bus, emulator: HeadEmulator | OnvifEmulator | None = None
+    ) -> None:
         self.rig = rig
-        self.emulator = emulator if emulator is not None else HeadEmulator(rig)
+        self.emulator = emulator if emulator is not None else head_emulator(rig)
         if emulator is None:
             self.emulator.open()
             self.emulator.start()

@@ -59,8 +59,13 @@ def open_source(rig: Rig, bus: Bus, stage: VisionStage, stream: MjpegServer | No
         return digital
     if camera.source == "sim":
         return BusFrameSource(bus, silence_s=camera.timeout_ms * 1e-3)
+    source = camera.source
+    if source == "onvif":  # the ONVIF camera's own stream; its client loaded only then
+        from gazed.servo.onvif_driver import camera_stream_uri
+
+        source = camera_stream_uri(rig)
     return OpenCvCamera(
-        capture_target(camera.source),
+        capture_target(source),
         width_px=camera.width_px,
         height_px=camera.height_px,
         rate_hz=camera.rate_hz,

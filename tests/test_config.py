@@ -150,7 +150,7 @@ def test_servo_protocol_is_a_discriminator(
     code, lines = check(tmp_path, '[rig]\nname = "x"\n[servo]\nprotocol = "pelco"\n', capsys)
     assert code == 2
     assert lines[0].endswith(
-        "servo.protocol: unknown protocol 'pelco' (expected one of 'pelco-d', 'visca', 'flir-ptu', 'dynamixel', 'digital')"
+        "servo.protocol: unknown protocol 'pelco' (expected one of 'pelco-d', 'visca', 'flir-ptu', 'dynamixel', 'digital', 'onvif')"
     )
 
 

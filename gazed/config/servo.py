@@ -8,6 +8,8 @@ from pydantic import BaseModel, Field, model_validator
 
 from gazed.config.section import Section
 
+SPEED_PROTOCOLS = ("pelco-d", "visca", "onvif")
+
 
 class ServoLink(Section):
     """Keys shared by every protocol: the serial link and the servo process's timing."""
@@ -15,7 +17,8 @@ class ServoLink(Section):
     port: str = Field(
         "/tmp/gazed-sim-head",
         description="pyserial URL: /dev/ttyUSB0, a pty path, socket://host:port, spy://…, "
-        "loop://; or visca-udp://host:52381 (VISCA over IP, protocol visca only).",
+        "loop://; or visca-udp://host:52381 (VISCA over IP, protocol visca only); "
+        "onvif://host:port (an ONVIF camera, protocol onvif only).",
     )
     baud: int = Field(9600, gt=0, description="Serial speed in baud.")
     timeout_ms: float = Field(100.0, gt=0, le=10000, description="How long to wait for a reply.")
@@ -38,11 +41,45 @@ class ServoLink(Section):
     reconnect_max_s: float = Field(
         10.0, gt=0, le=600, description="Longest wait between reconnection attempts."
     )
+    mode: Literal["position", "speed"] = Field(
+        "position",
+        description="position: set-points as absolute moves; speed (pelco-d, visca, onvif): "
+        "speed commands (Pelco-D drive, VISCA Pan-tiltDrive, ONVIF ContinuousMove) at the "
+        "demand's rate plus a term on the position error. An ONVIF camera without absolute "
+        "moves is driven by speed whatever this says.",
+    )
+    pan_speed_steps_deg_s: list[float] = Field(
+        default_factory=list,
+        description="Speed mode: the pan rate of each speed step 1..N, step k being k/N of the "
+        "fastest speed command (`gazed calibrate speeds` measures it); empty: even steps up to "
+        "pan_speed_max_deg_s (as many as the protocol's speed codes, 32 for ONVIF).",
+    )
+    tilt_speed_steps_deg_s: list[float] = Field(
+        default_factory=list, description="Speed mode: the tilt rate of each speed step."
+    )
+    speed_gain_per_s: float = Field(
+        4.0, gt=0, le=100, description="Speed mode: rate added per radian of position error."
+    )
 
     @model_validator(mode="after")
-    def _visca_over_ip_carries_visca(self) -> ServoLink:
+    def _speed_mode(self) -> ServoLink:
+        protocol = getattr(self, "protocol", "")
+        if self.mode == "speed" and protocol not in SPEED_PROTOCOLS:
+            raise ValueError(f"mode: {protocol} heads take no speed commands (position only)")
+        for key in ("pan_speed_steps_deg_s", "tilt_speed_steps_deg_s"):
+            steps = getattr(self, key)
+            if any(b <= a for a, b in zip([0.0, *steps], steps, strict=False)):
+                raise ValueError(f"{key}: expected positive rates rising with the step")
+        return self
+
+    @model_validator(mode="after")
+    def _port_fits_protocol(self) -> ServoLink:
         if self.port.startswith("visca-udp://") and getattr(self, "protocol", "visca") != "visca":
             raise ValueError('port: visca-udp:// carries VISCA only (set protocol = "visca")')
+        if self.port.startswith("onvif://") != (getattr(self, "protocol", "") == "onvif"):
+            raise ValueError(
+                'port: an ONVIF camera takes onvif://host:port with protocol = "onvif"'
+            )
         return self
 
 
@@ -144,8 +181,60 @@ class DigitalServo(ServoLink):
     )
 
 
+class OnvifServo(ServoLink):
+    """An ONVIF PTZ camera (Profile S): WS-Security UsernameToken, the password from a file or
+    an environment variable, never in the rig."""
+
+    protocol: Literal["onvif"] = Field(description="An ONVIF PTZ camera over HTTP/SOAP.")
+    port: str = Field(
+        "onvif://127.0.0.1:8899",
+        pattern=r"^onvif://[^/:]+:[0-9]+$",
+        description="onvif://host:port of the camera's device service.",
+    )
+    device_path: str = Field(
+        "/onvif/device_service", description="Path of the camera's device service."
+    )
+    username: str = Field("admin", description="ONVIF user (WS-Security UsernameToken).")
+    password_file: str | None = Field(
+        None, description="File holding the ONVIF password (first line); readable by gazed only."
+    )
+    password_env: str = Field(
+        "GAZED_ONVIF_PASSWORD",
+        description="Environment variable holding the password when password_file is not set.",
+    )
+    profile: str | None = Field(
+        None, description="Media profile token to drive (default: the first with a PTZ node)."
+    )
+    pan_range_deg: tuple[float, float] = Field(
+        (-180.0, 180.0),
+        description="Pan in degrees at the two ends of the camera's absolute pan range "
+        "(its generic space, usually -1 and 1); measure with `gazed servo jog`.",
+    )
+    tilt_range_deg: tuple[float, float] = Field(
+        (-90.0, 90.0),
+        description="Tilt in degrees at the two ends of the camera's absolute tilt range.",
+    )
+    pan_speed_max_deg_s: float = Field(
+        120.0, gt=0, le=3600, description="Pan rate at velocity 1 (ContinuousMove)."
+    )
+    tilt_speed_max_deg_s: float = Field(
+        90.0, gt=0, le=3600, description="Tilt rate at velocity 1 (ContinuousMove)."
+    )
+    park_preset: str | None = Field(
+        None, description="Preset token to go to on stop instead of [head] park angles."
+    )
+
+    @model_validator(mode="after")
+    def _ranges(self) -> OnvifServo:
+        for key in ("pan_range_deg", "tilt_range_deg"):
+            low, high = getattr(self, key)
+            if low == high:
+                raise ValueError(f"{key}: both ends are {low} (expected two different angles)")
+        return self
+
+
 ServoSection = Annotated[
-    PelcoDServo | ViscaServo | FlirPtuServo | DynamixelServo | DigitalServo,
+    PelcoDServo | ViscaServo | FlirPtuServo | DynamixelServo | DigitalServo | OnvifServo,
     Field(discriminator="protocol"),
 ]
 SERVO_LINK_KEYS = frozenset(ServoLink.model_fields)

@@ -263,6 +263,10 @@ def private_rig(
     servo = document.setdefault("servo", tomlkit.table())
     if str(servo.get("port", "")).startswith("visca-udp://"):  # VISCA over IP: a private UDP port
         servo["port"] = f"visca-udp://127.0.0.1:{_free_port(socket.SOCK_DGRAM)}"
+    elif str(servo.get("port", "")).startswith("onvif://"):  # ONVIF: a private TCP port
+        servo["port"] = f"onvif://127.0.0.1:{_free_port()}"
+        if "password_file" in servo:  # relative to the original rig file
+            servo["password_file"] = str(base / str(servo["password_file"]))
     else:
         servo["port"] = str(directory / "head")
     sim = document.setdefault("sim", tomlkit.table())

@@ -40,14 +40,16 @@ class DigitalTraits:
 
 @dataclass
 class InstantLine:
-    """The digital head's line: no bytes, no time on it (`LineLoadMeter` measures nothing)."""
+    """A line with no bytes and no time on it (`LineLoadMeter` measures nothing): the digital
+    head's, and an IP camera's, whose requests are not serial bytes."""
 
     url: str = "digital"
     baud: int = 0
     byte_time_s: float = 0.0
     line_s: float = 0.0
 
-    def __init__(self) -> None:
+    def __init__(self, url: str = "digital") -> None:
+        self.url = url
         self.counters: Counter[str] = Counter()  # the link's own counts: none
 
     def line_busy_s(self) -> float:

@@ -29,16 +29,20 @@ from typing import Literal, Protocol
 
 from gazed.backoff import Backoff
 from gazed.config import DigitalServo, Rig
+from gazed.config.servo import OnvifServo
 from gazed.geometry.kinematics import device_from_joint
 from gazed.messages import GazeDemand
 from gazed.servo import CodecError, HandshakeError, make_codec
 from gazed.servo.digital_head import DigitalHead
+from gazed.servo.drive_speeds import DriveSpeeds, drive_rates_rad_s
 from gazed.servo.driver import DeviceError, ServoDriver, ServoTimeout
 from gazed.servo.line_load import LineLoadMeter
 from gazed.servo.odometry import JointReading, OdometryDating
+from gazed.servo.onvif_driver import onvif_driver
 from gazed.servo.park import park
 from gazed.servo.response_lag import ResponseLag
 from gazed.servo.setpoint_writer import SetpointWriter
+from gazed.servo.speed_mode import SpeedHead, speed_head
 from gazed.servo.transport import LinkError, Transport
 from gazed.servo.visca_ip_transport import open_transport
 
@@ -116,9 +120,11 @@ class HeadLink:
         self._mono_s = mono_s
         self._wall_ns = wall_ns
         self._sleep = sleep
-        self.driver: ServoDriver | DigitalHead
+        self.driver: ServoDriver | DigitalHead | SpeedHead
         if isinstance(rig.servo, DigitalServo):  # a model in this process, no serial port
             self.driver = DigitalHead(rig.head, rig.servo, mono_s=mono_s, wall_ns=wall_ns)
+        elif isinstance(rig.servo, OnvifServo):  # an IP camera over HTTP/SOAP
+            self.driver = onvif_driver(rig, mono_s=mono_s, wall_ns=wall_ns)
         else:
             timeout_s = rig.servo.timeout_ms / 1000.0
             self.driver = ServoDriver(
@@ -126,6 +132,9 @@ class HeadLink:
                 transport or open_transport(rig.servo.port, rig.servo.baud, timeout_s),
                 timeout_s,
             )
+            if rig.servo.mode == "speed":  # drive commands (VISCA, Pelco-D)
+                drives = DriveSpeeds(self.driver, drive_rates_rad_s(rig.servo))
+                self.driver = speed_head(rig, drives, mono_s=mono_s, wall_ns=wall_ns)
         self.codec = self.driver.codec
         self.writer = SetpointWriter(
             rig.head,
@@ -192,7 +201,13 @@ class HeadLink:
 
     def close(self) -> LinkStatus:
         """Drive the head to park, close the port; the status to publish last."""
-        if self.driver.is_connected:
+        preset = getattr(self.servo, "park_preset", None)
+        if self.driver.is_connected and preset is not None:
+            try:
+                self.driver.device.goto_preset(preset)  # type: ignore[union-attr]
+            except (LinkError, DeviceError) as exc:
+                log.warning("could not go to the park preset %s: %s", preset, exc)
+        elif self.driver.is_connected:
             try:
                 park(
                     self.driver,

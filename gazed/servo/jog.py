@@ -5,7 +5,8 @@ reply decoded.
     gazed servo jog --rig RIG --stop
     gazed servo jog --rig RIG --query
 
-It opens the rig's `[servo] port` (or `--port`, any pyserial URL), runs the protocol's start-up
+An ONVIF camera is jogged over its own protocol (`onvif_jog`). Otherwise it opens the rig's
+`[servo] port` (or `--port`, any pyserial URL), runs the protocol's start-up
 handshake, writes the command's frames one by one and prints every byte sent and every reply
 with its meaning, then listens `--listen-ms` for what the device sends unasked (VISCA
 completions, PTU limit notices). Exit 0 when the head answered as the protocol says, 1 when the
@@ -20,9 +21,12 @@ import time
 from pathlib import Path
 
 from gazed.config import Rig, load_rig_or_exit
+from gazed.config.servo import OnvifServo
 from gazed.geometry.kinematics import device_from_joint, joint_from_device
 from gazed.servo import CODECS, CodecError, HandshakeError, Reply, make_codec
 from gazed.servo.driver import ServoDriver
+from gazed.servo.onvif_head import OnvifHead
+from gazed.servo.onvif_jog import onvif_jog
 from gazed.servo.transport import LinkError
 from gazed.servo.visca_ip_transport import open_transport
 
@@ -35,6 +39,11 @@ def jog_arguments(parser: argparse.ArgumentParser) -> None:
     what.add_argument("--query", action="store_true", help="read both axes' positions")
     parser.add_argument(
         "--tilt-deg", type=float, help="go to this tilt (joint angle, with --pan-deg)"
+    )
+    parser.add_argument(
+        "--relative",
+        action="store_true",
+        help="ONVIF: move by --pan-deg/--tilt-deg from where the camera is (RelativeMove)",
     )
     parser.add_argument("--port", help="pyserial URL to use instead of the rig's [servo] port")
     parser.add_argument(
@@ -50,11 +59,18 @@ def jog_command(args: argparse.Namespace) -> int:
     if (args.pan_deg is None) != (args.tilt_deg is None):
         print("gazed servo jog: --pan-deg and --tilt-deg go together")
         return 2
-    if args.pan_deg is not None:
+    if args.pan_deg is not None and not args.relative:
         problem = _outside_limits(rig, args.pan_deg, args.tilt_deg)
         if problem:
             print(f"gazed servo jog: {problem}")
             return 2
+    if isinstance(rig.servo, OnvifServo):
+        servo = rig.servo.model_copy(update={"port": args.port}) if args.port else rig.servo
+        folder = rig.source_path.parent if rig.source_path is not None else None
+        return onvif_jog(rig, OnvifHead(servo, folder=folder), args)
+    if args.relative:
+        print("gazed servo jog: --relative is for ONVIF cameras")
+        return 2
     if rig.servo.protocol not in CODECS:
         print(f"gazed servo jog: the {rig.servo.protocol} head has no serial port to jog")
         return 2

@@ -1,0 +1,330 @@
+"""Speed mode: a head driven by speed commands (ONVIF ContinuousMove) follows the same
+set-points as a head driven by position.
+
+Each set-point the writer sends becomes a rate: the set-points' own rate (the demand's
+feed-forward, as the set-point generator shapes it) plus `gain_per_s` times the position error
+(set-point minus where the head is, from its last position reading moved on at the rate it was
+told). Each poll of the position closes the loop again on the newest reading. The rate is then
+
+- capped, on the way to a joint limit, to what the head can still brake from before it
+  (sqrt(2·a·d) over the distance left once it has run one poll period at its present rate), and
+  zero at or past the limit: the head never runs out of its limits;
+- quantised to the device's speed steps (`SpeedSteps`, a table of rates per step), never to a
+  step faster than the cap; an error larger than the slowest step covers between two polls
+  gets at least the slowest step, so the head ends on its set-point, not a dead band away;
+- sent only when a step changes, or again before the device's own timeout runs out, and at
+  most once a command period (`command_rate_hz`; a VISCA camera holds a socket per drive until
+  it acts on it); Stop is never held back.
+
+The hold is the writer's: no demand within the command timeout, and the set-points decelerate
+to rest, which the head follows until its rate rounds to no step, when it is told Stop. A
+set-point older than the command timeout is a target standing still (its rate is dropped).
+Every speed command carries the command timeout as the device's own (ONVIF's ContinuousMove
+Timeout), so a head whose servo process stalls stops by itself; a running command is renewed
+before half of it has passed.
+"""
+
+from __future__ import annotations
+
+import bisect
+import contextlib
+import math
+import time
+from collections.abc import Callable, Sequence
+from typing import Protocol
+
+from gazed.config import HeadSection, Rig
+from gazed.servo.codec import CodecError
+from gazed.servo.driver import DeviceError, DevicePosition
+from gazed.servo.pelco_d import SPEED_MAX as PELCO_SPEED_MAX
+from gazed.servo.transport import LinkError
+from gazed.sim.head_mechanics import device_bounds
+
+DEFAULT_STEPS = 32
+
+
+class SpeedDevice(Protocol):
+    """A head that takes speed commands as fractions of its fastest step (ONVIF head)."""
+
+    codec: object
+    transport: object
+    counters: object
+
+    @property
+    def is_connected(self) -> bool: ...
+
+    def connect(self) -> None: ...
+
+    def disconnect(self) -> None: ...
+
+    def set_speed(self, pan_fraction: float, tilt_fraction: float, timeout_s: float) -> int: ...
+
+    def stop(self) -> int: ...
+
+    def set_position(self, pan_rad: float, tilt_rad: float) -> int: ...
+
+    def query_position(self, between: Callable[[], None] | None = None) -> DevicePosition: ...
+
+
+class SpeedSteps:
+    """One axis's speed steps: step k (1..N) runs at `rates_rad_s[k-1]`; step 0 is stopped."""
+
+    def __init__(self, rates_rad_s: Sequence[float]) -> None:
+        if not rates_rad_s or any(
+            b <= a for a, b in zip([0.0, *rates_rad_s], rates_rad_s, strict=False)
+        ):
+            raise ValueError("speed steps: expected positive rates rising with the step")
+        self.rates_rad_s = list(rates_rad_s)
+
+    @classmethod
+    def even(cls, rate_max_rad_s: float, steps: int = DEFAULT_STEPS) -> SpeedSteps:
+        return cls([rate_max_rad_s * k / steps for k in range(1, steps + 1)])
+
+    @property
+    def count(self) -> int:
+        return len(self.rates_rad_s)
+
+    def rate_rad_s(self, step: int) -> float:
+        return math.copysign(self.rates_rad_s[abs(step) - 1], step) if step else 0.0
+
+    def quantise(self, rate_rad_s: float, cap_rad_s: float = math.inf) -> int:
+        """The signed step nearest `rate_rad_s`, none faster than `cap_rad_s`."""
+        speed = min(abs(rate_rad_s), cap_rad_s)
+        rates = [0.0, *self.rates_rad_s]
+        i = bisect.bisect_left(rates, speed)
+        if i == len(rates):
+            step = len(rates) - 1
+        elif i > 0 and speed - rates[i - 1] <= rates[i] - speed:
+            step = i - 1
+        else:
+            step = i
+        while step > 0 and rates[step] > cap_rad_s:
+            step -= 1
+        return int(math.copysign(step, rate_rad_s)) if step else 0
+
+
+class SpeedHead:
+    """`device` driven by speed towards the set-points written to it, inside `head`'s limits
+    (device angles), when `by_speed(device)` says so once it is connected (otherwise the
+    set-points go to it as positions); `mono_s` and `wall_ns` are the clocks."""
+
+    def __init__(
+        self,
+        device: SpeedDevice,
+        head: HeadSection,
+        steps: tuple[SpeedSteps, SpeedSteps],
+        *,
+        gain_per_s: float,
+        command_timeout_s: float,
+        poll_period_s: float,
+        command_period_s: float = 0.0,
+        mono_s: Callable[[], float] = time.monotonic,
+        wall_ns: Callable[[], int] = time.time_ns,
+        by_speed: Callable[[SpeedDevice], bool] = lambda _device: True,
+    ) -> None:
+        self.device = device
+        self._by_speed = by_speed
+        self.by_speed = True
+        self.codec = device.codec
+        self.transport = device.transport
+        self.counters = device.counters
+        self.steps = steps
+        self.gain_per_s = gain_per_s
+        self.command_timeout_s = command_timeout_s
+        self.poll_period_s = poll_period_s
+        self.command_period_s = command_period_s
+        self._mono_s = mono_s
+        self._wall_ns = wall_ns
+        self._bounds = device_bounds(head)
+        self._accel_rad_s2 = head.accel_max_rad_s2
+        self.sent: tuple[int, int] = (0, 0)
+        self._sent_s = -math.inf
+        self._setpoint: tuple[float, float, float, float, float] | None = None  # p, t, rates, s
+        self._reading: tuple[float, float, float] | None = None  # where, from when (mono s)
+        self.stopped = True
+
+    @property
+    def is_connected(self) -> bool:
+        return self.device.is_connected
+
+    def connect(self) -> None:
+        self.device.connect()
+        self.by_speed = self._by_speed(self.device)
+        self.sent, self._sent_s, self._setpoint, self._reading = (0, 0), -math.inf, None, None
+        self.stopped = True
+
+    def disconnect(self) -> None:
+        """Stop a head still running on a speed command (if it still answers), then close."""
+        if self.by_speed and not self.stopped and self.device.is_connected:
+            with contextlib.suppress(LinkError, DeviceError, CodecError):
+                self.device.stop()
+            self.stopped = True
+        self.device.disconnect()
+
+    # --- the driver's calls ------------------------------------------------------------------
+
+    def set_position(self, pan_rad: float, tilt_rad: float) -> int:
+        """A set-point (device angles): the rate towards it, sent as speed steps; when the
+        command went out (or now, where the one running stands)."""
+        if not self.by_speed:
+            return self.device.set_position(pan_rad, tilt_rad)
+        now_s = self._mono_s()
+        pan_rate = tilt_rate = 0.0
+        if self._setpoint is not None:
+            last_pan, last_tilt, _, _, last_s = self._setpoint
+            dt_s = now_s - last_s
+            if 0.0 < dt_s <= self.command_timeout_s:
+                pan_rate, tilt_rate = (pan_rad - last_pan) / dt_s, (tilt_rad - last_tilt) / dt_s
+        self._setpoint = (pan_rad, tilt_rad, pan_rate, tilt_rate, now_s)
+        return self._command(now_s) or self._wall_ns()
+
+    def query_position(self, between: Callable[[], None] | None = None) -> DevicePosition:
+        """The device's position, and the loop closed again on it."""
+        position = self.device.query_position(between)
+        if not self.by_speed:
+            return position
+        now_s = self._mono_s()
+        self._reading = (position.pan_rad, position.tilt_rad, now_s)
+        if self._setpoint is not None:
+            self._command(now_s)
+        return position
+
+    def stop(self) -> int:
+        t_ns = self.device.stop()
+        self._anchor(self._mono_s())
+        self.sent, self._sent_s, self.stopped = (0, 0), self._mono_s(), True
+        self._setpoint = None
+        return t_ns
+
+    # --- the law -----------------------------------------------------------------------------
+
+    def rates_rad_s(self, now_s: float) -> tuple[float, float]:
+        """The rate each axis is to run at now (before quantisation)."""
+        (pan_ff, tilt_ff), (pan_error, tilt_error) = self._feed_forward_and_error(now_s)
+        return pan_ff + self.gain_per_s * pan_error, tilt_ff + self.gain_per_s * tilt_error
+
+    def _feed_forward_and_error(
+        self, now_s: float
+    ) -> tuple[tuple[float, float], tuple[float, float]]:
+        """The set-points' rates, and how far the head is from them now."""
+        assert self._setpoint is not None
+        pan_sp, tilt_sp, pan_ff, tilt_ff, set_s = self._setpoint
+        ahead_s = now_s - set_s
+        if ahead_s > self.command_timeout_s:  # the set-points have stopped coming: stand still
+            pan_ff = tilt_ff = ahead_s = 0.0
+        pan_sp, tilt_sp = pan_sp + pan_ff * ahead_s, tilt_sp + tilt_ff * ahead_s
+        pan_at, tilt_at = self.where(now_s)
+        return (pan_ff, tilt_ff), (pan_sp - pan_at, tilt_sp - tilt_at)
+
+    def _step(self, axis: int, now_s: float, position_rad: float) -> int:
+        """The axis's speed step now. An error the gain would round to no step, yet larger than
+        the slowest step covers between two looks at the head, still gets the slowest step, so
+        the head ends on its set-point and not a dead band away."""
+        steps = self.steps[axis]
+        rate = self.rates_rad_s(now_s)[axis]
+        error = self._feed_forward_and_error(now_s)[1][axis]
+        slowest = steps.rates_rad_s[0]
+        if abs(error) > slowest * (self.poll_period_s + self.command_period_s):
+            rate = math.copysign(max(abs(rate), slowest), rate if rate else error)
+        return steps.quantise(rate, self.cap_rad_s(axis, position_rad, rate))
+
+    def where(self, now_s: float) -> tuple[float, float]:
+        """The head's position now: its last reading moved on at the rates it was told since."""
+        if self._reading is None:
+            assert self._setpoint is not None
+            return self._setpoint[0], self._setpoint[1]
+        pan, tilt, read_s = self._reading
+        since_s = max(0.0, now_s - read_s)
+        return (
+            pan + self.steps[0].rate_rad_s(self.sent[0]) * since_s,
+            tilt + self.steps[1].rate_rad_s(self.sent[1]) * since_s,
+        )
+
+    def _anchor(self, now_s: float) -> None:
+        """Before the rates change: where the head is now becomes what they move on from."""
+        if self._reading is not None:
+            self._reading = (*self.where(now_s), now_s)
+
+    def cap_rad_s(self, axis: int, position_rad: float, rate_rad_s: float) -> float:
+        """The fastest the axis may run in the direction of `rate_rad_s` from `position_rad`
+        and still stop inside its limits."""
+        lower, upper = self._bounds[axis]
+        room_rad = upper - position_rad if rate_rad_s > 0 else position_rad - lower
+        room_rad -= abs(rate_rad_s) * self.poll_period_s
+        if room_rad <= 0.0:
+            return 0.0
+        return math.sqrt(2.0 * self._accel_rad_s2[axis] * room_rad)
+
+    def _command(self, now_s: float) -> int:
+        """Send the steps due now, if they differ from those running or are to be renewed;
+        when they went out (ns), 0 if nothing was sent."""
+        position = self.where(now_s)
+        wanted = tuple(self._step(axis, now_s, position[axis]) for axis in (0, 1))
+        pan_step, tilt_step = wanted
+        if wanted == (0, 0):
+            if self.stopped:
+                return 0
+            t_ns = self.device.stop()
+            self._anchor(now_s)
+            self.sent, self._sent_s, self.stopped = (0, 0), now_s, True
+            return t_ns
+        since_s = now_s - self._sent_s
+        if wanted == self.sent and since_s <= self.command_timeout_s / 2.0:
+            return 0
+        if since_s < self.command_period_s:  # at most one a command period (VISCA's sockets)
+            return 0
+        t_ns = self.device.set_speed(
+            pan_step / self.steps[0].count,
+            tilt_step / self.steps[1].count,
+            self.command_timeout_s,
+        )
+        self._anchor(now_s)
+        self.sent, self._sent_s, self.stopped = (pan_step, tilt_step), now_s, False
+        return t_ns
+
+
+def rig_speed_steps(rig: Rig) -> tuple[SpeedSteps, SpeedSteps]:
+    """The rig's tables of rates per step, or even steps up to the fastest speed commands, as
+    many as the protocol has speed codes (`DEFAULT_STEPS` for ONVIF, whose speeds are real)."""
+    servo = rig.servo
+    counts = {
+        "visca": (
+            getattr(servo, "pan_speed_max_code", 0),
+            getattr(servo, "tilt_speed_max_code", 0),
+        ),
+        "pelco-d": (PELCO_SPEED_MAX, PELCO_SPEED_MAX),
+    }.get(servo.protocol, (DEFAULT_STEPS, DEFAULT_STEPS))
+    tables = []
+    for table, rate_max_deg_s, count in (
+        (servo.pan_speed_steps_deg_s, getattr(servo, "pan_speed_max_deg_s", 0.0), counts[0]),
+        (servo.tilt_speed_steps_deg_s, getattr(servo, "tilt_speed_max_deg_s", 0.0), counts[1]),
+    ):
+        if table:
+            tables.append(SpeedSteps([math.radians(rate) for rate in table]))
+        else:
+            tables.append(SpeedSteps.even(math.radians(rate_max_deg_s), count))
+    return tables[0], tables[1]
+
+
+def speed_head(
+    rig: Rig,
+    device: SpeedDevice,
+    *,
+    mono_s: Callable[[], float] = time.monotonic,
+    wall_ns: Callable[[], int] = time.time_ns,
+    by_speed: Callable[[SpeedDevice], bool] = lambda _device: True,
+) -> SpeedHead:
+    """`device` driven by speed with the rig's steps, gain, command timeout and poll period."""
+    servo = rig.servo
+    return SpeedHead(
+        device,
+        rig.head,
+        rig_speed_steps(rig),
+        gain_per_s=servo.speed_gain_per_s,
+        command_timeout_s=servo.command_timeout_ms / 1000.0,
+        poll_period_s=1.0 / servo.odometry_rate_hz,
+        command_period_s=1.0 / servo.command_rate_hz,
+        mono_s=mono_s,
+        wall_ns=wall_ns,
+        by_speed=by_speed,
+    )

@@ -1,0 +1,255 @@
+"""Speed mode on a recording device and a virtual clock: rates quantised to the table's steps
+(never past a cap), feed-forward plus a term on the position error, never a step towards a
+limit the head could not brake before, commands renewed before the device's timeout and not
+repeated otherwise, Stop once the set-points come to rest, and a set-point older than the
+command timeout held still."""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+from servo_link_support import link_rig
+
+from gazed.servo.driver import DevicePosition
+from gazed.servo.speed_mode import SpeedHead, SpeedSteps
+
+RAD = math.radians
+STEPS = SpeedSteps([RAD(r) for r in (1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0)])
+TIMEOUT_S = 0.5
+
+
+class Device:
+    """Records speed commands (as steps of 7) and Stops; reports the position it is given."""
+
+    codec = object()
+    transport = object()
+
+    def __init__(self) -> None:
+        self.counters: Counter[str] = Counter()
+        self.commands: list[tuple[float, float] | str] = []
+        self.position = (0.0, 0.0)
+        self.is_connected = False
+
+    def connect(self) -> None:
+        self.is_connected = True
+
+    def disconnect(self) -> None:
+        self.is_connected = False
+
+    def set_speed(self, pan_fraction: float, tilt_fraction: float, timeout_s: float) -> int:
+        assert timeout_s == TIMEOUT_S
+        self.commands.append((round(pan_fraction * 7), round(tilt_fraction * 7)))
+        return 1
+
+    def set_position(self, pan_rad: float, tilt_rad: float) -> int:
+        raise AssertionError("a speed head sends no positions")
+
+    def stop(self) -> int:
+        self.commands.append("stop")
+        return 1
+
+    def query_position(self, between=None) -> DevicePosition:
+        return DevicePosition(*self.position, 0, 0)
+
+
+def speed_head(command_period_s: float = 0.0) -> tuple[SpeedHead, Device, list[float]]:
+    """A head of ±60° pan, -40..20° tilt and 3000°/s² (`link_rig`), polled at 50 Hz."""
+    device, now = Device(), [0.0]
+    head = SpeedHead(
+        device,
+        link_rig().head,
+        (STEPS, STEPS),
+        gain_per_s=4.0,
+        command_timeout_s=TIMEOUT_S,
+        poll_period_s=0.02,
+        command_period_s=command_period_s,
+        mono_s=lambda: now[0],
+        wall_ns=lambda: round(now[0] * 1e9),
+    )
+    head.connect()
+    return head, device, now
+
+
+def test_quantise_takes_the_nearest_step_with_its_sign_and_none_past_the_cap() -> None:
+    assert STEPS.quantise(RAD(0.4)) == 0
+    assert STEPS.quantise(RAD(0.6)) == 1
+    assert STEPS.quantise(RAD(-12.0)) == -4
+    assert STEPS.quantise(RAD(16.0)) == 5
+    assert STEPS.quantise(RAD(500.0)) == 7
+    assert STEPS.quantise(RAD(16.0), cap_rad_s=RAD(19.0)) == 4
+    assert STEPS.quantise(RAD(-80.0), cap_rad_s=0.0) == 0
+    assert STEPS.rate_rad_s(-3) == -RAD(5.0)
+    assert SpeedSteps.even(RAD(64.0), 32).rate_rad_s(16) == pytest.approx(RAD(32.0))
+    with pytest.raises(ValueError):
+        SpeedSteps([RAD(2.0), RAD(1.0)])
+
+
+@given(st.floats(-10.0, 10.0), st.floats(0.0, 10.0))
+def test_a_quantised_step_never_runs_faster_than_its_cap(rate: float, cap: float) -> None:
+    step = STEPS.quantise(rate, cap)
+    assert abs(STEPS.rate_rad_s(step)) <= cap
+    assert step == 0 or math.copysign(1.0, step) == math.copysign(1.0, rate)
+
+
+def test_the_rate_is_the_set_points_rate_plus_a_term_on_the_error() -> None:
+    head, device, now = speed_head()
+    head.set_position(0.0, 0.0)
+    head.query_position()
+    assert device.commands == []  # at rest on its set-point: nothing to send
+    now[0] = 0.1
+    head.set_position(RAD(1.0), 0.0)  # the set-points run at 10 deg/s, the head 1 deg behind
+    assert head.rates_rad_s(0.1) == pytest.approx((RAD(10.0 + 4.0 * 1.0), 0.0))
+    assert device.commands == [(4, 0)]  # 14 deg/s -> the 10 deg/s step
+    now[0] = 0.12
+    device.position = (RAD(1.0), 0.0)
+    head.query_position()  # the same step is still due: not sent again
+    assert device.commands == [(4, 0)]
+
+
+def test_a_running_command_is_renewed_before_the_devices_timeout() -> None:
+    head, device, now = speed_head()
+    head.set_position(0.0, 0.0)
+    for i in range(1, 40):
+        now[0] = i * 0.05
+        device.position = (RAD(10.0 * now[0] - 0.5), 0.0)
+        head.set_position(RAD(10.0 * now[0]), 0.0)
+    renewals = [c for c in device.commands if c != "stop"]
+    assert 4 <= len(renewals) <= 12  # about every half timeout over 1.95 s, never each set-point
+
+
+def test_at_most_one_command_a_command_period_but_stop_at_once() -> None:
+    head, device, now = speed_head(command_period_s=0.1)
+    head.set_position(0.0, 0.0)
+    head.query_position()
+    now[0] = 0.1
+    head.set_position(RAD(1.0), 0.0)  # 14 deg/s: step 4
+    now[0] = 0.15
+    head.set_position(RAD(3.0), 0.0)  # 40 deg/s and more: held back, too soon
+    assert device.commands == [(4, 0)]
+    now[0] = 0.21
+    head.set_position(RAD(5.4), 0.0)
+    assert device.commands[-1] == (6, 0)
+    device.position = (RAD(5.4), 0.0)
+    now[0] = 0.23
+    head.query_position()
+    head.set_position(RAD(5.4), 0.0)  # at rest on the head: Stop at once, not held back
+    assert device.commands[-1] == "stop"
+
+
+def test_stop_once_the_set_points_rest_on_the_head_and_a_stale_set_point_stands_still() -> None:
+    head, device, now = speed_head()
+    head.set_position(0.0, 0.0)
+    now[0] = 0.1
+    head.set_position(RAD(2.0), 0.0)  # 20 deg/s
+    assert device.commands[-1] == (5, 0)
+    device.position = (RAD(1.9), 0.0)
+    now[0] = 0.1 + TIMEOUT_S + 0.01  # no set-point since: the target stands at 2 deg
+    head.query_position()
+    assert head.rates_rad_s(now[0]) == pytest.approx((RAD(4.0 * 0.1), 0.0))
+    # 0.4 deg/s rounds to no step, but 0.1 deg is more than the slowest step runs between two
+    # polls (0.02 deg): the slowest step, so the head ends on its set-point
+    assert device.commands[-1] == (1, 0)
+    device.position = (RAD(1.99), 0.0)
+    now[0] += 0.02
+    head.query_position()
+    assert device.commands[-1] == "stop"
+
+
+def test_no_step_towards_a_limit_the_head_could_not_brake_before() -> None:
+    head, device, now = speed_head()
+    pan_max, start = RAD(60.0), RAD(55.0)
+    device.position = (start, 0.0)
+    head.set_position(start, 0.0)
+    for i in range(1, 60):  # set-points run into the limit at 100 deg/s, the head behind them
+        now[0] = i * 0.02
+        device.position = (min(pan_max, start + RAD(60.0) * now[0]), 0.0)
+        head.query_position()
+        head.set_position(min(pan_max, start + RAD(100.0) * now[0]), 0.0)
+        sent = [c for c in device.commands if c != "stop"]
+        pan_step = sent[-1][0] if sent and device.commands[-1] != "stop" else 0
+        room = pan_max - device.position[0]
+        assert STEPS.rate_rad_s(pan_step) ** 2 <= 2 * RAD(3000.0) * max(room, 0.0) + 1e-12
+    assert any(c != "stop" and c[0] >= 6 for c in device.commands)  # it did run fast
+    assert device.commands[-1] == "stop"  # and stands at the limit
+    head.set_position(pan_max - RAD(0.2), 0.0)  # away from the limit it moves again
+    assert device.commands[-1][0] < 0
+
+
+def test_a_running_head_is_stopped_before_the_link_closes() -> None:
+    head, device, now = speed_head()
+    head.set_position(0.0, 0.0)
+    now[0] = 0.1
+    head.set_position(RAD(2.0), 0.0)
+    head.disconnect()
+    assert device.commands == [(5, 0), "stop"] and not device.is_connected
+    head.connect()
+    head.disconnect()  # at rest: nothing to stop
+    assert device.commands == [(5, 0), "stop"]
+
+
+def test_a_head_that_takes_positions_gets_them_unchanged() -> None:
+    device = Device()
+    head = SpeedHead(
+        device,
+        link_rig().head,
+        (STEPS, STEPS),
+        gain_per_s=4.0,
+        command_timeout_s=TIMEOUT_S,
+        poll_period_s=0.02,
+        by_speed=lambda _d: False,
+    )
+    head.connect()
+    with pytest.raises(AssertionError, match="no positions"):
+        head.set_position(0.1, 0.1)
+
+
+def test_speed_mode_is_for_heads_that_take_speed_commands() -> None:
+    from gazed.config import RigError
+
+    assert link_rig(protocol="visca", mode='"speed"').servo.mode == "speed"
+    with pytest.raises(RigError, match="take no speed commands"):
+        link_rig(protocol="flir-ptu", mode='"speed"')
+    with pytest.raises(RigError, match="rising with the step"):
+        link_rig(protocol="pelco-d", pan_speed_steps_deg_s="[2.0, 1.0]")
+    with pytest.raises(RigError, match="onvif://"):
+        link_rig(protocol="visca", port="onvif://127.0.0.1:80")
+
+
+def test_a_visca_camera_in_speed_mode_is_driven_by_pan_tilt_drives_only(tmp_path) -> None:
+    import time
+
+    from servo_link_support import Demands, demand
+    from test_servo_visca_ip_link import udp_rig
+
+    from gazed.servo.head_link import HeadLink
+    from gazed.sim.head_emulator import HeadEmulator
+
+    rig = udp_rig(tmp_path, mode='"speed"')
+    demands = Demands()
+    with HeadEmulator(rig) as camera:
+        link = HeadLink(rig, demands.take, lambda *_: None)
+
+        def no_positions(*_args: object) -> list[bytes]:
+            raise AssertionError("an absolute move in speed mode")
+
+        link.codec.encode_set_position = no_positions  # type: ignore[method-assign]
+
+        class Now:
+            immediate = False
+            mono_s = property(lambda _self: time.monotonic())
+            wall_ns = property(lambda _self: time.time_ns())
+
+        started = time.monotonic()
+        while time.monotonic() - started < 1.0:
+            demands.put(demand(15.0, 5.0))
+            link.step(Now())
+            time.sleep(0.01)
+        pose = camera.pose_at(time.monotonic())
+        link.driver.disconnect()
+    assert link.counts["errors"] == 0, link.last_error
+    assert math.degrees(pose.pan_rad) == pytest.approx(15.0, abs=1.0)
+    assert math.degrees(pose.tilt_rad) == pytest.approx(5.0, abs=1.0)
