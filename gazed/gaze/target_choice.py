@@ -28,6 +28,9 @@ from gazed.geometry.kinematics import HeadKinematics
 from gazed.geometry.target_angles import target_angles
 from gazed.messages import EstimatorState, GazeSelect, Prediction, Track
 
+OPERATOR = "operator"  # how every gaze/state reason about an operator's request begins
+REFUSED = "operator refused"  # ... and one that changed nothing
+
 
 @dataclass(frozen=True)
 class ChoiceChange:
@@ -88,14 +91,14 @@ class TargetChoice:
             self.target_id, self.by_operator = None, False
             picked = rule_pick(self.rule, self.tracks, self.kinematics, head_rad, self.zone)
             self.target_id = picked.id if picked is not None else None
-            return ChoiceChange(self.target_id, f"operator: back to rule {self.rule}")
+            return ChoiceChange(self.target_id, f"{OPERATOR}: back to rule {self.rule}")
         track, how = self._resolve(select)
         if track is None:
             self.counts["refused_selections"] += 1
-            return ChoiceChange(self.target_id, f"operator: {how}; target unchanged", False)
+            return ChoiceChange(self.target_id, f"{REFUSED}: {how}; target unchanged", False)
         changed = track.id != self.target_id
         self.target_id, self.by_operator = track.id, True
-        return ChoiceChange(track.id, f"operator chose track {track.id} {how}", changed)
+        return ChoiceChange(track.id, f"{OPERATOR} chose track {track.id} {how}", changed)
 
     def _resolve(self, select: GazeSelect) -> tuple[Track | None, str]:
         """The track a request names, and how it was found (or why none was)."""
