@@ -8,6 +8,7 @@ two are close, the one farther from the camera is hidden and its track coasts.""
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -18,10 +19,12 @@ from gazed.estimation.measurement import Measurement
 from gazed.estimation.target_tracker import TargetTracker
 from gazed.estimation.tracks import Sighting, TrackSet
 from gazed.geometry.camera import CameraModel
+from gazed.geometry.ground import GroundGeometry
 from gazed.geometry.pose import CameraPose
 from gazed.messages import Detection, EstimatorState, HeadPose, Mover
 
 SIM_RIG = Path(__file__).resolve().parents[1] / "configs" / "sim.toml"
+GEOMETRY = GroundGeometry.from_rig(load_rig(SIM_RIG))
 PIXEL_NOISE_PX = 1.5
 RATE_NOISE_PX_S = 10.0
 SECONDS = 4.0
@@ -110,9 +113,11 @@ class Scene:
         )
 
 
-def run(scene: str, seed: int, choose_person: int | None = None) -> tuple[dict, list]:
+def run(
+    scene: str, seed: int, choose_person: int | None = None, rig: Rig | None = None
+) -> tuple[dict, list]:
     """Each person's track ids where no one else is near, and the states of the run."""
-    rig = load_rig(SIM_RIG)
+    rig = rig or load_rig(SIM_RIG)
     source = Scene(rig, scene, seed)
     tracker = TargetTracker(rig, "estimator", clock_ns=lambda: clock_ns)
     ids: dict[int, set[int]] = {i: set() for i in range(len(SCENES[scene]))}
@@ -140,7 +145,10 @@ def run(scene: str, seed: int, choose_person: int | None = None) -> tuple[dict, 
 
 
 def nearest_track(state: EstimatorState, xy: np.ndarray) -> int:
-    confirmed = [t for t in state.tracks if t.confirmed and t.ground_xy_m is not None]
+    confirmed = [t for t in state.tracks if t.confirmed]
+    if state.filter == "image-cv":  # no ground: the head angles that centre each
+        pan, tilt = GEOMETRY.gaze_from_ground(*xy)
+        return min(confirmed, key=lambda t: math.hypot(t.pan_rad - pan, t.tilt_rad - tilt)).id
     return min(confirmed, key=lambda t: float(np.linalg.norm(np.subtract(t.ground_xy_m, xy)))).id
 
 
@@ -162,6 +170,17 @@ def test_the_chosen_track_is_predicted_and_kept(scene: str) -> None:
         assert state.target_id == chosen
         truth = walk(scene, t)[0]
         assert np.linalg.norm(np.subtract(state.ground_xy_m, truth)) < 0.3
+
+
+def test_image_cv_tracks_people_on_gaze_angles() -> None:
+    rig = load_rig(SIM_RIG)
+    rig = rig.model_copy(
+        update={"estimator": rig.estimator.model_copy(update={"filter": "image-cv"})}
+    )
+    ids, states = run("passing", 1, rig=rig)
+    assert all(len(found) == 1 for found in ids.values()), ids
+    _, last = states[-1]
+    assert all(t.ground_xy_m is None for t in last.tracks) and len(last.tracks) == 2
 
 
 def measurement(t_s: float, xy: tuple[float, float]) -> Sighting:
