@@ -7,15 +7,17 @@ from __future__ import annotations
 import math
 
 import pytest
-from test_gaze_controller import RIG, Clock, odometry, prediction
+from test_gaze_controller import RIG, Clock, detection, odometry, prediction
 
 from gazed.config import GazeSection
 from gazed.gaze.controller import GazeController
+from gazed.gaze.focus import focus
 from gazed.gaze.target_choice import TargetChoice
 from gazed.gaze.target_rule import GroundZone, rule_pick
 from gazed.geometry.camera import CameraModel
 from gazed.geometry.kinematics import HeadKinematics
-from gazed.messages import EstimatorState, GazeSelect, HeadPose, Track
+from gazed.geometry.target_angles import target_angles
+from gazed.messages import EstimatorState, GazeSelect, HeadPose, Mover, Track
 
 CAMERA = CameraModel.from_section(RIG.camera)
 KINEMATICS = HeadKinematics.from_section(RIG.head)
@@ -152,3 +154,19 @@ def test_only_the_chosen_tracks_predictions_reach_pursuit() -> None:
     controller.on_odometry(odometry(clock, 0.0, 0.0))  # at the park pose: on to search
     (parked,) = controller.tick(clock.wall_ns, clock.mono_s).transitions
     assert (parked.previous, parked.state, parked.target_id) == ("park", "search", 1)
+
+
+def test_the_gaze_sees_the_chosen_tracks_mover() -> None:
+    clock = Clock()
+    near, far = Mover(u_px=320.0, v_px=240.0), Mover(u_px=100.0, v_px=240.0, du_px_s=-40.0)
+    seen = detection(clock, 320.0, 240.0).model_copy(update={"movers": (near, far)})
+    assert focus(seen, None, CAMERA, KINEMATICS) is seen  # no prediction: vision's target
+    # the chosen track is predicted where `far` is: the pixel's angles from the head at (0, 0)
+    angles = target_angles(CAMERA, KINEMATICS, 0.0, 0.0, far.u_px, far.v_px)
+    chosen = prediction(clock, math.degrees(angles.pan_rad), math.degrees(angles.tilt_rad))
+    focused = focus(seen, chosen, CAMERA, KINEMATICS)
+    assert (focused.u_px, focused.v_px, focused.du_px_s) == (100.0, 240.0, -40.0)
+    on_near = prediction(clock, 0.0, 0.0)
+    assert focus(seen, on_near, CAMERA, KINEMATICS) is seen
+    unseen = seen.model_copy(update={"found": False})
+    assert focus(unseen, chosen, CAMERA, KINEMATICS) is unseen  # vision saw no target

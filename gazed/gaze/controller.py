@@ -29,8 +29,9 @@ States and transitions (each published with its reason):
   error (`pixel_pid`).
 
 Which of the estimator's tracks is the target is `target_choice` (the rig's rule or an
-operator's `gaze/select`); only the chosen track's predictions are used, and every change of
-target is published on gaze/state, with the state unchanged, and its reason.
+operator's `gaze/select`); only the chosen track's predictions are used, of a frame's movers
+the one nearest its prediction (`focus`), and every change of target is published on
+gaze/state, with the state unchanged, and its reason.
 
 Every demand is clamped to the joint and rate limits (counted); the feed-forward rates also
 change by at most the acceleration limit per tick (`demand`).
@@ -45,6 +46,7 @@ from gazed.gaze import FUTURE_TOLERANCE_NS
 from gazed.gaze.aim import Aim, MoveLimits, angle_between
 from gazed.gaze.decision import Decision, state_message
 from gazed.gaze.demand import DemandShaper, Hold, make_demand
+from gazed.gaze.focus import focus
 from gazed.gaze.look_and_move import LookAndMove
 from gazed.gaze.lost_search import LostSearch
 from gazed.gaze.move import Move, Settling, at_goal
@@ -163,6 +165,7 @@ class GazeController:
         self._retarget(self.choice.on_select(select, self._head_rad()), wall_ns)
 
     def on_detection(self, detection: Detection) -> None:
+        detection = focus(detection, self.pursuit.prediction, self.camera, self.kinematics)
         if not detection.found or detection.head is None:
             return
         if (
