@@ -24,8 +24,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import linear_sum_assignment
-from scipy.stats import chi2
+
+from gazed.estimation.chi_square import chi2_quantile
 
 UNASSIGNABLE = 1e12  # the cost of a pair outside the gate
 
@@ -42,7 +42,7 @@ class Assignment:
 
 def gate_threshold(probability: float, dimension: int) -> float:
     """The d² inside which a measurement of `dimension` falls with `probability`."""
-    return float(chi2.ppf(probability, dimension))
+    return chi2_quantile(probability, dimension)
 
 
 def hellinger_squared(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -97,6 +97,9 @@ def associate(costs: np.ndarray) -> Assignment:
         return Assignment(((0, 0),), (), (), costs) if inside else Assignment((), (0,), (0,), costs)
     pairs: list[tuple[int, int]] = []
     if T and D:
+        # imported here: scipy.optimize takes long to import, and a lone walker never needs it
+        from scipy.optimize import linear_sum_assignment
+
         finite = np.where(np.isfinite(costs), costs, UNASSIGNABLE)
         rows, cols = linear_sum_assignment(finite)
         pairs = [

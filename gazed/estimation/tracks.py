@@ -189,8 +189,8 @@ class TrackSet:
         track.box_height_px = sighting.box_height_px
         track.take_appearance(sighting.appearance)
         if not track.confirmed and track.hits >= self.section.confirm_hits:
-            track.confirmed = track.frames <= self.section.confirm_frames
-            self.counts["tracks_confirmed"] += int(track.confirmed)
+            track.confirmed = True  # within confirm_frames: a track that cannot is ended
+            self.counts["tracks_confirmed"] += 1
 
     def _start(self, sighting: Sighting, t_s: float) -> None:
         if len(self.tracks) >= MAX_TRACKS:
