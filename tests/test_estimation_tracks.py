@@ -216,3 +216,21 @@ def test_a_frame_older_than_the_tracks_changes_nothing() -> None:
     tracks.step(1.0, [measurement(1.0, (0.0, 1.0))])
     tracks.step(0.5, [measurement(0.5, (3.0, 1.0))])
     assert len(tracks.tracks) == 1 and tracks.counts["late_frames"] == 1
+
+
+def test_a_lone_target_that_jumps_keeps_its_id() -> None:
+    section = load_rig(SIM_RIG).estimator
+    tracks = TrackSet(section)
+    for k in range(10):
+        tracks.step(k * 0.04, [measurement(k * 0.04, (0.0, 1.0))])
+    (lone,) = tracks.tracks
+    for k in range(10, 10 + section.reinit_after_misses):  # the one mover is 1 m off: outliers
+        tracks.step(k * 0.04, [measurement(k * 0.04, (1.0, 1.0))])
+    assert tracks.tracks == [lone] and lone.id == 0 and not lone.coasting  # restarted there
+    state = lone.estimator.predict(0.6)
+    assert state is not None and state.position[0] == pytest.approx(1.0, abs=0.05)
+    # with a second person in view, a mover outside both gates is someone new
+    tracks.step(0.64, [measurement(0.64, (1.0, 1.0)), measurement(0.64, (-2.0, 1.0))])
+    tracks.step(0.68, [measurement(0.68, (1.0, 1.0)), measurement(0.68, (-2.0, 1.0))])
+    tracks.step(0.72, [measurement(0.72, (1.0, 1.0)), measurement(0.72, (3.0, 1.0))])
+    assert [t.id for t in tracks.tracks] == [0, 1, 2]

@@ -15,7 +15,10 @@ Every frame (one detection message, with any number of movers):
    left without one coasts (predict-only) and ends once it has coasted past `coast_max_ms`;
 4. a mover left without a track starts a new, tentative track. A tentative track is confirmed
    once it has `confirm_hits` detections within its first `confirm_frames` frames (M of N); one
-   that cannot is dropped as clutter.
+   that cannot is dropped as clutter. Where one track and one mover are all there is, the mover
+   is the track's own outlier instead: the track's filter restarts at it (same id) after
+   `reinit_after_misses` of them in a row, as a single-target estimator does when its target
+   jumps (the detector latched onto another part of it, or the head lost it and found it again).
 
 Ids count up from 0 and are never reused, so a track's id names one person for its whole life;
 a person lost for longer than `coast_max_ms` comes back as a new track with a new id.
@@ -116,6 +119,10 @@ class TrackSet:
             assert state is not None  # a track whose filter stops is ended at once (`_end`)
             states.append(state)
         pairs, lone_sightings = self._assign(states, sightings)
+        if len(self.tracks) == 1 and len(sightings) == 1 and lone_sightings:
+            # a lone target that jumped: its filter counts the outlier and restarts there after
+            # reinit_after_misses in a row, as a single-target estimator does
+            pairs, lone_sightings = {0: 0}, ()
         for row, track in enumerate(self.tracks):
             track.frames += 1
             column = pairs.get(row)
