@@ -144,16 +144,19 @@ def test_only_the_chosen_tracks_predictions_reach_pursuit() -> None:
     decision = controller.tick(clock.wall_ns, clock.mono_s)
     (announced,) = [s for s in decision.transitions if s.state == s.previous]
     assert announced.target_id == 1 and announced.reason == "rule first chose track 1"
-    assert controller.pursuit.prediction is None  # a new target: the old predictions go
+    assert controller.pursuit.prediction is mine  # it was the chosen track's already
     other = prediction(clock, -5.0, 0.0).model_copy(update={"track_id": 2})
     controller.on_prediction(other)
-    assert controller.pursuit.prediction is None and controller.counts["other_tracks"] == 1
-    controller.on_prediction(mine)
-    assert controller.pursuit.prediction is mine
+    assert controller.pursuit.prediction is mine and controller.counts["other_tracks"] == 1
+    controller.on_select(GazeSelect(t_capture_ns=1, track_id=2), clock.wall_ns)
+    assert controller.pursuit.prediction is None  # another target: the old predictions go
+    controller.on_prediction(other)
+    assert controller.pursuit.prediction is other
     clock.advance(0.1)
     controller.on_odometry(odometry(clock, 0.0, 0.0))  # at the park pose: on to search
-    (parked,) = controller.tick(clock.wall_ns, clock.mono_s).transitions
-    assert (parked.previous, parked.state, parked.target_id) == ("park", "search", 1)
+    chosen, parked = controller.tick(clock.wall_ns, clock.mono_s).transitions
+    assert chosen.reason == "operator chose track 2 by id" and chosen.target_id == 2
+    assert (parked.previous, parked.state, parked.target_id) == ("park", "search", 2)
 
 
 def test_the_gaze_sees_the_chosen_tracks_mover() -> None:

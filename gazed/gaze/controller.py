@@ -241,8 +241,9 @@ class GazeController:
     def _retarget(self, change: ChoiceChange | None, wall_ns: int) -> None:
         if change is None:
             return
-        if change.changed:
-            self.pursuit.restart()
+        held = self.pursuit.prediction
+        if held is not None and held.track_id not in (None, change.target_id):
+            self.pursuit.restart()  # another track's predictions: not the new target's
         self.pending.append(
             state_message(self.state, self.state, change.reason, change.target_id, wall_ns)
         )
