@@ -113,16 +113,13 @@ class TrackSet:
         if any(t_s <= _state_time(track.estimator) for track in self.tracks):
             self.counts["late_frames"] += 1
             return
-        states = []
-        for track in self.tracks:
-            state = track.estimator.predict(t_s)
-            assert state is not None  # a track whose filter stops is ended at once (`_end`)
-            states.append(state)
-        pairs, lone_sightings = self._assign(states, sightings)
-        if len(self.tracks) == 1 and len(sightings) == 1 and lone_sightings:
-            # a lone target that jumped: its filter counts the outlier and restarts there after
-            # reinit_after_misses in a row, as a single-target estimator does
+        if len(self.tracks) == 1 and len(sightings) == 1:
+            # one track, one mover: the mover is the track's, inside its gate or not (an outlier
+            # its filter counts, restarting there after reinit_after_misses in a row, as a
+            # single-target estimator does when its target jumps)
             pairs, lone_sightings = {0: 0}, ()
+        else:
+            pairs, lone_sightings = self._assign(self._predicted(t_s), sightings)
         for row, track in enumerate(self.tracks):
             track.frames += 1
             column = pairs.get(row)
@@ -145,6 +142,14 @@ class TrackSet:
         return dict(totals)
 
     # -------------------------------------------------------------------------------- internals
+
+    def _predicted(self, t_s: float) -> list[PredictedState]:
+        states = []
+        for track in self.tracks:
+            state = track.estimator.predict(t_s)
+            assert state is not None  # a track whose filter stops is ended at once (`_end`)
+            states.append(state)
+        return states
 
     def _assign(
         self, states: list[PredictedState], sightings: list[Sighting]
