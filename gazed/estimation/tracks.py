@@ -16,9 +16,10 @@ Every frame (one detection message, with any number of movers):
 4. a mover left without a track starts a new, tentative track. A tentative track is confirmed
    once it has `confirm_hits` detections within its first `confirm_frames` frames (M of N); one
    that cannot is dropped as clutter. Where one track and one mover are all there is, the mover
-   is the track's own outlier instead: the track's filter restarts at it (same id) after
-   `reinit_after_misses` of them in a row, as a single-target estimator does when its target
-   jumps (the detector latched onto another part of it, or the head lost it and found it again).
+   is the track's, inside its gate or not: outside it, it is an outlier the track's filter
+   counts, and the filter restarts at it (same id) after `reinit_after_misses` of them in a
+   row, as a single-target estimator does when its target jumps (the detector latched onto
+   another part of it, or the head lost it and found it again).
 
 Ids count up from 0 and are never reused, so a track's id names one person for its whole life;
 a person lost for longer than `coast_max_ms` comes back as a new track with a new id.
