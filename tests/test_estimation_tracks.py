@@ -1,116 +1,29 @@
 """Several people at once: the estimator keeps one track per person, with a stable id, where two
 or three people cross, pass and walk side by side at 0.5-1.5 m/s, and predicts the chosen one.
 
-Detections are made through the sim rig's true geometry: each person's tracked point (at the
-rig's `target_height_m`) seen by the still head, with pixel and image-velocity noise and a noisy
+Detections are made through the sim rig's true geometry (`bench/crossing_people.py`): each
+person's tracked point seen by the still head, with pixel and image-velocity noise and a noisy
 colour histogram of each person's own colours, in a shuffled order every frame (seeded). Where
 two are close, the one farther from the camera is hidden and its track coasts."""
 
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
+from bench.crossing_people import SCENES, SIM_RIG, Scene, walk
 
 from gazed.config import Rig, load_rig
 from gazed.estimation.measurement import Measurement
 from gazed.estimation.target_tracker import TargetTracker
 from gazed.estimation.tracks import Sighting, TrackSet
-from gazed.geometry.camera import CameraModel
 from gazed.geometry.ground import GroundGeometry
-from gazed.geometry.pose import CameraPose
-from gazed.messages import Detection, EstimatorState, HeadPose, Mover
+from gazed.messages import EstimatorState
 
-SIM_RIG = Path(__file__).resolve().parents[1] / "configs" / "sim.toml"
 GEOMETRY = GroundGeometry.from_rig(load_rig(SIM_RIG))
-PIXEL_NOISE_PX = 1.5
-RATE_NOISE_PX_S = 10.0
 SECONDS = 4.0
-T0_NS = 1_700_000_000_000_000_000
-APART_M = 0.5
-OCCLUDED_M = 0.4  # a person this near another who is nearer the camera is hidden  # a person's track is read off only where no one else is this near
-
-# each person: start (x, y) m and velocity (vx, vy) m/s on the sim rig's court
-SCENES = {
-    "two crossing": [((-2.5, 0.0), (1.0, 0.5)), ((2.5, 0.0), (-1.0, 0.5))],
-    "passing": [((-3.0, 1.0), (1.5, 0.0)), ((2.0, 1.6), (-0.5, 0.0))],
-    "side by side": [((-2.5, 1.0), (1.0, 0.1)), ((-2.5, 1.7), (1.0, 0.1))],
-    "three crossing": [
-        ((-2.5, 0.0), (1.0, 0.5)),
-        ((2.5, 0.0), (-1.0, 0.5)),
-        ((0.0, -1.0), (0.0, 0.9)),
-    ],
-}
-
-
-def walk(scene: str, t_s: float) -> np.ndarray:
-    """(people, 2) ground positions at t_s."""
-    return np.array([np.add(p0, np.multiply(v, t_s)) for p0, v in SCENES[scene]])
-
-
-class Scene:
-    """Detections of a scene's people through the rig's geometry."""
-
-    def __init__(self, rig: Rig, scene: str, seed: int) -> None:
-        self.rig, self.scene = rig, scene
-        self.rng = np.random.default_rng(seed)
-        self.pose = CameraPose.from_rig(rig)
-        self.camera = CameraModel.from_section(rig.camera)
-        self.height_m = rig.calibration.target_height_m
-        self.period_s = rig.camera.frame_period_s
-        people = len(SCENES[scene])
-        self.colours = self.rng.dirichlet(np.ones(16) * 0.5, people)
-
-    def pixels(self, xy: np.ndarray) -> np.ndarray:
-        points = np.column_stack([xy, np.full(len(xy), self.height_m)])
-        return self.pose.pixels(points, 0.0, 0.0, self.camera)
-
-    def detection(self, k: int) -> Detection:
-        t = k * self.period_s
-        now, ahead = walk(self.scene, t), walk(self.scene, t + 1e-3)
-        uv = self.pixels(now)
-        duv = (self.pixels(ahead) - uv) / 1e-3
-        uv = uv + self.rng.normal(0.0, PIXEL_NOISE_PX, uv.shape)
-        duv = duv + self.rng.normal(0.0, RATE_NOISE_PX_S, duv.shape)
-        movers = [
-            Mover(
-                u_px=float(u),
-                v_px=float(v),
-                du_px_s=float(du),
-                dv_px_s=float(dv),
-                box_height_px=60.0,
-                appearance=tuple(self.rng.dirichlet(self.colours[i] * 200 + 0.1)),
-            )
-            for i, ((u, v), (du, dv)) in enumerate(zip(uv, duv, strict=True))
-        ]
-        camera_y = self.rig.sim.camera_xyz_m[1]
-        hidden = {  # behind someone nearer to the camera
-            i
-            for i in range(len(now))
-            for j in range(len(now))
-            if np.linalg.norm(now[i] - now[j]) < OCCLUDED_M
-            and now[j][1] - camera_y < now[i][1] - camera_y
-        }
-        order = [i for i in self.rng.permutation(len(movers)) if i not in hidden]
-        movers = [movers[i] for i in order]
-        assert all(0 <= m.u_px < 640 and 0 <= m.v_px < 480 for m in movers)
-        first = movers[0]
-        return Detection(
-            t_capture_ns=T0_NS + round(t * 1e9),
-            seq=k,
-            detector="flow",
-            found=True,
-            u_px=first.u_px,
-            v_px=first.v_px,
-            du_px_s=first.du_px_s,
-            dv_px_s=first.dv_px_s,
-            width_px=640,
-            height_px=480,
-            head=HeadPose(pan_rad=0.0, tilt_rad=0.0),
-            movers=tuple(movers),
-        )
+APART_M = 0.5  # a person's track is read off only where no one else is this near
 
 
 def run(
