@@ -14,7 +14,7 @@ import tomlkit
 from conftest import PYTHON, REPO, RunningSupervisor, child_env, poll_until
 
 from gazed.eval.loop import private_rig
-from gazed.messages import EstimatorState, GazeState
+from gazed.messages import EstimatorState, GazeState, Track
 from gazed.topics import ESTIMATOR_STATE, GAZE_STATE
 
 pytestmark = pytest.mark.e2e
@@ -45,12 +45,12 @@ def test_gazed_select_sets_the_target_of_gaze_state(tmp_path: Path) -> None:
         states = supervisor.bus.subscribe(GAZE_STATE, capacity=1000)
         seen: list[GazeState] = []
 
-        def confirmed_track() -> int | None:
+        def confirmed_track() -> Track | None:
             latest: EstimatorState | None = estimates.latest()
             tracks = [t for t in latest.tracks if t.confirmed] if latest is not None else []
-            return tracks[0].id if tracks else None
+            return tracks[0] if tracks else None
 
-        track_id = poll_until(confirmed_track, 60.0, 0.05)
+        track_id = poll_until(confirmed_track, 60.0, 0.05).id
         seen += states.take()
         assert all(s.target_id is None for s in seen)  # outside the zone: the rule picks none
 
