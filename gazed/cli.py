@@ -44,6 +44,10 @@ COMMANDS: dict[str, Command | Group] = {
     "latency": Command(
         "gazed.bustools.latency", "per-stage and end-to-end latency from message stamps"
     ),
+    "select": Command(
+        "gazed.bustools.select",
+        "choose the person the running rig follows: a track id, a ground point or a pixel",
+    ),
     "record": Command(
         "gazed.record.record_cli", "write the bus's messages into an MCAP file (Foxglove opens it)"
     ),

@@ -58,14 +58,18 @@ VISION_DETECTION = Topic(
 VISION_CANDIDATES = Topic("vision/candidates", Candidates, "peripheral movers, saccade targets")
 VISION_EDGE = Topic("vision/edge", EdgeObservation, "the edge under the fovea while tracing")
 ESTIMATOR_STATE = Topic(
-    "estimator/state", EstimatorState, "the filter's state, covariance and model probabilities"
+    "estimator/state",
+    EstimatorState,
+    "every track, and the chosen one's state, covariance and model probabilities",
 )
 ESTIMATOR_PREDICTION = Topic(
     "estimator/prediction", Prediction, "gaze angles and rates when the next demand acts"
 )
 ESTIMATOR_EVENT = Topic("estimator/event", ManeuverEvent, "the most likely motion model changed")
 GAZE_DEMAND = Topic("gaze/demand", GazeDemand, "joint angles and rates for the head")
-GAZE_STATE = Topic("gaze/state", GazeState, "each state transition with its reason")
+GAZE_STATE = Topic(
+    "gaze/state", GazeState, "each state transition or change of target, with its reason"
+)
 GAZE_SELECT = Topic("gaze/select", GazeSelect, "an operator's choice of target")
 GAZE_COMMAND = Topic("gaze/command", GazeCommand, "requests to the controller (trace a line)")
 GAZE_TRACE = Topic("gaze/trace", TraceResult, "the samples of a traced ground line")
@@ -89,6 +93,7 @@ TOPICS: tuple[Topic, ...] = (
     ESTIMATOR_EVENT,
     GAZE_DEMAND,
     GAZE_STATE,
+    GAZE_SELECT,
     GAZE_COMMAND,
     GAZE_TRACE,
     SERVO_ODOMETRY,
@@ -138,7 +143,7 @@ PROCESSES: tuple[Process, ...] = (
     Process(
         "estimator",
         "ground-plane geometry, the motion filters, prediction over the latency",
-        reads=(VISION_DETECTION, SERVO_COMMAND, SERVO_STATUS),
+        reads=(VISION_DETECTION, SERVO_COMMAND, SERVO_STATUS, GAZE_STATE),
         publishes=(ESTIMATOR_STATE, ESTIMATOR_PREDICTION, ESTIMATOR_EVENT),
         sections=("camera", "head", "calibration", "estimator"),
     ),
@@ -152,6 +157,8 @@ PROCESSES: tuple[Process, ...] = (
             SERVO_ODOMETRY,
             GAZE_COMMAND,
             VISION_EDGE,
+            ESTIMATOR_STATE,
+            GAZE_SELECT,
         ),
         publishes=(GAZE_DEMAND, GAZE_STATE, GAZE_TRACE),
         sections=("camera", "head", "calibration", "gaze"),
@@ -186,6 +193,12 @@ TOOLS: tuple[Process, ...] = (
             GAZE_STATE,
             SERVO_COMMAND,
         ),
+        publishes=(GAZE_SELECT,),
+    ),
+    Process(
+        "gazed select",
+        "an operator's choice of the track to follow",
+        reads=(SERVO_ODOMETRY, GAZE_STATE),
         publishes=(GAZE_SELECT,),
     ),
     Process(

@@ -1,13 +1,16 @@
 """The `gaze` process: decides where the head looks (DESIGN §7; seed 000 §1-2, §6).
 
-Inputs: `estimator/prediction`, `vision/detection`, `vision/candidates`, `servo/odometry`,
-`gaze/command` (trace requests from `gazed calibrate trace`), `vision/edge` (while tracing).
+Inputs: `estimator/prediction` (the chosen track's are used), `estimator/state` (every track,
+for the choice of target), `vision/detection`, `vision/candidates`, `servo/odometry`,
+`gaze/command` (trace requests from `gazed calibrate trace`), `vision/edge` (while tracing),
+`gaze/select` (an operator's choice of target, from `gazed select`).
 Outputs: `gaze/demand` (joint angles and feed-forward rates, limited) at `[gaze] rate_hz` and at
-once after each new prediction; `gaze/state` on every transition, with its reason;
-`gaze/trace` (the samples of a traced line) when a trace ends.
-Settings: [gaze] (control mode, rates, fovea, settling, lost and search timing, feedback gain),
-[head] (limits, park pose, kinematics), [camera] (pixels to angles), [calibration]
-camera_xyz_m (the lost-search region in angles).
+once after each new prediction; `gaze/state` on every transition and every change of target,
+with its reason and the chosen track's id; `gaze/trace` (the samples of a traced line) when a
+trace ends.
+Settings: [gaze] (control mode, rates, fovea, settling, lost and search timing, feedback gain,
+the rule that picks the target), [head] (limits, park pose, kinematics), [camera] (pixels to
+angles), [calibration] camera_xyz_m (the lost-search region in angles).
 
 The state machine itself is `gazed.gaze.controller.GazeController`, and when it ticks is
 `gazed.gaze.schedule.TickSchedule`; this module only moves messages in and out of them.
@@ -23,8 +26,10 @@ from gazed.gaze.controller import GazeController
 from gazed.gaze.schedule import TickSchedule
 from gazed.topics import (
     ESTIMATOR_PREDICTION,
+    ESTIMATOR_STATE,
     GAZE_COMMAND,
     GAZE_DEMAND,
+    GAZE_SELECT,
     GAZE_STATE,
     GAZE_TRACE,
     SERVO_ODOMETRY,
@@ -47,6 +52,8 @@ class GazeService:
         self.odometry = bus.subscribe(SERVO_ODOMETRY, capacity=16)
         self.commands = bus.subscribe(GAZE_COMMAND, capacity=16)
         self.edges = bus.subscribe(VISION_EDGE, capacity=4)
+        self.estimates = bus.subscribe(ESTIMATOR_STATE, capacity=16)
+        self.selections = bus.subscribe(GAZE_SELECT, capacity=16)
         self.traces = bus.publisher(GAZE_TRACE)
         self.demands = bus.publisher(GAZE_DEMAND)
         self.states = bus.publisher(GAZE_STATE)
@@ -65,6 +72,10 @@ class GazeService:
         for command in self.commands.take():
             c.on_command(command, now.wall_ns, now.mono_s)
             self.schedule.act_now(now.mono_s)
+        for estimate in self.estimates.take():
+            c.on_estimator_state(estimate, now.wall_ns)
+        for select in self.selections.take():
+            c.on_select(select, now.wall_ns)
         fresh = self.predictions.take()
         for prediction in fresh:
             c.on_prediction(prediction)
@@ -84,7 +95,9 @@ class GazeService:
         c = self.controller
         counters = dict(c.counts)
         counters.update(demands=self.demands_sent, clamps=c.clamps, refused=c.shaper.refused)
-        return HealthReport(counters=counters, notes={"state": c.state})
+        return HealthReport(
+            counters=counters, notes={"state": c.state, "target": str(c.choice.target_id)}
+        )
 
     def close(self) -> None:
         pass

@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Literal, Self
 
-from pydantic import Field
+from pydantic import Field, model_validator
 
 from gazed.config.section import Section
 
@@ -116,3 +116,28 @@ class EstimatorSection(Section):
         gt=0,
         description="Predict without measurements for at most this long, then drop the track.",
     )
+    # -- several people: track management (Blackman & Popoli 1999, §3.2: M-of-N confirmation)
+    confirm_hits: int = Field(
+        3,
+        ge=1,
+        le=100,
+        description="A new track is confirmed (a person, not clutter) once it has taken this many "
+        "detections within its first `confirm_frames` frames (M of N); a track that cannot is "
+        "dropped. Tracks end after coasting past `coast_max_ms`.",
+    )
+    confirm_frames: int = Field(
+        5,
+        ge=1,
+        le=100,
+        description="The window of frames, from a track's first detection, in which it must reach "
+        "`confirm_hits`.",
+    )
+
+    @model_validator(mode="after")
+    def _confirmation_fits(self) -> Self:
+        if self.confirm_hits > self.confirm_frames:
+            raise ValueError(
+                f"confirm_hits ({self.confirm_hits}) must not exceed confirm_frames "
+                f"({self.confirm_frames})"
+            )
+        return self

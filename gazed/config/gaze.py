@@ -1,12 +1,17 @@
-"""`[gaze]`: the saccade/pursuit controller, lost search and line tracing."""
+"""`[gaze]`: the saccade/pursuit controller, lost search, line tracing and which track to follow."""
 
 from __future__ import annotations
 
-from typing import Literal
+import math
+from typing import Annotated, Literal, Self
 
-from pydantic import Field
+from pydantic import Field, model_validator
 
 from gazed.config.section import Section
+
+SelectRule = Literal["first", "nearest-centre", "largest", "longest-seen"]
+
+GroundPoint = Annotated[list[float], Field(min_length=2, max_length=2)]
 
 
 class GazeSection(Section):
@@ -123,3 +128,31 @@ class GazeSection(Section):
             " frame): a lone false detection while the head scans is not the target."
         ),
     )
+    select_rule: SelectRule = Field(
+        "first",
+        description="Which confirmed track the gaze follows until it ends (unless an operator "
+        "chooses on gaze/select): 'first' the one that appeared first, 'nearest-centre' the one "
+        "nearest the optical axis, 'largest' the tallest box, 'longest-seen' the one with the most "
+        "detections.",
+    )
+    select_zone_xy_m: list[GroundPoint] | None = Field(
+        None,
+        min_length=3,
+        max_length=64,
+        description="The rule picks only tracks inside this ground polygon ([[x, y], ...] in "
+        "metres, the rig's ground frame); none: anywhere.",
+    )
+
+    @model_validator(mode="after")
+    def _zone(self) -> Self:
+        zone = self.select_zone_xy_m
+        if zone is not None:
+            if not all(math.isfinite(v) for point in zone for v in point):
+                raise ValueError("select_zone_xy_m: not finite (expected [[x, y], ...] in metres)")
+            twice_area = sum(
+                x0 * y1 - x1 * y0
+                for (x0, y0), (x1, y1) in zip(zone, zone[1:] + zone[:1], strict=True)
+            )
+            if abs(twice_area) < 1e-9:
+                raise ValueError("select_zone_xy_m: the polygon has no area")
+        return self

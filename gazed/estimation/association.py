@@ -24,8 +24,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import linear_sum_assignment
-from scipy.stats import chi2
+
+from gazed.estimation.chi_square import chi2_quantile
 
 UNASSIGNABLE = 1e12  # the cost of a pair outside the gate
 
@@ -42,7 +42,7 @@ class Assignment:
 
 def gate_threshold(probability: float, dimension: int) -> float:
     """The d² inside which a measurement of `dimension` falls with `probability`."""
-    return float(chi2.ppf(probability, dimension))
+    return chi2_quantile(probability, dimension)
 
 
 def hellinger_squared(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -63,17 +63,25 @@ def pair_costs(
 ) -> np.ndarray:
     """(T, D) costs: `d² + ln det S (+ h² / σ²)`, inf where `d²` is outside the gate.
 
-    predicted (T, m), S (T, m, m), measured (D, m); appearances (T, B) and (D, B), rows summing
-    to 1 (a row of NaN for a track or detection without one), and each track's σ² (T,); all
-    three or none."""
+    predicted (T, m), measured (D, m); S (T, m, m) per track, or (T, D, m, m) per pair where
+    each detection carries its own measurement noise (S = H P Hᵀ + R_d); appearances (T, B)
+    and (D, B), rows summing to 1 (a row of NaN for a track or detection without one), and each
+    track's σ² (T,); all three or none."""
     T, D = len(predicted), len(measured)
     if T == 0 or D == 0:
         return np.full((T, D), np.inf)
     y = measured[None, :, :] - predicted[:, None, :]  # (T, D, m)
-    S_inv = np.linalg.inv(S)
-    d2 = np.einsum("tdi,tij,tdj->td", y, S_inv, y)
-    _, log_det = np.linalg.slogdet(S)
-    costs = d2 + log_det[:, None]
+    S_pairs = S if S.ndim == 4 else S[:, None]  # (T, D or 1, m, m)
+    if y.shape[-1] == 2:  # closed forms of the 2x2 inverse and determinant
+        a, b, d = S_pairs[..., 0, 0], S_pairs[..., 0, 1], S_pairs[..., 1, 1]
+        det = a * d - b * b
+        y0, y1 = y[..., 0], y[..., 1]
+        d2 = (d * y0 * y0 - 2.0 * b * y0 * y1 + a * y1 * y1) / det
+        log_det = np.log(det)
+    else:
+        d2 = np.einsum("tdi,tdij,tdj->td", y, np.linalg.inv(S_pairs), y)
+        log_det = np.linalg.slogdet(S_pairs)[1]
+    costs = d2 + log_det
     if track_appearance is not None and detection_appearance is not None:
         assert appearance_variance is not None, "an appearance needs each track's spread"
         h2 = hellinger_squared(track_appearance, detection_appearance)
@@ -84,8 +92,14 @@ def pair_costs(
 def associate(costs: np.ndarray) -> Assignment:
     """The joint assignment of least total cost among the pairs inside the gate."""
     T, D = costs.shape
+    if T == 1 and D == 1:  # one pair: it is the assignment if it is inside the gate
+        inside = bool(np.isfinite(costs[0, 0]))
+        return Assignment(((0, 0),), (), (), costs) if inside else Assignment((), (0,), (0,), costs)
     pairs: list[tuple[int, int]] = []
     if T and D:
+        # imported here: scipy.optimize takes long to import, and a lone walker never needs it
+        from scipy.optimize import linear_sum_assignment
+
         finite = np.where(np.isfinite(costs), costs, UNASSIGNABLE)
         rows, cols = linear_sum_assignment(finite)
         pairs = [

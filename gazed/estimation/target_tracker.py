@@ -1,17 +1,23 @@
-"""The estimator's work per detection: the target on the ground, the filter, and the prediction to
-the instant a demand made from it acts (DESIGN §5; seed 000 §4-6).
+"""The estimator's work per detection: every mover on the ground, one filter per person
+(`tracks.TrackSet`), and the prediction of the chosen one to the instant a demand made from it
+acts (DESIGN §5; seed 000 §4-6).
+
+The chosen track is the gaze's (`gaze/state` target_id, `choose`). Before any choice, or once the
+chosen track has ended, it is the only track if there is one, else the only confirmed one if
+there is one, else none: nothing is predicted until the gaze chooses, but every frame's
+`EstimatorState` lists every track, so that it can.
 
 A detection that is not plausible — captured further in the future than `FUTURE_TOLERANCE_NS`,
 or found at a pixel far off the image — is dropped and counted: it would poison the track.
 A frame without a detection (or without a head pose, or with a ray above the horizon) is a
-predict-only step: the track coasts. A detection the filter refuses (not newer than the track)
+predict-only step: the tracks coast. A detection the filter refuses (not newer than the track)
 is counted as rejected.
 
 After every detection the track is predicted to its effect time, now + the actuation latency
 (i.e. capture + visual latency + actuation latency, `LoopLatency`); without prediction over the
 latency (`predict_over_latency = false`, the baseline) the estimate at the capture is offered
 as if it held then. With no detection for two frame periods (vision restarting, frames lost)
-the track is still predicted at the camera's rate, marked coasting, for up to `coast_max_ms`,
+the chosen track is still predicted at the camera's rate, marked coasting, for up to `coast_max_ms`,
 so the gaze keeps following where the target should be.
 """
 
@@ -21,17 +27,30 @@ import logging
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
 
 from gazed.config import Rig
-from gazed.estimation.factory import build_estimator
+from gazed.estimation.events import ManeuverEvent as ModelChange
 from gazed.estimation.loop_latency import LoopLatency
+from gazed.estimation.measurement import Measurement
 from gazed.estimation.observation import gaze_measurement, ground_measurement
 from gazed.estimation.results import PredictedState
+from gazed.estimation.tracks import PersonTrack, Sighting, TrackSet
 from gazed.geometry.camera import CameraModel
 from gazed.geometry.ground import GroundGeometry, MeasurementNoise
 from gazed.geometry.homography import HorizonError
 from gazed.geometry.kinematics import HeadKinematics
-from gazed.messages import Detection, EstimatorState, ManeuverEvent, Prediction, Stamp
+from gazed.messages import (
+    Detection,
+    EstimatorState,
+    ManeuverEvent,
+    Mover,
+    Prediction,
+    Stamp,
+    Track,
+)
 
 IDLE_S = 1.0  # how long to wait when there is nothing to predict
 FUTURE_TOLERANCE_NS = 1_000_000_000  # a detection captured further ahead of our clock is bogus
@@ -49,10 +68,12 @@ class TrackUpdate:
     stamps: tuple[Stamp, ...]
     coasting: bool
     prediction: Prediction | None
+    track_id: int | None = None  # the chosen track, predicted
 
 
 class TargetTracker:
-    """Detections -> ground measurements -> the rig's filter -> predictions to the effect time.
+    """Detections -> ground measurements of every mover -> one filter per track -> the chosen
+    track's predictions to the effect time.
 
     `stage` is the name the estimator stamps its messages with; `clock_ns` the wall clock of
     those stamps."""
@@ -63,7 +84,8 @@ class TargetTracker:
         self.clock_ns = clock_ns
         self.filter = section.filter
         self.predict_over_latency = section.predict_over_latency
-        self.estimator = build_estimator(section)
+        self.tracks = TrackSet(section)
+        self.target_id: int | None = None  # the gaze's choice
         self.camera = CameraModel.from_section(rig.camera)
         self.kinematics = HeadKinematics.from_section(rig.head)
         # image-cv works on gaze angles alone; every other mode needs the ground homography
@@ -108,66 +130,92 @@ class TargetTracker:
             return False
         return True
 
+    def choose(self, target_id: int | None) -> None:
+        """The gaze's chosen track (None: no choice)."""
+        self.target_id = target_id
+
+    def chosen(self) -> PersonTrack | None:
+        """The gaze's track; without it, the only track, else the only confirmed one."""
+        tracks = self.tracks.tracks
+        if self.target_id is not None:
+            track = self.tracks.get(self.target_id)
+            if track is not None:
+                return track
+        if len(tracks) == 1:
+            return tracks[0]
+        confirmed = [track for track in tracks if track.confirmed]
+        return confirmed[0] if len(confirmed) == 1 else None
+
+    def most_likely(self) -> str:
+        """The chosen track's most likely motion model ("" without one)."""
+        track = self.chosen()
+        return track.estimator.most_likely() if track is not None else ""
+
     def update(self, detection: Detection, now_ns: int) -> TrackUpdate | None:
-        """Filter a plausible detection that arrived at `now_ns` and predict the track to the
-        effect time; None when the filter refuses it."""
+        """Filter a plausible detection's movers that arrived at `now_ns` and predict the chosen
+        track to the effect time; None when a filter refuses the frame."""
         try:
             self._observe(detection, now_ns)
+            track = self.chosen()
             t_ns = self.clock_ns()
             stamps = (*detection.stamps, (self.stage, t_ns))
             t_effect_ns = t_ns + round(self.latency.actuation_s * 1e9)
             t_capture_ns = detection.t_capture_ns
             t_predicted_ns = t_effect_ns if self.predict_over_latency else t_capture_ns
-            predicted = self.estimator.predict(t_predicted_ns / 1e9)
+            predicted = track.estimator.predict(t_predicted_ns / 1e9) if track else None
         except ValueError as exc:
             self._reject(detection.seq, exc)
             return None
-        coasting = not detection.found
+        coasting = track is None or track.coasting
+        track_id = track.id if track is not None else None
         prediction = None
         if predicted is not None:
             prediction = self._prediction(
-                predicted, t_capture_ns, stamps, t_effect_ns, t_ns, coasting
+                predicted, t_capture_ns, stamps, t_effect_ns, t_ns, coasting, track_id
             )
-        return TrackUpdate(detection.seq, t_capture_ns, stamps, coasting, prediction)
+        return TrackUpdate(detection.seq, t_capture_ns, stamps, coasting, prediction, track_id)
 
     def settle(self, update: TrackUpdate) -> tuple[EstimatorState | None, list[ManeuverEvent]]:
-        """After the prediction: the track's state at the capture, and the maneuver events."""
+        """After the prediction: every track at the capture, the chosen one's filter state, and
+        its maneuver events. None without tracks."""
+        if not self.tracks.tracks:
+            return None, []
+        t_s = update.t_capture_ns / 1e9
         try:
-            now_state = self.estimator.predict(update.t_capture_ns / 1e9)
-        except ValueError as exc:  # the track is already past this capture
+            states = [(track, track.estimator.predict(t_s)) for track in self.tracks.tracks]
+        except ValueError as exc:  # the tracks are already past this capture
             self._reject(update.seq, exc)
             return None, []
-        state = None
-        if now_state is not None:
-            probabilities = self.estimator.model_probabilities()
+        chosen, now_state, tracks, events = None, None, [], []
+        for track, state in states:
+            assert state is not None  # an ended track is removed at once
+            tracks.append(self._track(track, state, t_s))
+            drained = track.estimator.drain_events()
+            if track.id == update.track_id:
+                chosen, now_state, events = track, state, drained
+        fields: dict[str, Any] = {"x": (), "P": (), "coasting": True}
+        if chosen is not None and now_state is not None:
+            probabilities = chosen.estimator.model_probabilities()
             position, velocity = now_state.position.tolist(), now_state.velocity.tolist()
             on_ground = self.geometry is not None
-            state = EstimatorState(
-                t_capture_ns=update.t_capture_ns,
-                stamps=update.stamps,
-                filter=self.filter,
-                x=(*position, *velocity),
-                P=tuple(map(tuple, now_state.covariance.tolist())),
-                model_probabilities=probabilities,
-                most_likely=max(probabilities, key=probabilities.__getitem__),
-                ground_xy_m=tuple(position) if on_ground else None,
-                ground_velocity_m_s=tuple(velocity) if on_ground else None,
-                coasting=update.coasting,
-            )
-        events = [
-            ManeuverEvent(
-                t_capture_ns=update.t_capture_ns,
-                stamps=update.stamps,
-                model=event.model,
-                previous_model=event.previous_model,
-                t_start_ns=round(event.t_start_s * 1e9),
-                previous_duration_s=event.previous_duration_s,
-                mean_s_dot_m_s2=event.mean_s_dot_m_s2,
-                mean_theta_dot_rad_s=event.mean_theta_dot_rad_s,
-            )
-            for event in self.estimator.drain_events()
-        ]
-        return state, events
+            fields = {
+                "x": (*position, *velocity),
+                "P": tuple(map(tuple, now_state.covariance.tolist())),
+                "model_probabilities": probabilities,
+                "most_likely": max(probabilities, key=probabilities.__getitem__),
+                "ground_xy_m": tuple(position) if on_ground else None,
+                "ground_velocity_m_s": tuple(velocity) if on_ground else None,
+                "coasting": update.coasting,
+                "target_id": chosen.id,
+            }
+        state = EstimatorState(
+            t_capture_ns=update.t_capture_ns,
+            stamps=update.stamps,
+            filter=self.filter,
+            tracks=tuple(tracks),
+            **fields,
+        )
+        return state, [self._event(event, update) for event in events]
 
     # ---------------------------------------------------------------------------------- silence
 
@@ -177,30 +225,31 @@ class TargetTracker:
         return self.silence_s
 
     def silent(self, wall_ns: int, mono_s: float) -> tuple[Prediction | None, float]:
-        """No detection came: after `silence_s`, and for up to coast_max_ms, the track predicted
-        to the effect time and marked coasting, at the camera's rate. Returns that prediction
-        (None: not due, or no track) and the seconds until the next call is wanted."""
+        """No detection came: after `silence_s`, and for up to coast_max_ms, the chosen track
+        predicted to the effect time and marked coasting, at the camera's rate. Returns that
+        prediction (None: not due, or no track) and the seconds until the next call is wanted."""
         if self.last_detection_s is None:
             return None, IDLE_S
         silent_s = mono_s - self.last_detection_s
         if silent_s > self.coast_max_s:
             return None, IDLE_S
         prediction = None
-        if silent_s >= self.silence_s:
+        track = self.chosen()
+        if silent_s >= self.silence_s and track is not None:
             t_effect_ns = wall_ns + round(self.latency.actuation_s * 1e9)
-            predicted = self.estimator.predict(t_effect_ns / 1e9)
+            predicted = track.estimator.predict(t_effect_ns / 1e9)
             if predicted is not None:
                 stamps = ((self.stage, wall_ns),)
                 prediction = self._prediction(
-                    predicted, wall_ns, stamps, t_effect_ns, wall_ns, True
+                    predicted, wall_ns, stamps, t_effect_ns, wall_ns, True, track.id
                 )
                 self.counts["silent_predictions"] += 1
         return prediction, self.frame_period_s
 
     def counters(self) -> dict[str, int]:
-        """Its own counts and the filter's."""
+        """Its own counts, the tracks' and their filters'."""
         counters = dict(self.counts)
-        counters.update(self.estimator.health())
+        counters.update(self.tracks.health())
         return counters
 
     # -------------------------------------------------------------------------------- internals
@@ -208,33 +257,80 @@ class TargetTracker:
     def _observe(self, detection: Detection, now_ns: int) -> None:
         self.counts["detections"] += 1
         self.latency.detection_arrived(detection.t_capture_ns, now_ns)
-        t_s = detection.t_capture_ns / 1e9
-        if not detection.found:
-            self._coast(t_s)
-            return
+        sightings = self._sightings(detection)
+        self.tracks.step(detection.t_capture_ns / 1e9, sightings)
+        self.counts["measured" if sightings else "coasted"] += 1
+
+    def _sightings(self, detection: Detection) -> list[Sighting]:
+        """Every mover of the frame as a measurement; without a list of movers, the detection's
+        own target where it found one."""
+        movers = detection.movers
+        if not movers and not detection.found:
+            return []
+        if detection.head is None:
+            self.counts["no_head_pose"] += 1
+            return []
+        if not movers:
+            measurement = self._measure(detection)
+            return [Sighting(measurement)] if measurement is not None else []
+        sightings = []
+        for mover in movers:
+            seen = detection.model_copy(update=_target_fields(mover))
+            measurement = self._measure(seen)
+            if measurement is not None:
+                sightings.append(Sighting(measurement, _histogram(mover), mover.box_height_px))
+        return sightings
+
+    def _measure(self, detection: Detection) -> Measurement | None:
+        """The measurement of a detection's target; None above the horizon (counted)."""
         try:
             if self.geometry is None:
-                measurement = gaze_measurement(detection, self.camera, self.kinematics, self.noise)
-            else:
-                geometry = (
-                    self.contact_geometry if detection.point == "ground-contact" else self.geometry
-                )
-                assert geometry is not None
-                measurement = ground_measurement(detection, geometry, self.noise)
+                return gaze_measurement(detection, self.camera, self.kinematics, self.noise)
+            geometry = (
+                self.contact_geometry if detection.point == "ground-contact" else self.geometry
+            )
+            assert geometry is not None
+            return ground_measurement(detection, geometry, self.noise)
         except HorizonError:
             self.counts["above_horizon"] += 1
-            self._coast(t_s)
-            return
-        except ValueError:
-            self.counts["no_head_pose"] += 1
-            self._coast(t_s)
-            return
-        self.estimator.update(measurement)
-        self.counts["measured"] += 1
+            return None
 
-    def _coast(self, t_s: float) -> None:
-        self.estimator.coast(t_s)
-        self.counts["coasted"] += 1
+    def _track(self, track: PersonTrack, state: PredictedState, t_s: float) -> Track:
+        """One track's message: its state at the frame's capture."""
+        if self.geometry is None:  # image-cv: the state is the gaze itself
+            pan, tilt = state.position.tolist()
+            ground = velocity = cov = None
+        else:
+            x, y = state.position.tolist()
+            pan, tilt = self.geometry.gaze_from_ground(x, y)
+            ground, velocity = (x, y), tuple(state.velocity.tolist())
+            cov = tuple(map(tuple, state.covariance[:2, :2].tolist()))
+        return Track(
+            id=track.id,
+            confirmed=track.confirmed,
+            pan_rad=pan,
+            tilt_rad=tilt,
+            ground_xy_m=ground,
+            ground_velocity_m_s=velocity,
+            ground_cov_m2=cov,
+            age_s=max(0.0, t_s - track.first_s),
+            hits=track.hits,
+            coasting=track.coasting,
+            box_height_px=track.box_height_px,
+            most_likely=track.estimator.most_likely(),
+        )
+
+    def _event(self, event: ModelChange, update: TrackUpdate) -> ManeuverEvent:
+        return ManeuverEvent(
+            t_capture_ns=update.t_capture_ns,
+            stamps=update.stamps,
+            model=event.model,
+            previous_model=event.previous_model,
+            t_start_ns=round(event.t_start_s * 1e9),
+            previous_duration_s=event.previous_duration_s,
+            mean_s_dot_m_s2=event.mean_s_dot_m_s2,
+            mean_theta_dot_rad_s=event.mean_theta_dot_rad_s,
+        )
 
     def _reject(self, seq: int, exc: ValueError) -> None:
         self.counts["rejected"] += 1
@@ -248,6 +344,7 @@ class TargetTracker:
         t_effect_ns: int,
         t_ns: int,
         coasting: bool,
+        track_id: int | None,
     ) -> Prediction:
         if self.geometry is None:  # image-cv: the state is the gaze itself
             pan, tilt = predicted.position.tolist()
@@ -275,4 +372,22 @@ class TargetTracker:
             visual_latency_s=(t_ns - t_capture_ns) / 1e9,
             actuation_latency_s=self.latency.actuation_s,
             coasting=coasting,
+            track_id=track_id,
         )
+
+
+def _target_fields(mover: Mover) -> dict[str, float]:
+    """A mover's point and image velocity as a detection's target fields."""
+    return {
+        "u_px": mover.u_px,
+        "v_px": mover.v_px,
+        "du_px_s": mover.du_px_s,
+        "dv_px_s": mover.dv_px_s,
+    }
+
+
+def _histogram(mover: Mover) -> np.ndarray | None:
+    """A mover's appearance as a histogram summing to 1; None without one."""
+    h = np.asarray(mover.appearance, dtype=float)
+    total = float(h.sum()) if h.size else 0.0
+    return h / total if total > 0.0 and np.all(h >= 0.0) else None

@@ -28,6 +28,11 @@ States and transitions (each published with its reason):
   same cycle aimed where the target was seen, without prediction, and `pid` a PID on the pixel
   error (`pixel_pid`).
 
+Which of the estimator's tracks is the target is `target_choice` (the rig's rule or an
+operator's `gaze/select`); only the chosen track's predictions are used, of a frame's movers
+the one nearest its prediction (`focus`), and every change of target is published on
+gaze/state, with the state unchanged, and its reason.
+
 Every demand is clamped to the joint and rate limits (counted); the feed-forward rates also
 change by at most the acceleration limit per tick (`demand`).
 """
@@ -35,18 +40,20 @@ change by at most the acceleration limit per tick (`demand`).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 from gazed.config import Rig
-from gazed.gaze import FUTURE_TOLERANCE_NS, STAGE
+from gazed.gaze import FUTURE_TOLERANCE_NS
 from gazed.gaze.aim import Aim, MoveLimits, angle_between
+from gazed.gaze.decision import Decision, state_message
 from gazed.gaze.demand import DemandShaper, Hold, make_demand
+from gazed.gaze.focus import focus
 from gazed.gaze.look_and_move import LookAndMove
 from gazed.gaze.lost_search import LostSearch
 from gazed.gaze.move import Move, Settling, at_goal
 from gazed.gaze.pixel_pid import PixelPid, pixel_error
 from gazed.gaze.pursuit import Pursuit
 from gazed.gaze.sightings import Sightings
+from gazed.gaze.target_choice import ChoiceChange, TargetChoice
 from gazed.gaze.trace import LineTracer
 from gazed.geometry.camera import CameraModel
 from gazed.geometry.kinematics import HeadKinematics
@@ -54,8 +61,10 @@ from gazed.messages import (
     Candidates,
     Detection,
     EdgeObservation,
+    EstimatorState,
     GazeCommand,
     GazeDemand,
+    GazeSelect,
     GazeState,
     GazeStateName,
     Odometry,
@@ -67,18 +76,6 @@ PARK_TOLERANCE_RAD = math.radians(1.0)  # this close to the park pose, the head 
 TAKING_UP = ("park", "search", "lost")  # the states that take a detection up (in a row)
 MOVE_THEN_LOOK = ("look-and-move", "move-wait-move")  # controls that ignore frames while moving
 PID_STALE_FRAMES = 3  # the pid stops the head after this many frame periods without a detection
-
-
-@dataclass(frozen=True)
-class Decision:
-    demand: GazeDemand | None
-    transitions: tuple[GazeState, ...]  # in order: one tick can pass through several states
-    trace: TraceResult | None = None
-
-    @property
-    def transition(self) -> GazeState | None:
-        """The last transition of the tick (the state it ended in), if any."""
-        return self.transitions[-1] if self.transitions else None
 
 
 class GazeController:
@@ -116,6 +113,7 @@ class GazeController:
             gaze, self.fovea_rad, camera_xyz_m, move_limits, frame_period_s
         )
         self.tracer = LineTracer(gaze, camera, kinematics, limits_rad)
+        self.choice = TargetChoice(gaze, camera, kinematics)
         # the state machine
         self.state: GazeStateName = "park"
         self.entered_s = mono_s
@@ -134,6 +132,7 @@ class GazeController:
         counts = dict(self.own_counts)
         counts["ignored_while_moving"] += self.sightings.turning_candidates
         counts["stale_predictions"] = self.pursuit.stale_predictions
+        counts.update(self.choice.counts)
         return counts
 
     @property
@@ -154,9 +153,19 @@ class GazeController:
         self.odometry = odometry
 
     def on_prediction(self, prediction: Prediction) -> None:
-        self.pursuit.on_prediction(prediction)
+        if self.choice.accepts(prediction):  # the chosen track's only
+            self.pursuit.on_prediction(prediction)
+
+    def on_estimator_state(self, state: EstimatorState, wall_ns: int) -> None:
+        """The estimator's tracks: the chosen one may have ended, or the rule picks one."""
+        self._retarget(self.choice.on_state(state, self._head_rad()), wall_ns)
+
+    def on_select(self, select: GazeSelect, wall_ns: int) -> None:
+        """An operator's choice of target (`gazed select`)."""
+        self._retarget(self.choice.on_select(select, self._head_rad()), wall_ns)
 
     def on_detection(self, detection: Detection) -> None:
+        detection = focus(detection, self.pursuit.prediction, self.camera, self.kinematics)
         if not detection.found or detection.head is None:
             return
         if (
@@ -218,13 +227,7 @@ class GazeController:
         if state == self.state:
             return
         self.pending.append(
-            GazeState(
-                t_capture_ns=wall_ns,
-                stamps=((STAGE, wall_ns),),
-                state=state,
-                previous=self.state,
-                reason=reason,
-            )
+            state_message(state, self.state, reason, self.choice.target_id, wall_ns)
         )
         self.state = state
         self.entered_s = mono_s
@@ -234,6 +237,20 @@ class GazeController:
         self.lost_search.reset()
         self.pid.restart()
         self.own_counts["transitions"] += 1
+
+    def _retarget(self, change: ChoiceChange | None, wall_ns: int) -> None:
+        if change is None:
+            return
+        held = self.pursuit.prediction
+        if held is not None and held.track_id not in (None, change.target_id):
+            self.pursuit.restart()  # another track's predictions: not the new target's
+        self.pending.append(
+            state_message(self.state, self.state, change.reason, change.target_id, wall_ns)
+        )
+
+    def _head_rad(self) -> tuple[float, float] | None:
+        o = self.odometry
+        return (o.pan_rad, o.tilt_rad) if o is not None else None
 
     # -- states ------------------------------------------------------------------------------
 

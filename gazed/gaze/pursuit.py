@@ -74,6 +74,12 @@ class Pursuit:
         self.prediction = prediction
         self.feedback.on_prediction(prediction)
 
+    def restart(self) -> None:
+        """Another target: forget the predictions of the last one and their residual."""
+        self.prediction = None
+        self.feedback.predictions.clear()
+        self.feedback.correction = (0.0, 0.0)
+
     def on_detection(self, detection: Detection) -> None:
         """A detection seen in pursuit: it updates the residual feedback."""
         self.feedback.update(detection_aim(self.camera, self.kinematics, detection))

@@ -106,7 +106,7 @@ def main() -> None:
         print(
             f"  median {statistics.median(times):7.0f} µs, p90 {np.percentile(times, 90):7.0f} µs"
             f"  (measured {counts['measured']}, rejected {counts['rejected']},"
-            f" filter {service.tracker.filter}, most likely {service.tracker.estimator.most_likely()})"
+            f" filter {service.tracker.filter}, most likely {service.tracker.most_likely()})"
         )
 
 

@@ -1,0 +1,248 @@
+"""The set of people the estimator follows: one filter per track, association of each frame's
+movers with the tracks, and track management (Blackman & Popoli, "Design and Analysis of Modern
+Tracking Systems", 1999, §3.2 and §6.2; Bar-Shalom, Willett & Tian, "Tracking and Data Fusion",
+2011, §3.3).
+
+Every frame (one detection message, with any number of movers):
+
+1. each track is predicted to the frame's capture; its predicted position and covariance P give
+   the innovation covariance `S = P + R_d` with each mover's own measurement noise R_d;
+2. movers and tracks are assigned jointly inside the Mahalanobis gate, the appearance deciding
+   where positions are ambiguous (`association`). The gate and the cost use the position alone:
+   a mover's image velocity is a difference over one frame interval and too noisy to tell people
+   apart; the filter itself then takes the mover's full measurement and gates it again;
+3. a track that takes a mover is updated, its appearance template and spread follow it; a track
+   left without one coasts (predict-only) and ends once it has coasted past `coast_max_ms`;
+4. a mover left without a track starts a new, tentative track. A tentative track is confirmed
+   once it has `confirm_hits` detections within its first `confirm_frames` frames (M of N); one
+   that cannot is dropped as clutter. Where one track and one mover are all there is, the mover
+   is the track's, inside its gate or not: outside it, it is an outlier the track's filter
+   counts, and the filter restarts at it (same id) after `reinit_after_misses` of them in a
+   row, as a single-target estimator does when its target jumps (the detector latched onto
+   another part of it, or the head lost it and found it again).
+
+Ids count up from 0 and are never reused, so a track's id names one person for its whole life;
+a person lost for longer than `coast_max_ms` comes back as a new track with a new id.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from gazed.config import EstimatorSection
+from gazed.estimation.association import associate, gate_threshold, pair_costs
+from gazed.estimation.estimator import TRACKING, TrackEstimator
+from gazed.estimation.factory import build_estimator
+from gazed.estimation.measurement import Measurement
+from gazed.estimation.results import Outcome, PredictedState
+
+MAX_TRACKS = 256  # an EstimatorState carries at most this many
+APPEARANCE_SMOOTHING = 0.1  # weight of each new histogram in a track's template and its spread
+INITIAL_SPREAD = 0.05  # a new track's appearance spread (h²), until its detections measure it
+SPREAD_FLOOR = 0.01  # a spread never below this: one colour change is not a different person
+TAKEN = (Outcome.ACCEPTED, Outcome.INITIALISED, Outcome.PENDING, Outcome.REINITIALISED)
+
+
+@dataclass(frozen=True)
+class Sighting:
+    """One mover of a frame as a filter measurement, with what association compares."""
+
+    measurement: Measurement
+    appearance: np.ndarray | None = None  # (B,) normalised colour histogram
+    box_height_px: float = 0.0
+
+
+@dataclass
+class PersonTrack:
+    """One track: its filter (a single-track `TrackEstimator`) and its bookkeeping."""
+
+    id: int
+    estimator: TrackEstimator
+    first_s: float
+    last_hit_s: float
+    hits: int = 1
+    frames: int = 1  # frames since its first detection, that one included
+    confirmed: bool = False
+    coasting: bool = False
+    box_height_px: float = 0.0
+    appearance: np.ndarray | None = None
+    spread: float = INITIAL_SPREAD
+
+    def take_appearance(self, appearance: np.ndarray | None) -> None:
+        """Move the template toward a detection's histogram, and the spread toward the squared
+        Hellinger distance between them."""
+        if appearance is None:
+            return
+        if self.appearance is None or self.appearance.shape != appearance.shape:
+            self.appearance = appearance
+            return
+        h2 = max(0.0, 1.0 - float(np.sqrt(self.appearance * appearance).sum()))
+        a = APPEARANCE_SMOOTHING
+        self.spread = max(SPREAD_FLOOR, (1 - a) * self.spread + a * h2)
+        template = (1 - a) * self.appearance + a * appearance
+        self.appearance = template / template.sum()
+
+
+@dataclass
+class TrackSet:
+    """Every track of one filter mode; `step` once per frame with that frame's sightings."""
+
+    section: EstimatorSection
+    mode: str | None = None  # default: the section's filter
+    tracks: list[PersonTrack] = field(default_factory=list)
+    next_id: int = 0
+    counts: Counter[str] = field(default_factory=Counter)
+    ended_health: Counter[str] = field(default_factory=Counter)  # the ended tracks' filter counts
+
+    def __post_init__(self) -> None:
+        self.gate_d2 = gate_threshold(self.section.gate_probability, 2)
+        self.coast_max_s = self.section.coast_max_ms / 1000.0
+
+    def get(self, track_id: int) -> PersonTrack | None:
+        for track in self.tracks:
+            if track.id == track_id:
+                return track
+        return None
+
+    def step(self, t_s: float, sightings: list[Sighting]) -> None:
+        """One frame captured at t_s: associate, update, coast, start and end tracks. A frame
+        older than a track's state (out of order) changes nothing and is counted."""
+        if any(t_s <= _state_time(track.estimator) for track in self.tracks):
+            self.counts["late_frames"] += 1
+            return
+        if len(self.tracks) == 1 and len(sightings) == 1:
+            # one track, one mover: the mover is the track's, inside its gate or not (an outlier
+            # its filter counts, restarting there after reinit_after_misses in a row, as a
+            # single-target estimator does when its target jumps)
+            pairs, lone_sightings = {0: 0}, ()
+        else:
+            pairs, lone_sightings = self._assign(self._predicted(t_s), sightings)
+        for row, track in enumerate(self.tracks):
+            track.frames += 1
+            column = pairs.get(row)
+            if column is None:
+                track.coasting = True
+                track.estimator.coast(t_s)
+            else:
+                self._take(track, sightings[column], t_s)
+        for column in lone_sightings:
+            self._start(sightings[column], t_s)
+        self._end(t_s)
+
+    def health(self) -> dict[str, int]:
+        """Track counts, and the filters' counters over every track, ended ones included."""
+        totals = Counter(self.ended_health)
+        for track in self.tracks:
+            totals.update(track.estimator.health())
+        totals.update(self.counts)
+        totals["tracks"] = len(self.tracks)
+        return dict(totals)
+
+    # -------------------------------------------------------------------------------- internals
+
+    def _predicted(self, t_s: float) -> list[PredictedState]:
+        states = []
+        for track in self.tracks:
+            state = track.estimator.predict(t_s)
+            assert state is not None  # a track whose filter stops is ended at once (`_end`)
+            states.append(state)
+        return states
+
+    def _assign(
+        self, states: list[PredictedState], sightings: list[Sighting]
+    ) -> tuple[dict[int, int], tuple[int, ...]]:
+        """Track row -> sighting column, and the sightings no track took."""
+        if not sightings:
+            return {}, ()
+        if not states:
+            return {}, tuple(range(len(sightings)))
+        predicted = np.array([s.position for s in states])  # (T, 2)
+        P = np.array([s.covariance[:2, :2] for s in states])  # (T, 2, 2)
+        measured = np.array([s.measurement.position for s in sightings])  # (D, 2)
+        R = np.array([s.measurement.position_cov for s in sightings])  # (D, 2, 2)
+        S = P[:, None] + R[None, :]  # (T, D, 2, 2)
+        looks = self._appearances(sightings)
+        costs = pair_costs(predicted, S, measured, self.gate_d2, *looks)
+        result = associate(costs)
+        return dict(result.pairs), result.lone_detections
+
+    def _appearances(self, sightings: list[Sighting]) -> tuple[np.ndarray, ...]:
+        """(track templates, sighting histograms, track spreads) where both sides have some of
+        one length, NaN rows for those without; () otherwise."""
+        bins = {len(s.appearance) for s in sightings if s.appearance is not None}
+        bins |= {len(t.appearance) for t in self.tracks if t.appearance is not None}
+        if len(bins) != 1:
+            return ()
+        (b,) = bins
+
+        def rows(histograms: list[np.ndarray | None]) -> np.ndarray:
+            out = np.full((len(histograms), b), math.nan)
+            for k, h in enumerate(histograms):
+                if h is not None:
+                    out[k] = h
+            return out
+
+        templates = rows([t.appearance for t in self.tracks])
+        seen = rows([s.appearance for s in sightings])
+        if np.isnan(templates).all() or np.isnan(seen).all():
+            return ()
+        return templates, seen, np.array([t.spread for t in self.tracks])
+
+    def _take(self, track: PersonTrack, sighting: Sighting, t_s: float) -> None:
+        outcome = track.estimator.update(sighting.measurement)
+        track.coasting = outcome not in TAKEN
+        if track.coasting:
+            return
+        track.hits += 1
+        track.last_hit_s = t_s
+        track.box_height_px = sighting.box_height_px
+        track.take_appearance(sighting.appearance)
+        if not track.confirmed and track.hits >= self.section.confirm_hits:
+            track.confirmed = True  # within confirm_frames: a track that cannot is ended
+            self.counts["tracks_confirmed"] += 1
+
+    def _start(self, sighting: Sighting, t_s: float) -> None:
+        if len(self.tracks) >= MAX_TRACKS:
+            self.counts["tracks_not_started"] += 1
+            return
+        estimator = build_estimator(self.section, mode=self.mode)
+        if estimator.update(sighting.measurement) not in TAKEN:
+            return  # not usable: `usable` refused it
+        track = PersonTrack(
+            self.next_id,
+            estimator,
+            t_s,
+            t_s,
+            box_height_px=sighting.box_height_px,
+            appearance=sighting.appearance,
+        )
+        track.confirmed = self.section.confirm_hits <= 1
+        self.next_id += 1
+        self.tracks.append(track)
+        self.counts["tracks_started"] += 1
+        self.counts["tracks_confirmed"] += int(track.confirmed)
+
+    def _end(self, t_s: float) -> None:
+        """Drop the tracks that coasted past coast_max_s, and the tentative ones that can no
+        longer reach confirm_hits within confirm_frames."""
+        m, n = self.section.confirm_hits, self.section.confirm_frames
+        kept = []
+        for track in self.tracks:
+            stale = t_s - track.last_hit_s > self.coast_max_s or not track.estimator.tracking
+            hopeless = not track.confirmed and track.hits + max(0, n - track.frames) < m
+            if stale or hopeless:
+                self.ended_health.update(track.estimator.health())
+                self.counts["tracks_ended"] += 1
+            else:
+                kept.append(track)
+        self.tracks = kept
+
+
+def _state_time(estimator: TrackEstimator) -> float:
+    """The time of a single-track filter's state (of its held position while it is pending)."""
+    running = estimator.status[0] == TRACKING
+    return float(estimator.t_s[0] if running else estimator.t_measured_s[0])

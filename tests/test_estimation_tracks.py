@@ -1,0 +1,149 @@
+"""Several people at once: the estimator keeps one track per person, with a stable id, where two
+or three people cross, pass and walk side by side at 0.5-1.5 m/s, and predicts the chosen one.
+
+Detections are made through the sim rig's true geometry (`bench/crossing_people.py`): each
+person's tracked point seen by the still head, with pixel and image-velocity noise and a noisy
+colour histogram of each person's own colours, in a shuffled order every frame (seeded). Where
+two are close, the one farther from the camera is hidden and its track coasts."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from bench.crossing_people import SCENES, SIM_RIG, Scene, walk
+
+from gazed.config import Rig, load_rig
+from gazed.estimation.measurement import Measurement
+from gazed.estimation.target_tracker import TargetTracker
+from gazed.estimation.tracks import Sighting, TrackSet
+from gazed.geometry.ground import GroundGeometry
+from gazed.messages import EstimatorState
+
+GEOMETRY = GroundGeometry.from_rig(load_rig(SIM_RIG))
+SECONDS = 4.0
+APART_M = 0.5  # a person's track is read off only where no one else is this near
+
+
+def run(
+    scene: str, seed: int, choose_person: int | None = None, rig: Rig | None = None
+) -> tuple[dict, list]:
+    """Each person's track ids where no one else is near, and the states of the run."""
+    rig = rig or load_rig(SIM_RIG)
+    source = Scene(rig, scene, seed)
+    tracker = TargetTracker(rig, "estimator", clock_ns=lambda: clock_ns)
+    ids: dict[int, set[int]] = {i: set() for i in range(len(SCENES[scene]))}
+    states: list[tuple[float, EstimatorState]] = []
+    frames = round(SECONDS / source.period_s)
+    for k in range(frames):
+        detection = source.detection(k)
+        clock_ns = detection.t_capture_ns + 100_000_000
+        update = tracker.update(detection, clock_ns)
+        assert update is not None
+        state, _ = tracker.settle(update)
+        assert state is not None
+        t = k * source.period_s
+        states.append((t, state))
+        truth = walk(scene, t)
+        if choose_person is not None and k == 10:
+            tracker.choose(nearest_track(state, truth[choose_person]))
+        if t < 0.5:
+            continue
+        for i, xy in enumerate(truth):
+            others = np.delete(truth, i, axis=0)
+            if np.min(np.linalg.norm(others - xy, axis=1)) > APART_M:
+                ids[i].add(nearest_track(state, xy))
+    return ids, states
+
+
+def nearest_track(state: EstimatorState, xy: np.ndarray) -> int:
+    confirmed = [t for t in state.tracks if t.confirmed]
+    if state.filter == "image-cv":  # no ground: the head angles that centre each
+        pan, tilt = GEOMETRY.gaze_from_ground(*xy)
+        return min(confirmed, key=lambda t: math.hypot(t.pan_rad - pan, t.tilt_rad - tilt)).id
+    return min(confirmed, key=lambda t: float(np.linalg.norm(np.subtract(t.ground_xy_m, xy)))).id
+
+
+@pytest.mark.parametrize("scene", SCENES)
+@pytest.mark.parametrize("seed", [1, 2])
+def test_every_person_keeps_one_id(scene: str, seed: int) -> None:
+    ids, states = run(scene, seed)
+    assert all(len(found) == 1 for found in ids.values()), ids
+    assert len({next(iter(found)) for found in ids.values()}) == len(ids)  # one each
+    _, last = states[-1]
+    assert sum(t.confirmed for t in last.tracks) == len(SCENES[scene])  # no clutter confirmed
+
+
+@pytest.mark.parametrize("scene", ["two crossing", "side by side"])
+def test_the_chosen_track_is_predicted_and_kept(scene: str) -> None:
+    ids, states = run(scene, 3, choose_person=0)
+    (chosen,) = ids[0]
+    for t, state in states[11:]:
+        assert state.target_id == chosen
+        truth = walk(scene, t)[0]
+        assert np.linalg.norm(np.subtract(state.ground_xy_m, truth)) < 0.3
+
+
+def test_image_cv_tracks_people_on_gaze_angles() -> None:
+    rig = load_rig(SIM_RIG)
+    rig = rig.model_copy(
+        update={"estimator": rig.estimator.model_copy(update={"filter": "image-cv"})}
+    )
+    ids, states = run("passing", 1, rig=rig)
+    assert all(len(found) == 1 for found in ids.values()), ids
+    _, last = states[-1]
+    assert all(t.ground_xy_m is None for t in last.tracks) and len(last.tracks) == 2
+
+
+def measurement(t_s: float, xy: tuple[float, float]) -> Sighting:
+    cov = np.eye(2) * 0.01
+    return Sighting(Measurement.ground(t_s, xy, cov, (0.0, 0.0), np.eye(2) * 0.04))
+
+
+def test_confirmation_is_m_of_n_and_ids_are_never_reused() -> None:
+    rig = load_rig(SIM_RIG)
+    section = rig.estimator.model_copy(
+        update={"confirm_hits": 3, "confirm_frames": 4, "coast_max_ms": 300.0}
+    )
+    tracks = TrackSet(section)
+    seen = [True, False, True, False]  # 2 of 4: never confirmed, dropped as clutter
+    for k, hit in enumerate(seen):
+        tracks.step(k * 0.04, [measurement(k * 0.04, (0.0, 1.0))] if hit else [])
+    assert tracks.tracks == [] and tracks.counts["tracks_ended"] == 1
+    for k in range(4, 8):  # a person now: 3 of the first 3 frames
+        tracks.step(k * 0.04, [measurement(k * 0.04, (1.0, 1.0))])
+    (person,) = tracks.tracks
+    assert person.id == 1 and person.confirmed and person.hits == 4
+    for k in range(8, 17):  # unseen: it coasts, keeps its id, and ends past coast_max_ms
+        tracks.step(k * 0.04, [])
+        coasted_s = k * 0.04 - person.last_hit_s
+        assert (tracks.get(1) is person) == (coasted_s <= 0.3) and person.coasting
+    assert tracks.get(1) is None
+    tracks.step(0.7, [measurement(0.7, (1.0, 1.0))])
+    assert [t.id for t in tracks.tracks] == [2]  # a new track, a new id
+
+
+def test_a_frame_older_than_the_tracks_changes_nothing() -> None:
+    tracks = TrackSet(load_rig(SIM_RIG).estimator)
+    tracks.step(1.0, [measurement(1.0, (0.0, 1.0))])
+    tracks.step(0.5, [measurement(0.5, (3.0, 1.0))])
+    assert len(tracks.tracks) == 1 and tracks.counts["late_frames"] == 1
+
+
+def test_a_lone_target_that_jumps_keeps_its_id() -> None:
+    section = load_rig(SIM_RIG).estimator
+    tracks = TrackSet(section)
+    for k in range(10):
+        tracks.step(k * 0.04, [measurement(k * 0.04, (0.0, 1.0))])
+    (lone,) = tracks.tracks
+    for k in range(10, 10 + section.reinit_after_misses):  # the one mover is 1 m off: outliers
+        tracks.step(k * 0.04, [measurement(k * 0.04, (1.0, 1.0))])
+    assert tracks.tracks == [lone] and lone.id == 0 and not lone.coasting  # restarted there
+    state = lone.estimator.predict(0.6)
+    assert state is not None and state.position[0] == pytest.approx(1.0, abs=0.05)
+    # with a second person in view, a mover outside both gates is someone new
+    tracks.step(0.64, [measurement(0.64, (1.0, 1.0)), measurement(0.64, (-2.0, 1.0))])
+    tracks.step(0.68, [measurement(0.68, (1.0, 1.0)), measurement(0.68, (-2.0, 1.0))])
+    tracks.step(0.72, [measurement(0.72, (1.0, 1.0)), measurement(0.72, (3.0, 1.0))])
+    assert [t.id for t in tracks.tracks] == [0, 1, 2]
