@@ -207,6 +207,7 @@ def test_bad_arrays_are_refused_not_read(change, error, match) -> None:
             None,
             None,
             -1,
+            None,
         )
 
 
@@ -227,7 +228,7 @@ def test_an_angle_index_outside_the_state_is_refused(angle: int) -> None:
     x, P, mu = ground_bank(rng, 1)
     with pytest.raises(ValueError, match="angle index"):
         kalman._kalman.predict(
-            1, 3, 6, 1, x, P, mu, None, np.full(1, 0.04), BANK.parameters, None, None, None, angle
+            1, 3, 6, 1, x, P, mu, None, np.full(1, 0.04), BANK.parameters, None, None, None, angle, None
         )
     with pytest.raises(ValueError, match="angle index"):
         combine(mu, x, P, angle)

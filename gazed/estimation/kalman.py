@@ -91,9 +91,11 @@ def predict(
     mu: np.ndarray | None = None,
     J: np.ndarray | None = None,
     angle_index: int | None = None,
+    q_scale: np.ndarray | None = None,
 ) -> None:
     """The selected tracks over dt (K,) seconds, in place: mixed first when J (M, M) is given
-    (J[i, j] = P(model j next | model i now); mu becomes c̄)."""
+    (J[i, j] = P(model j next | model i now); mu becomes c̄). q_scale (K,) multiplies each
+    selected track's ground-model Q (None: 1)."""
     N, M, n = x.shape
     rows, K = _selection(idx, N)
     _kalman.predict(
@@ -111,6 +113,7 @@ def predict(
         floats(F),
         floats(Q),
         angle_code(angle_index),
+        floats(q_scale),
     )
 
 
@@ -177,14 +180,22 @@ def correct(
 
 
 def forecast(
-    x: np.ndarray, P: np.ndarray, mu: np.ndarray, idx: Index, dt: np.ndarray, ground: np.ndarray
+    x: np.ndarray,
+    P: np.ndarray,
+    mu: np.ndarray,
+    idx: Index,
+    dt: np.ndarray,
+    ground: np.ndarray,
+    q_scale: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """A ground IMM's selected tracks dt (K,) >= 0 ahead, unchanged: the mixture's mean
-    [X, Y, Ẋ, Ẏ] (K, 4) and covariance (K, 4, 4). A dt that is negative or not finite is a
-    ValueError (as in `predict`)."""
+    [X, Y, Ẋ, Ẏ] (K, 4) and covariance (K, 4, 4), with Q times q_scale (K,) (None: 1). A dt
+    that is negative or not finite is a ValueError (as in `predict`)."""
     N, M, _ = x.shape
     rows, K = _selection(idx, N)
     mean = np.empty((K, 4))
     cov = np.empty((K, 4, 4))
-    _kalman.forecast(N, M, K, x, P, mu, rows, floats(dt), floats(ground), mean, cov)
+    _kalman.forecast(
+        N, M, K, x, P, mu, rows, floats(dt), floats(ground), mean, cov, floats(q_scale)
+    )
     return mean, cov
