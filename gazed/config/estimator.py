@@ -95,7 +95,7 @@ class EstimatorSection(Section):
         "25 observations of two axes has a relative std near 1/sqrt(25) = 20 %).",
     )
     noise_prior_obs: float = Field(
-        3.0,
+        5.0,
         gt=0,
         le=10000,
         description="Noise adaptation: the prior's weight in observations.",

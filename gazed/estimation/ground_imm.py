@@ -55,7 +55,11 @@ class ImmEstimator(TrackEstimator):
         self, idx: np.ndarray, zv: np.ndarray, Rv: np.ndarray, interval_s: np.ndarray
     ) -> None:
         """Polar state from position and velocity: s = |v|, θ = atan2(vy, vx), with
-        cov = T Rv Tᵀ, T the Jacobian of (v -> s, θ); ṡ, θ̇ start at 0."""
+        cov = T Rv Tᵀ, T the Jacobian of (v -> s, θ); ṡ, θ̇ start at 0. With adaptation, Rv
+        holds the prior position noise where it exceeds the measurements' own."""
+        if self.adaptation is not None:
+            self.adaptation.reset(idx)
+            Rv = self.adaptation.start_cov(Rv, interval_s)
         vx, vy = zv[:, 2], zv[:, 3]
         s = np.hypot(vx, vy)
         s_safe = np.maximum(s, 1e-9)
@@ -80,8 +84,6 @@ class ImmEstimator(TrackEstimator):
         self.imm.x[idx] = x[:, None, :]
         self.imm.P[idx] = P[:, None]
         self.imm.mu[idx] = 1.0 / M
-        if self.adaptation is not None:
-            self.adaptation.reset(idx)
 
     def _q_scale(self, idx: slice | np.ndarray) -> np.ndarray | None:
         return None if self.adaptation is None else self.adaptation.q_scale(idx)

@@ -57,15 +57,19 @@ class NoiseAdaptation:
         self.scale_bounds = (1.0 / scale_max, scale_max)
         self.alpha = np.full(n_tracks, prior_obs)
         self.beta = np.full(n_tracks, prior_obs * prior_variance_m2)
-        self.scale_weight = np.full(n_tracks, prior_obs)
-        self.scale_sum = np.full(n_tracks, prior_obs)
+        self.previous = np.zeros((n_tracks, 2))
+        self.energy = np.full(n_tracks, 2.0 * prior_obs * prior_variance_m2)
+        self.lag = np.zeros(n_tracks)
+        self.log_scale = np.zeros(n_tracks)
 
     def reset(self, idx: Index) -> None:
         """The tracks idx start again from the prior."""
         self.alpha[idx] = self.prior_obs
         self.beta[idx] = self.prior_obs * self.prior_variance_m2
-        self.scale_weight[idx] = self.prior_obs
-        self.scale_sum[idx] = self.prior_obs
+        self.previous[idx] = 0.0
+        self.energy[idx] = 2.0 * self.prior_obs * self.prior_variance_m2
+        self.lag[idx] = 0.0
+        self.log_scale[idx] = 0.0
 
     def variance_m2(self, idx: Index = slice(None)) -> np.ndarray:
         """r̂ (K,): the estimated variance of each position axis."""
@@ -73,7 +77,7 @@ class NoiseAdaptation:
 
     def q_scale(self, idx: Index = slice(None)) -> np.ndarray:
         """λ̂ (K,): the factor on every model's process noise."""
-        return np.clip(self.scale_sum[idx] / self.scale_weight[idx], *self.scale_bounds)
+        return np.exp(self.log_scale[idx])
 
     def measurement_cov(self, idx: Index, R: np.ndarray) -> np.ndarray:
         """The covariance (K, m, m) the filter uses: R with its position block raised to r̂ on
@@ -84,6 +88,25 @@ class NoiseAdaptation:
         R[:, 0, 0] += extra
         R[:, 1, 1] += extra
         return R
+
+    def start_cov(self, Rv: np.ndarray, interval_s: np.ndarray) -> np.ndarray:
+        """The covariance (K, 4, 4) of a track's first [p, v] with the prior noise r₀ as the
+        floor of each position: a velocity from two positions dt apart (interval_s, NaN when
+        the velocity was measured) shares it as v = (z1 - z0)/dt does."""
+        extra = np.maximum(
+            self.prior_variance_m2 - np.trace(Rv[:, :2, :2], axis1=1, axis2=2) / 2, 0
+        )
+        differenced = np.isfinite(interval_s)
+        dt = np.where(differenced, interval_s, 1.0)
+        cross = np.where(differenced, extra / dt, 0.0)
+        velocity = np.where(differenced, 2.0 * extra / dt**2, 0.0)
+        Rv = Rv.copy()
+        for axis in (0, 1):
+            Rv[:, axis, axis] += extra
+            Rv[:, axis, axis + 2] += cross
+            Rv[:, axis + 2, axis] += cross
+            Rv[:, axis + 2, axis + 2] += velocity
+        return Rv
 
     def observe(
         self,
@@ -99,10 +122,16 @@ class NoiseAdaptation:
         (K, 2, 2), the residual ε (K, 2) and H P⁺ Hᵀ (K, 2, 2) after the update."""
         rho = self.forgetting
         predicted = np.trace(predicted_cov, axis1=1, axis2=2)
-        excess = np.sum(innovation**2, axis=-1) - np.trace(R, axis1=1, axis2=2)
-        proposal = self.q_scale(idx) * excess / np.maximum(predicted, 1e-300)
-        self.scale_weight[idx] = rho * self.scale_weight[idx] + 1.0
-        self.scale_sum[idx] = rho * self.scale_sum[idx] + proposal
-        spread = np.sum(residual**2, axis=-1) + np.trace(updated_cov, axis1=1, axis2=2)
+        energy = np.sum(innovation**2, axis=-1)
+        # zero lag: E|ν|² = tr H P⁻ Hᵀ + tr R  ->  the measurement noise
         self.alpha[idx] = rho * self.alpha[idx] + 1.0
-        self.beta[idx] = rho * self.beta[idx] + 0.5 * spread
+        self.beta[idx] = rho * self.beta[idx] + 0.5 * np.maximum(energy - predicted, 0.0)
+        # lag one: white innovations (Mehra 1970) -> the process-noise scale
+        lag = np.sum(innovation * self.previous[idx], axis=-1)
+        self.energy[idx] = rho * self.energy[idx] + energy
+        self.lag[idx] = rho * self.lag[idx] + lag
+        self.previous[idx] = innovation
+        correlation = self.lag[idx] / np.maximum(self.energy[idx], 1e-300)
+        self.log_scale[idx] = np.clip(
+            self.log_scale[idx] + correlation * (1.0 - rho) * 4, *np.log(self.scale_bounds)
+        )
