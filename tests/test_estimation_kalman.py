@@ -228,7 +228,21 @@ def test_an_angle_index_outside_the_state_is_refused(angle: int) -> None:
     x, P, mu = ground_bank(rng, 1)
     with pytest.raises(ValueError, match="angle index"):
         kalman._kalman.predict(
-            1, 3, 6, 1, x, P, mu, None, np.full(1, 0.04), BANK.parameters, None, None, None, angle, None
+            1,
+            3,
+            6,
+            1,
+            x,
+            P,
+            mu,
+            None,
+            np.full(1, 0.04),
+            BANK.parameters,
+            None,
+            None,
+            None,
+            angle,
+            None,
         )
     with pytest.raises(ValueError, match="angle index"):
         combine(mu, x, P, angle)

@@ -1,0 +1,123 @@
+"""The IMM's noise adaptation: each track learns its position noise and process-noise scale."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from gazed.config import EstimatorSection
+from gazed.estimation import Measurement, build_estimator
+from gazed.estimation.ground_imm import ImmEstimator
+from gazed.estimation.noise_adaptation import NoiseAdaptation
+from gazed.eval.scenario_reports import rounded_square_report
+
+FLOOR_M2 = 1e-6  # the measurements' own covariance: almost nothing known
+
+
+def walk(
+    seed: int, n: int, period_s: float, noise_m2: np.ndarray | float, process: float = 0.0
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A walker at about 1 m/s whose heading and speed random-walk with variance rate `process`
+    ((rad/s)²·s and (m/s²)²·s), measured with position variance noise_m2 (scalar or (n,))."""
+    rng = np.random.default_rng(seed)
+    xy, speed, heading = np.zeros(2), 1.0, 0.0
+    truth = np.empty((n, 2))
+    for k in range(n):
+        truth[k] = xy
+        heading += rng.normal(0.0, np.sqrt(process * period_s))
+        speed = max(0.2, speed + rng.normal(0.0, np.sqrt(process * period_s)))
+        xy = xy + speed * period_s * np.array([np.cos(heading), np.sin(heading)])
+    std = np.sqrt(np.broadcast_to(noise_m2, (n,)))[:, None]
+    return np.arange(n) * period_s, truth, truth + rng.normal(0.0, 1.0, truth.shape) * std
+
+
+def run(section: EstimatorSection, t: np.ndarray, z: np.ndarray) -> ImmEstimator:
+    estimator = build_estimator(section)
+    assert isinstance(estimator, ImmEstimator)
+    for ti, zi in zip(t, z, strict=True):
+        estimator.update(Measurement.ground(ti, zi, np.eye(2) * FLOOR_M2))
+    return estimator
+
+
+def prediction_error_m(
+    section: EstimatorSection, t: np.ndarray, truth: np.ndarray, z: np.ndarray, ahead: int
+) -> float:
+    """Mean distance between the prediction `ahead` observations on and the true position; a
+    filter that does not adapt is told the configured noise, as `gazed eval estimator` does."""
+    estimator = build_estimator(section)
+    R = np.eye(2) * (FLOOR_M2 if section.adapt_noise else section.position_noise_m**2)
+    errors = []
+    for k, (ti, zi) in enumerate(zip(t, z, strict=True)):
+        estimator.update(Measurement.ground(ti, zi, R))
+        if k >= 10 and k + ahead < len(t):
+            p = estimator.predict(t[k + ahead])
+            assert p is not None
+            errors.append(np.linalg.norm(p.position - truth[k + ahead]))
+    return float(np.mean(errors))
+
+
+@pytest.mark.parametrize("noise_m2", [0.0025, 0.04])
+def test_the_position_noise_converges_to_the_injected_noise(noise_m2: float) -> None:
+    t, _, z = walk(1, 400, 0.1, noise_m2)
+    estimator = run(EstimatorSection(), t, z)
+    assert estimator.adaptation is not None
+    assert estimator.adaptation.variance_m2()[0] == pytest.approx(noise_m2, rel=0.2)
+
+
+def test_the_position_noise_follows_a_step_change() -> None:
+    noise = np.where(np.arange(400) < 200, 0.0025, 0.04)
+    t, _, z = walk(2, 400, 0.1, noise)
+    section = EstimatorSection()
+    before = run(section, t[:200], z[:200]).adaptation
+    after = run(section, t, z).adaptation
+    assert before is not None and after is not None
+    assert before.variance_m2()[0] == pytest.approx(0.0025, rel=0.3)
+    assert after.variance_m2()[0] == pytest.approx(0.04, rel=0.3)
+
+
+def test_the_process_noise_scale_grows_with_the_injected_process_noise() -> None:
+    """A walker who turns more than the models expect raises the scale, one who turns less
+    lowers it; both stay inside the configured bounds."""
+    section = EstimatorSection()
+    scales = []
+    for process in (0.01, 1.0):
+        t, _, z = walk(3, 600, 0.1, 1e-4, process)
+        adaptation = run(section, t, z).adaptation
+        assert adaptation is not None
+        scales.append(float(adaptation.q_scale()[0]))
+    assert scales[0] < 1.0 < scales[1]
+    bound = section.process_noise_scale_max
+    assert all(1.0 / bound - 1e-9 <= s <= bound + 1e-9 for s in scales)
+
+
+def test_adaptation_beats_the_fixed_noise_on_a_clean_track_and_not_worse_on_a_noisy_one() -> None:
+    adaptive, fixed = EstimatorSection(), EstimatorSection(adapt_noise=False)
+    t, truth, z = walk(4, 300, 0.1, 1e-6, 0.1)
+    clean = [prediction_error_m(s, t, truth, z, 4) for s in (adaptive, fixed)]
+    assert clean[0] < 0.7 * clean[1]
+    t, truth, z = walk(5, 300, 0.1, adaptive.position_noise_m**2, 0.1)
+    noisy = [prediction_error_m(s, t, truth, z, 4) for s in (adaptive, fixed)]
+    assert noisy[0] <= 1.1 * noisy[1]
+
+
+def test_model_probabilities_still_switch_on_the_turns() -> None:
+    report = rounded_square_report(EstimatorSection(), 0, None)
+    for segment in report["true_segments"]:
+        p = segment["mean_probability"]
+        assert max(p, key=p.__getitem__) == segment["model"]
+    assert report["switch_delay_obs"]["median"] <= 12
+
+
+def test_the_measurement_covariance_stays_a_floor() -> None:
+    adaptation = NoiseAdaptation(
+        2, prior_variance_m2=0.01, prior_obs=5, window_obs=25, scale_max=10
+    )
+    R = np.array([np.eye(2) * 0.04, np.eye(2) * 1e-4])
+    used = adaptation.measurement_cov(slice(None), R)
+    np.testing.assert_allclose(used[0], R[0])  # the geometry's is larger: kept
+    np.testing.assert_allclose(used[1], np.eye(2) * 0.01)  # raised to the estimate
+
+
+def test_bad_settings_are_refused() -> None:
+    with pytest.raises(ValueError, match="noise adaptation"):
+        NoiseAdaptation(1, prior_variance_m2=0.0, prior_obs=5, window_obs=25, scale_max=10)
