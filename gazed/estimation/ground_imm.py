@@ -94,9 +94,15 @@ class ImmEstimator(TrackEstimator):
     def _innovate(
         self, idx: slice | np.ndarray, z: np.ndarray, R: np.ndarray
     ) -> tuple[np.ndarray, Innovation]:
+        """With adaptation, R is the adapted one, and every innovation, gated or not, is
+        evidence for the noise estimates (bounded by the gate, see `noise_adaptation`)."""
         if self.adaptation is not None:
             R = self.adaptation.measurement_cov(idx, R)
         innovation = self.imm.innovate(idx, z, R)
+        if self.adaptation is not None:
+            x, P = self.imm.combined(idx)
+            position = z[:, :2] - x[:, :2]
+            self.adaptation.observe(idx, position, P[:, :2, :2], R[:, :2, :2], self._gate[2])
         return innovation.nis.min(axis=-1), innovation
 
     def _correct(
@@ -105,23 +111,7 @@ class ImmEstimator(TrackEstimator):
         if inside is not None:
             idx = np.arange(self.n_tracks)[idx][inside]
             handle = handle.rows(inside)
-        if self.adaptation is None:
-            self.imm.correct(idx, handle)  # a negative speed comes out positive, heading turned
-            return
-        x_predicted, P_predicted = self.imm.combined(idx)
-        z = handle.y[:, 0, :2] + self.imm.x[idx, 0, :2]  # any model's ν plus its h(x)
-        self.imm.correct(idx, handle)
-        x_updated, P_updated = self.imm.combined(idx)
-        innovation = z - x_predicted[:, :2]
-        residual = z - x_updated[:, :2]
-        self.adaptation.observe(
-            idx,
-            innovation,
-            P_predicted[:, :2, :2],
-            handle.R[:, :2, :2],
-            residual,
-            P_updated[:, :2, :2],
-        )
+        self.imm.correct(idx, handle)  # a negative speed comes out positive, heading turned
 
     def _forecast(self, idx: slice | np.ndarray, dt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Each model predicted dt ahead without mixing, mapped to [X, Y, s cos θ, s sin θ]

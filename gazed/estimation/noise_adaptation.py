@@ -1,29 +1,37 @@
 """Each track's measurement noise and process-noise scale, learnt from its own innovations.
 
-Two per-track estimates, both recursive over an exponentially fading window of
-`window_obs` observations (forgetting factor ρ = 1 - 1/window_obs) and both starting from a
-prior worth `prior_obs` observations:
+A consistent filter's innovations ν = z - H x⁻ are white with covariance H P⁻ Hᵀ + R (Mehra
+1970, IEEE TAC 15(2); 1972, IEEE TAC 17(5)). The two conditions give two per-track estimates,
+both over an exponentially fading window of `window_obs` observations (forgetting factor
+ρ = 1 - 1/window_obs), on the position components:
 
-- **Measurement noise** r (m², the variance of each position axis): the variational-Bayes
-  adaptive Kalman filter of Särkkä & Nummenmaa (2009, IEEE TAC 54(3)), with an inverse-gamma
-  density IG(α, β) on r. At each observation its prediction fades the evidence, α <- ρα,
-  β <- ρβ, and its update adds the two axes: α += 1, β += ½(|ε|² + tr H P⁺ Hᵀ), with ε = z - H x⁺
-  the residual after the update. The estimate is r̂ = β/α. The same statistic,
-  E[εεᵀ] + H P⁺ Hᵀ = R, is the residual form of covariance matching (Myers & Tapley 1976, IEEE
-  TAC 21(4)). One pass per observation replaces the paper's fixed-point iteration (its
-  first iterate). The prior is IG(n₀, n₀ r₀): mean r₀ (`prior_variance_m2`), n₀ = prior_obs.
-- **Process-noise scale** λ, a common factor on every model's Q: covariance matching of the
-  innovation (Mehra 1972, IEEE TAC 17(5); the scale-factor form of Ding et al. 2007, J. Navigation
-  60(3)). A consistent filter has E|ν|² = tr(H P⁻ Hᵀ) + tr R with ν = z - H x⁻, so each accepted
-  observation proposes λ·(|ν|² - tr R) / tr(H P⁻ Hᵀ), the value that would make it consistent
-  given the λ it was predicted with. λ̂ is the fading average of the proposals with the prior
-  value 1 counted n₀ times, kept within [1/scale_max, scale_max]. A common factor leaves the
-  ratios between the models' noises, which is what the IMM's model probabilities compare, as
-  configured; the bound keeps one model from covering every maneuver with its noise.
+- **Measurement noise** r (m², the variance of each position axis), from the zero lag:
+  covariance matching of the innovation, R̂ = E[ννᵀ] - H P⁻ Hᵀ (Myers & Tapley 1976, IEEE TAC
+  21(4)), kept in the conjugate inverse-gamma form of the variational-Bayes adaptive filter
+  (Särkkä & Nummenmaa 2009, IEEE TAC 54(3)): r ~ IG(α, β), each observation fades the
+  evidence, α <- ρα, β <- ρβ (their heuristic dynamics), and adds its two axes, α += 1,
+  β += ½ max(|ν|² - tr H P⁻ Hᵀ, 0); r̂ = β/α. The prior IG(n₀, n₀ r₀) has the mean r₀
+  (`prior_variance_m2`) and the weight of n₀ = `prior_obs` observations. A noise cannot be
+  negative: each observation's share is clipped at 0, which errs towards more smoothing where
+  the models predict more spread than the innovations show.
+- **Process-noise scale** λ, a common factor on every model's Q, from the lag one: a filter
+  whose process noise is too small lags, and its successive innovations correlate positively;
+  one whose process noise is too large overshoots, and they alternate. c₁ = Σ ν_k·ν_{k-1} /
+  Σ |ν_k|² (both fading) is their lag-one correlation coefficient, and log λ moves by
+  c₁ · SCALE_RATE / window_obs per observation towards white innovations (a stochastic
+  approximation of Mehra's whiteness condition), within [1/scale_max, scale_max]. A common
+  factor leaves the ratios between the models' noises, which the IMM's model probabilities
+  compare, as configured; the bound keeps the noise from covering every maneuver. Smooth,
+  correlated accelerations (a walker's gait) keep c₁ positive at any λ, so on clean tracks λ
+  rests on its upper bound.
+
+An innovation beyond the chi-square gate (νᵀ S⁻¹ ν above `gate`) is evidence too, counted as
+one on the gate: a track whose noise is underestimated sees its gated innovations and recovers,
+and an outlier moves the estimates no more than a measurement on the gate.
 
 The measurement's own covariance (the geometry's, in the live loop) is a floor: the filter
-uses R + max(r̂ - tr R / 2, 0) I on the position block. Only the position components are
-adapted; a measured velocity keeps its own covariance.
+uses R + max(r̂ - tr R / 2, 0) I on the position block. A measured velocity keeps its own
+covariance.
 """
 
 from __future__ import annotations
@@ -31,6 +39,9 @@ from __future__ import annotations
 import numpy as np
 
 Index = slice | np.ndarray
+
+# windows over which a fully correlated innovation sequence changes λ by a factor e: a quarter
+SCALE_RATE = 4.0
 
 
 class NoiseAdaptation:
@@ -57,6 +68,8 @@ class NoiseAdaptation:
         self.scale_bounds = (1.0 / scale_max, scale_max)
         self.alpha = np.full(n_tracks, prior_obs)
         self.beta = np.full(n_tracks, prior_obs * prior_variance_m2)
+        # the lag-one sums start from the prior's innovation energy, uncorrelated, so that the
+        # first few innovations do not swing λ
         self.previous = np.zeros((n_tracks, 2))
         self.energy = np.full(n_tracks, 2.0 * prior_obs * prior_variance_m2)
         self.lag = np.zeros(n_tracks)
@@ -114,12 +127,15 @@ class NoiseAdaptation:
         innovation: np.ndarray,
         predicted_cov: np.ndarray,
         R: np.ndarray,
-        residual: np.ndarray,
-        updated_cov: np.ndarray,
+        gate: float,
     ) -> None:
-        """One accepted observation of the tracks idx: the position innovation ν (K, 2) and the
-        predicted covariance H P⁻ Hᵀ (K, 2, 2) it was judged with, the position block of R used
-        (K, 2, 2), the residual ε (K, 2) and H P⁺ Hᵀ (K, 2, 2) after the update."""
+        """One observation of the tracks idx, gated or not: the position innovation ν (K, 2),
+        the predicted covariance H P⁻ Hᵀ (K, 2, 2) and the position block of R (K, 2, 2) it was
+        judged with. An innovation beyond the gate (its νᵀ S⁻¹ ν above `gate`) counts as one on
+        the gate."""
+        S = predicted_cov + R
+        nis = np.einsum("ki,ki->k", innovation, np.linalg.solve(S, innovation[..., None])[..., 0])
+        innovation = innovation * np.sqrt(np.minimum(1.0, gate / np.maximum(nis, 1e-300)))[:, None]
         rho = self.forgetting
         predicted = np.trace(predicted_cov, axis1=1, axis2=2)
         energy = np.sum(innovation**2, axis=-1)
@@ -133,5 +149,6 @@ class NoiseAdaptation:
         self.previous[idx] = innovation
         correlation = self.lag[idx] / np.maximum(self.energy[idx], 1e-300)
         self.log_scale[idx] = np.clip(
-            self.log_scale[idx] + correlation * (1.0 - rho) * 4, *np.log(self.scale_bounds)
+            self.log_scale[idx] + correlation * SCALE_RATE * (1.0 - rho),
+            *np.log(self.scale_bounds),
         )
