@@ -11,6 +11,11 @@ import pytest
 from gazed.cli import main
 from gazed.config import EstimatorSection
 from gazed.eval.pedestrians import TrackFileError, read_tracks
+from gazed.eval.scenario_reports import (
+    ideal_switch_delay_obs,
+    switch_threshold_nats,
+    turn_evidence_nats,
+)
 from gazed.eval.track_prediction import track_errors
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "pedestrians"
@@ -46,6 +51,7 @@ def test_rounded_square_report(capsys) -> None:
     )
     assert [s["model"] for s in report["true_segments"]] == ["CSD", "CS"] * 4
     assert report["switch_delay_obs"]["median"] <= 12
+    assert report["switch_delay_obs"]["ratio_to_ideal"] <= 1.5
     assert report["turn_rate_rel_error"] < 0.2
     assert report["turn_rate_rel_error_combined"] > report["turn_rate_rel_error"]
 
@@ -63,6 +69,29 @@ def test_rounded_square_switches_sooner_on_better_velocity_measurements(capsys) 
         assert report["velocity_noise_m_s"] == float(noise)
         delays.append(report["switch_delay_obs"]["median"])
     assert delays[1] < delays[0]
+
+
+def test_the_ideal_detectors_evidence_is_the_derived_one() -> None:
+    """docs/estimation.md: at 45°/s, T = 0.04 s, σ_p = 0.05 m, σ_v = 0.2 m/s the expected
+    evidence is 0.18, 0.40, 0.75, 1.30 nats after 3-6 observations and 3.2 after 8; a straight
+    path's own first observation differs by ωT in heading alone."""
+    motion = {
+        "speed_m_s": 1.0,
+        "turn_rate_rad_s": np.radians(45.0),
+        "period_s": 0.04,
+        "position_noise_m": 0.05,
+        "velocity_noise_m_s": 0.2,
+    }
+    evidence = turn_evidence_nats(8, **motion)
+    np.testing.assert_allclose(evidence[[2, 3, 4, 5, 7]], [0.18, 0.40, 0.75, 1.30, 3.2], atol=0.01)
+    u = np.radians(45.0) * 0.04
+    first = (np.hypot(np.sin(u) - u, 1 - np.cos(u)) / np.radians(45.0)) ** 2 / (2 * 0.05**2)
+    assert evidence[0] == pytest.approx(first + (2 * np.sin(u / 2)) ** 2 / (2 * 0.2**2))
+    assert ideal_switch_delay_obs(3.0, **motion) == 7  # on the 8th observation
+    assert ideal_switch_delay_obs(4.0, **motion) == 8  # on the 9th: 4.7 nats
+    slower = ideal_switch_delay_obs(4.0, **{**motion, "velocity_noise_m_s": 0.4})
+    assert slower > 8
+    assert switch_threshold_nats(0.96, 3) == pytest.approx(np.log(48.0))
 
 
 def test_kelly_report_text(capsys) -> None:
