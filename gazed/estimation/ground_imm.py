@@ -99,11 +99,13 @@ class ImmEstimator(TrackEstimator):
         if self.adaptation is not None:
             R = self.adaptation.measurement_cov(idx, R)
         innovation = self.imm.innovate(idx, z, R)
+        statistic = innovation.nis.min(axis=-1)
         if self.adaptation is not None:
             x, P = self.imm.combined(idx)
-            position = z[:, :2] - x[:, :2]
-            self.adaptation.observe(idx, position, P[:, :2, :2], R[:, :2, :2], self._gate[2])
-        return innovation.nis.min(axis=-1), innovation
+            to_gate = self._gate[z.shape[-1]] / np.maximum(statistic, 1e-300)
+            position = (z[:, :2] - x[:, :2]) * np.sqrt(np.minimum(to_gate, 1.0))[:, None]
+            self.adaptation.observe(idx, position, P[:, 0, 0] + P[:, 1, 1])
+        return statistic, innovation
 
     def _correct(
         self, idx: slice | np.ndarray, handle: Innovation, inside: np.ndarray | None

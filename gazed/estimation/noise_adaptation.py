@@ -25,9 +25,10 @@ both over an exponentially fading window of `window_obs` observations (forgettin
   correlated accelerations (a walker's gait) keep c₁ positive at any λ, so on clean tracks λ
   rests on its upper bound.
 
-An innovation beyond the chi-square gate (νᵀ S⁻¹ ν above `gate`) is evidence too, counted as
-one on the gate: a track whose noise is underestimated sees its gated innovations and recovers,
-and an outlier moves the estimates no more than a measurement on the gate.
+An innovation beyond the chi-square gate is evidence too, shortened to the gate (scaled so that
+its gate statistic equals the gate's value): a track whose noise is underestimated sees its gated
+innovations and recovers, and an outlier moves the estimates no more than a measurement on the
+gate.
 
 The measurement's own covariance (the geometry's, in the live loop) is a floor: the filter
 uses R + max(r̂ - tr R / 2, 0) I on the position block. A measured velocity keeps its own
@@ -65,7 +66,7 @@ class NoiseAdaptation:
         self.prior_variance_m2 = prior_variance_m2
         self.prior_obs = prior_obs
         self.forgetting = 1.0 - 1.0 / window_obs
-        self.scale_bounds = (1.0 / scale_max, scale_max)
+        self.log_scale_bounds = (-np.log(scale_max), np.log(scale_max))
         self.alpha = np.full(n_tracks, prior_obs)
         self.beta = np.full(n_tracks, prior_obs * prior_variance_m2)
         # the lag-one sums start from the prior's innovation energy, uncorrelated, so that the
@@ -121,34 +122,18 @@ class NoiseAdaptation:
             Rv[:, axis + 2, axis + 2] += velocity
         return Rv
 
-    def observe(
-        self,
-        idx: Index,
-        innovation: np.ndarray,
-        predicted_cov: np.ndarray,
-        R: np.ndarray,
-        gate: float,
-    ) -> None:
+    def observe(self, idx: Index, innovation: np.ndarray, predicted_m2: np.ndarray) -> None:
         """One observation of the tracks idx, gated or not: the position innovation ν (K, 2),
-        the predicted covariance H P⁻ Hᵀ (K, 2, 2) and the position block of R (K, 2, 2) it was
-        judged with. An innovation beyond the gate (its νᵀ S⁻¹ ν above `gate`) counts as one on
-        the gate."""
-        S = predicted_cov + R
-        nis = np.einsum("ki,ki->k", innovation, np.linalg.solve(S, innovation[..., None])[..., 0])
-        innovation = innovation * np.sqrt(np.minimum(1.0, gate / np.maximum(nis, 1e-300)))[:, None]
+        already shortened to the gate when beyond it, and tr H P⁻ Hᵀ (K,) of its prediction."""
         rho = self.forgetting
-        predicted = np.trace(predicted_cov, axis1=1, axis2=2)
-        energy = np.sum(innovation**2, axis=-1)
+        energy = np.einsum("ki,ki->k", innovation, innovation)
         # zero lag: E|ν|² = tr H P⁻ Hᵀ + tr R  ->  the measurement noise
         self.alpha[idx] = rho * self.alpha[idx] + 1.0
-        self.beta[idx] = rho * self.beta[idx] + 0.5 * np.maximum(energy - predicted, 0.0)
+        self.beta[idx] = rho * self.beta[idx] + 0.5 * np.maximum(energy - predicted_m2, 0.0)
         # lag one: white innovations (Mehra 1970) -> the process-noise scale
-        lag = np.sum(innovation * self.previous[idx], axis=-1)
-        self.energy[idx] = rho * self.energy[idx] + energy
-        self.lag[idx] = rho * self.lag[idx] + lag
+        lag = np.einsum("ki,ki->k", innovation, self.previous[idx])
         self.previous[idx] = innovation
-        correlation = self.lag[idx] / np.maximum(self.energy[idx], 1e-300)
-        self.log_scale[idx] = np.clip(
-            self.log_scale[idx] + correlation * SCALE_RATE * (1.0 - rho),
-            *np.log(self.scale_bounds),
-        )
+        energy = self.energy[idx] = rho * self.energy[idx] + energy
+        lag = self.lag[idx] = rho * self.lag[idx] + lag
+        step = SCALE_RATE * (1.0 - rho) * lag / energy
+        self.log_scale[idx] = np.clip(self.log_scale[idx] + step, *self.log_scale_bounds)

@@ -26,8 +26,9 @@ from gazed.eval.pedestrians import Track, read_tracks
 
 DATA_FILTERS = ("imm", "cv", "ca", "alphabeta", "innovation")
 BASELINES = ("constant-position", "two-point", "cv-ml")
-# the files' positions are written to the centimetre: their rounding's variance is step²/12, the
-# floor under the noise an adapting filter learns (the prior is `position_noise_m`)
+# the coarsest rounding of the positions in the files read (the ETH/UCY files are written to the
+# centimetre, the annotated truth finer): its variance, step²/12, is the floor under the noise an
+# adapting filter learns (its prior is `position_noise_m`)
 RESOLUTION_M = 0.01
 
 
