@@ -121,3 +121,27 @@ def test_the_measurement_covariance_stays_a_floor() -> None:
 def test_bad_settings_are_refused() -> None:
     with pytest.raises(ValueError, match="noise adaptation"):
         NoiseAdaptation(1, prior_variance_m2=0.0, prior_obs=5, window_obs=25, scale_max=10)
+
+
+def test_a_track_whose_noise_is_underestimated_recovers() -> None:
+    """Noise three times the prior's std, a floor of nothing: the gated innovations still count,
+    so the estimate finds the noise and the track is not restarted."""
+    t, _, z = walk(6, 300, 0.1, 0.09)
+    estimator = run(EstimatorSection(), t, z)
+    assert estimator.adaptation is not None
+    assert estimator.adaptation.variance_m2()[0] == pytest.approx(0.09, rel=0.25)
+    assert estimator.health()["reinitialised"] == 0
+
+
+def test_a_restarted_track_starts_from_the_prior() -> None:
+    section = EstimatorSection()
+    t, _, z = walk(7, 200, 0.1, 0.04)
+    estimator = run(section, t, z)
+    adaptation = estimator.adaptation
+    assert adaptation is not None
+    assert adaptation.variance_m2()[0] == pytest.approx(0.04, rel=0.3)
+    later = t[-1] + 2 * section.coast_max_ms / 1000.0  # past the coast limit: a new track
+    for dt_s, xy in ((0.0, z[-1]), (0.1, z[-1] + 0.1)):
+        estimator.update(Measurement.ground(later + dt_s, xy, np.eye(2) * FLOOR_M2))
+    assert adaptation.variance_m2()[0] == pytest.approx(section.position_noise_m**2)
+    assert adaptation.q_scale()[0] == 1.0
