@@ -163,3 +163,15 @@ def test_a_restarted_track_starts_from_the_prior() -> None:
         estimator.update(Measurement.ground(later + dt_s, xy, np.eye(2) * FLOOR_M2))
     assert adaptation.variance_m2()[0] == pytest.approx(section.position_noise_m**2)
     assert adaptation.q_scale()[0] == 1.0
+
+
+def test_outliers_move_neither_estimate() -> None:
+    t, _, z = walk(8, 200, 0.1, 0.0025)
+    estimator = run(EstimatorSection(), t, z)
+    adaptation = estimator.adaptation
+    assert adaptation is not None
+    before = adaptation.variance_m2()[0], adaptation.q_scale()[0]
+    for k in range(1, 4):  # three detections of something 5 m away
+        estimator.update(Measurement.ground(t[-1] + 0.1 * k, z[-1] + 5.0, np.eye(2) * FLOOR_M2))
+    assert estimator.health()["gated"] == 3
+    assert (adaptation.variance_m2()[0], adaptation.q_scale()[0]) == before

@@ -93,27 +93,33 @@ class ImmEstimator(TrackEstimator):
 
     def _innovate(
         self, idx: slice | np.ndarray, z: np.ndarray, R: np.ndarray
-    ) -> tuple[np.ndarray, Innovation]:
-        """With adaptation, R is the adapted one, and every innovation, gated or not, is
-        evidence for the noise estimates (bounded by the gate, see `noise_adaptation`)."""
-        if self.adaptation is not None:
-            R = self.adaptation.measurement_cov(idx, R)
+    ) -> tuple[np.ndarray, tuple[Innovation, np.ndarray | None, np.ndarray | None]]:
+        """With adaptation, R is the adapted one, and the handle carries the combined position
+        innovation and tr H P⁻ Hᵀ for the noise estimates of the tracks the gate accepts."""
+        if self.adaptation is None:
+            innovation = self.imm.innovate(idx, z, R)
+            return innovation.nis.min(axis=-1), (innovation, None, None)
+        R = self.adaptation.measurement_cov(idx, R)
         innovation = self.imm.innovate(idx, z, R)
-        statistic = innovation.nis.min(axis=-1)
-        if self.adaptation is not None:
-            x, P = self.imm.combined(idx)
-            to_gate = self._gate[z.shape[-1]] / np.maximum(statistic, 1e-300)
-            position = (z[:, :2] - x[:, :2]) * np.sqrt(np.minimum(to_gate, 1.0))[:, None]
-            self.adaptation.observe(idx, position, P[:, 0, 0] + P[:, 1, 1])
-        return statistic, innovation
+        x, P = self.imm.combined(idx)
+        position = z[:, :2] - x[:, :2]
+        return innovation.nis.min(axis=-1), (innovation, position, P[:, 0, 0] + P[:, 1, 1])
 
     def _correct(
-        self, idx: slice | np.ndarray, handle: Innovation, inside: np.ndarray | None
+        self,
+        idx: slice | np.ndarray,
+        handle: tuple[Innovation, np.ndarray | None, np.ndarray | None],
+        inside: np.ndarray | None,
     ) -> None:
+        innovation, position, predicted_m2 = handle
         if inside is not None:
             idx = np.arange(self.n_tracks)[idx][inside]
-            handle = handle.rows(inside)
-        self.imm.correct(idx, handle)  # a negative speed comes out positive, heading turned
+            innovation = innovation.rows(inside)
+            if position is not None and predicted_m2 is not None:
+                position, predicted_m2 = position[inside], predicted_m2[inside]
+        self.imm.correct(idx, innovation)  # a negative speed comes out positive, heading turned
+        if self.adaptation is not None and position is not None and predicted_m2 is not None:
+            self.adaptation.observe(idx, position, predicted_m2)
 
     def _forecast(self, idx: slice | np.ndarray, dt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Each model predicted dt ahead without mixing, mapped to [X, Y, s cos θ, s sin θ]

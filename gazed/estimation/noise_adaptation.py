@@ -25,10 +25,10 @@ both over an exponentially fading window of `window_obs` observations (forgettin
   correlated accelerations (a walker's gait) keep c₁ positive at any λ, so on clean tracks λ
   rests on its upper bound.
 
-An innovation beyond the chi-square gate is evidence too, shortened to the gate (scaled so that
-its gate statistic equals the gate's value): a track whose noise is underestimated sees its gated
-innovations and recovers, and an outlier moves the estimates no more than a measurement on the
-gate.
+Only the innovations the chi-square gate accepts are evidence: an outlier (a detection of
+something else) moves neither estimate, so it cannot widen the gate for the next one. The prior
+in a track's first covariance (`start_cov`) keeps a track whose noise exceeds the floor inside
+its gate while the estimate grows.
 
 The measurement's own covariance (the geometry's, in the live loop) is a floor: the filter
 uses R + max(r̂ - tr R / 2, 0) I on the position block. A measured velocity keeps its own
@@ -123,8 +123,8 @@ class NoiseAdaptation:
         return Rv
 
     def observe(self, idx: Index, innovation: np.ndarray, predicted_m2: np.ndarray) -> None:
-        """One observation of the tracks idx, gated or not: the position innovation ν (K, 2),
-        already shortened to the gate when beyond it, and tr H P⁻ Hᵀ (K,) of its prediction."""
+        """One accepted observation of the tracks idx: the position innovation ν (K, 2) and
+        tr H P⁻ Hᵀ (K,) of its prediction."""
         rho = self.forgetting
         energy = np.einsum("ki,ki->k", innovation, innovation)
         # zero lag: E|ν|² = tr H P⁻ Hᵀ + tr R  ->  the measurement noise
