@@ -350,13 +350,15 @@ typedef struct {
 
 static Py_ssize_t track_of(const Bank *b, Py_ssize_t k) { return b->rows ? (Py_ssize_t)b->rows[k] : k; }
 
-/* mix (if J), then each model over dt: x' = f(x0) (ground) or F x0, P' = F P0 Fᵀ + Q; μ <- c̄.
-   F, Q (K, M, n, n) are the linear models' matrices (NULL for ground models) */
+/* a ground model's Q times the selected track k's factor λ (the noise each track learns,
+   noise_adaptation.py), if the bank has factors */
 static void scale_noise(const Bank *b, Py_ssize_t k, int n, double *Q) {
     if (!b->q_scale) return;
     for (int i = 0; i < n * n; i++) Q[i] *= b->q_scale[k];
 }
 
+/* mix (if J), then each model over dt: x' = f(x0) (ground) or F x0, P' = F P0 Fᵀ + λQ; μ <- c̄.
+   F, Q (K, M, n, n) are the linear models' matrices (NULL for ground models) */
 static void predict_rows(const Bank *b, const double *dt, const double *F_lin, const double *Q_lin) {
     int M = b->M, n = b->n, nn = n * n;
     for (Py_ssize_t k = 0; k < b->K; k++) {

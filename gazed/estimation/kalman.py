@@ -12,7 +12,8 @@ How the models move and are measured is one of two kinds:
 - linear (`F`, `Q` (K, M, n, n) for the step's intervals, `H` (m, n)): seed 003 eqs. (4)-(10).
 
 The equations, one comment each, are in `_kalman.c`:
-    predict:  mix (§5 step 1, with J and mu), x' = f(x0), P' = F P0 Fᵀ + Q, μ <- c̄
+    predict:  mix (§5 step 1, with J and mu), x' = f(x0), P' = F P0 Fᵀ + λQ, μ <- c̄
+              (λ: each track's factor on its ground models' Q, `q_scale`, default 1)
     innovate: ν = z - h(x), S = H P Hᵀ + R, K = P Hᵀ S⁻¹, NIS = νᵀ S⁻¹ ν, ℓ = log N(ν; 0, S)
     correct:  x + K ν, P = (I - K H) P (I - K H)ᵀ + K R Kᵀ (Joseph form), μ ∝ μ exp(ℓ) (§5 step 3)
     forecast: each ground model ahead without mixing, its [X, Y, Ẋ, Ẏ], moments combined
