@@ -12,6 +12,7 @@ from gazed.estimation.noise_adaptation import NoiseAdaptation
 from gazed.eval.scenario_reports import rounded_square_report
 
 FLOOR_M2 = 1e-6  # the measurements' own covariance: almost nothing known
+ADAPTIVE = EstimatorSection(adapt_noise=True)
 
 
 def walk(
@@ -66,7 +67,7 @@ def prediction_error_m(
 @pytest.mark.parametrize("noise_m2", [0.0025, 0.04])
 def test_the_position_noise_converges_to_the_injected_noise(noise_m2: float) -> None:
     t, _, z = walk(1, 400, 0.1, noise_m2)
-    estimator = run(EstimatorSection(), t, z)
+    estimator = run(ADAPTIVE, t, z)
     assert estimator.adaptation is not None
     assert estimator.adaptation.variance_m2()[0] == pytest.approx(noise_m2, rel=0.2)
 
@@ -74,7 +75,7 @@ def test_the_position_noise_converges_to_the_injected_noise(noise_m2: float) -> 
 def test_the_position_noise_follows_a_step_change() -> None:
     noise = np.where(np.arange(400) < 200, 0.0025, 0.04)
     t, _, z = walk(2, 400, 0.1, noise)
-    section = EstimatorSection()
+    section = ADAPTIVE
     before = run(section, t[:200], z[:200]).adaptation
     after = run(section, t, z).adaptation
     assert before is not None and after is not None
@@ -88,7 +89,7 @@ def test_the_process_noise_scale_converges_to_the_injected_scale(injected: float
     logarithms) over the track after its first 200 observations, is within a factor of two of
     it. (The IMM's CS and CD models add noise of their own, so λ̂ sits somewhat below.)"""
     t, _, z = walk(2, 800, 0.1, 1e-4, injected)
-    estimator = build_estimator(EstimatorSection())
+    estimator = build_estimator(ADAPTIVE)
     assert isinstance(estimator, ImmEstimator) and estimator.adaptation is not None
     logs = []
     for k, (ti, zi) in enumerate(zip(t, z, strict=True)):
@@ -99,7 +100,7 @@ def test_the_process_noise_scale_converges_to_the_injected_scale(injected: float
 
 
 def test_the_process_noise_scale_stays_within_its_bounds() -> None:
-    section = EstimatorSection()
+    section = ADAPTIVE
     bound = section.process_noise_scale_max
     for injected in (1e-4, 1000.0):
         t, _, z = walk(3, 400, 0.1, 1e-4, injected)
@@ -109,7 +110,7 @@ def test_the_process_noise_scale_stays_within_its_bounds() -> None:
 
 
 def test_adaptation_beats_the_fixed_noise_on_a_clean_track_and_not_worse_on_a_noisy_one() -> None:
-    adaptive, fixed = EstimatorSection(), EstimatorSection(adapt_noise=False)
+    adaptive, fixed = ADAPTIVE, EstimatorSection(adapt_noise=False)
     t, truth, z = walk(4, 300, 0.1, 1e-6, 4.0)
     clean = [prediction_error_m(s, t, truth, z, 4) for s in (adaptive, fixed)]
     assert clean[0] < 0.7 * clean[1]
@@ -119,7 +120,7 @@ def test_adaptation_beats_the_fixed_noise_on_a_clean_track_and_not_worse_on_a_no
 
 
 def test_model_probabilities_still_switch_on_the_turns() -> None:
-    report = rounded_square_report(EstimatorSection(), 0, None)
+    report = rounded_square_report(ADAPTIVE, 0, None)
     for segment in report["true_segments"]:
         p = segment["mean_probability"]
         assert max(p, key=p.__getitem__) == segment["model"]
@@ -145,14 +146,14 @@ def test_a_track_whose_noise_is_underestimated_recovers() -> None:
     """Noise three times the prior's std, a floor of nothing: the gated innovations still count,
     so the estimate finds the noise and the track is not restarted."""
     t, _, z = walk(6, 300, 0.1, 0.09)
-    estimator = run(EstimatorSection(), t, z)
+    estimator = run(ADAPTIVE, t, z)
     assert estimator.adaptation is not None
     assert estimator.adaptation.variance_m2()[0] == pytest.approx(0.09, rel=0.25)
     assert estimator.health()["reinitialised"] == 0
 
 
 def test_a_restarted_track_starts_from_the_prior() -> None:
-    section = EstimatorSection()
+    section = ADAPTIVE
     t, _, z = walk(7, 200, 0.1, 0.04)
     estimator = run(section, t, z)
     adaptation = estimator.adaptation
@@ -167,7 +168,7 @@ def test_a_restarted_track_starts_from_the_prior() -> None:
 
 def test_outliers_move_neither_estimate() -> None:
     t, _, z = walk(8, 200, 0.1, 0.0025)
-    estimator = run(EstimatorSection(), t, z)
+    estimator = run(ADAPTIVE, t, z)
     adaptation = estimator.adaptation
     assert adaptation is not None
     before = adaptation.variance_m2()[0], adaptation.q_scale()[0]
@@ -175,3 +176,9 @@ def test_outliers_move_neither_estimate() -> None:
         estimator.update(Measurement.ground(t[-1] + 0.1 * k, z[-1] + 5.0, np.eye(2) * FLOOR_M2))
     assert estimator.health()["gated"] == 3
     assert (adaptation.variance_m2()[0], adaptation.q_scale()[0]) == before
+
+
+def test_the_default_imm_keeps_its_configured_noise() -> None:
+    """Adaptation is opt-in: the default IMM has none and uses each measurement's covariance."""
+    estimator = build_estimator(EstimatorSection())
+    assert isinstance(estimator, ImmEstimator) and estimator.adaptation is None

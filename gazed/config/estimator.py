@@ -82,10 +82,11 @@ class EstimatorSection(Section):
     )
     # the IMM's noise adaptation (gazed/estimation/noise_adaptation.py)
     adapt_noise: bool = Field(
-        True,
+        False,
         description="IMM: each track learns its position noise (position_noise_m as the prior, "
         "the measurement's own covariance as a floor) and a common scale on its process noises "
-        "from its own innovations.",
+        "from its own innovations. Off by default: it follows clean tracks far better, but in "
+        "the closed loop it takes maneuvers for noise (docs/estimation.md).",
     )
     noise_window_obs: float = Field(
         25.0,
