@@ -207,6 +207,7 @@ def test_bad_arrays_are_refused_not_read(change, error, match) -> None:
             None,
             None,
             -1,
+            None,
         )
 
 
@@ -227,7 +228,21 @@ def test_an_angle_index_outside_the_state_is_refused(angle: int) -> None:
     x, P, mu = ground_bank(rng, 1)
     with pytest.raises(ValueError, match="angle index"):
         kalman._kalman.predict(
-            1, 3, 6, 1, x, P, mu, None, np.full(1, 0.04), BANK.parameters, None, None, None, angle
+            1,
+            3,
+            6,
+            1,
+            x,
+            P,
+            mu,
+            None,
+            np.full(1, 0.04),
+            BANK.parameters,
+            None,
+            None,
+            None,
+            angle,
+            None,
         )
     with pytest.raises(ValueError, match="angle index"):
         combine(mu, x, P, angle)
@@ -250,3 +265,44 @@ def test_rows_outside_the_bank_are_refused() -> None:
     x, P, _ = ground_bank(rng, 2)
     with pytest.raises(IndexError, match="outside"):
         kalman.predict(x, P, np.array([0, 2]), np.full(2, 0.04), ground=BANK.parameters)
+
+
+def test_a_process_noise_scale_multiplies_each_tracks_q() -> None:
+    """q_scale (K,) in predict and forecast equals the same bank with its noise variances
+    multiplied by that track's factor; None is a factor of 1."""
+    rng = np.random.default_rng(11)
+    x, P, mu = ground_bank(rng, 2)
+    dt = np.array([0.04, 0.3])
+    scale = np.array([3.0, 0.25])
+    J = switching_matrix(0.96, 3)
+    for k in range(2):
+        scaled = BANK.parameters.copy()
+        scaled[:, 2:] *= scale[k]
+        xs, Ps, mus = x[k : k + 1].copy(), P[k : k + 1].copy(), mu[k : k + 1].copy()
+        kalman.predict(xs, Ps, slice(None), dt[k : k + 1], ground=scaled, mu=mus, J=J)
+        xq, Pq, muq = x.copy(), P.copy(), mu.copy()
+        kalman.predict(xq, Pq, slice(None), dt, ground=BANK.parameters, mu=muq, J=J, q_scale=scale)
+        np.testing.assert_allclose(xq[k], xs[0], rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(Pq[k], Ps[0], rtol=1e-12, atol=1e-12)
+        mean_s, cov_s = kalman.forecast(
+            x[k : k + 1], P[k : k + 1], mu[k : k + 1], slice(None), dt[k : k + 1], scaled
+        )
+        mean_q, cov_q = kalman.forecast(x, P, mu, slice(None), dt, BANK.parameters, scale)
+        np.testing.assert_allclose(mean_q[k], mean_s[0], rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(cov_q[k], cov_s[0], rtol=1e-12, atol=1e-12)
+    plain, ones = P.copy(), P.copy()
+    kalman.predict(x.copy(), plain, slice(None), dt, ground=BANK.parameters)
+    kalman.predict(x.copy(), ones, slice(None), dt, ground=BANK.parameters, q_scale=np.ones(2))
+    np.testing.assert_array_equal(plain, ones)
+
+
+@pytest.mark.parametrize("bad", [-1.0, math.nan, math.inf])
+def test_a_process_noise_scale_that_is_not_finite_and_positive_is_refused(bad: float) -> None:
+    rng = np.random.default_rng(12)
+    x, P, mu = ground_bank(rng, 1)
+    with pytest.raises(ValueError, match="process-noise scale"):
+        kalman.predict(
+            x, P, slice(None), np.array([0.04]), ground=BANK.parameters, q_scale=np.array([bad])
+        )
+    with pytest.raises(ValueError, match="process-noise scale"):
+        kalman.forecast(x, P, mu, slice(None), np.array([0.04]), BANK.parameters, np.array([bad]))

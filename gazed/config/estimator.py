@@ -76,8 +76,36 @@ class EstimatorSection(Section):
     position_noise_m: float = Field(
         0.1,
         gt=0,
-        description="Std of a ground-plane position measurement where nothing better is known "
-        "(also the annotation noise assumed by `gazed eval estimator --data`).",
+        description="Std of a ground-plane position measurement where nothing better is known: "
+        "the prior of the IMM's adapted position noise, and the annotation noise assumed by "
+        "`gazed eval estimator --data` for the modes that do not adapt.",
+    )
+    # the IMM's noise adaptation (gazed/estimation/noise_adaptation.py)
+    adapt_noise: bool = Field(
+        False,
+        description="IMM: each track learns its position noise (position_noise_m as the prior, "
+        "the measurement's own covariance as a floor) and a common scale on its process noises "
+        "from its own innovations. Off by default: it follows clean tracks far better, but in "
+        "the closed loop it takes maneuvers for noise (docs/estimation.md).",
+    )
+    noise_window_obs: float = Field(
+        25.0,
+        ge=2,
+        le=10000,
+        description="Noise adaptation: the fading window in observations (a noise estimate from "
+        "25 observations of two axes has a relative std near 1/sqrt(25) = 20 %).",
+    )
+    noise_prior_obs: float = Field(
+        5.0,
+        gt=0,
+        le=10000,
+        description="Noise adaptation: the prior's weight in observations.",
+    )
+    process_noise_scale_max: float = Field(
+        10.0,
+        ge=1,
+        le=1000,
+        description="Noise adaptation: the process-noise scale stays within [1/this, this].",
     )
     velocity_noise_m_s: float = Field(
         0.2, gt=0, description="Std of a ground-plane velocity measurement."

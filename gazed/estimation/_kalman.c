@@ -344,12 +344,20 @@ typedef struct {
     const long long *rows; /* NULL: all tracks in order */
     const double *ground;  /* (M, GROUND_PARAMETERS) ground models, or NULL: linear */
     const double *J;       /* (M, M) mixing, or NULL: independent models */
+    const double *q_scale; /* (K,) each selected track's factor on its ground models' Q, or NULL: 1 */
     int angle;
 } Bank;
 
 static Py_ssize_t track_of(const Bank *b, Py_ssize_t k) { return b->rows ? (Py_ssize_t)b->rows[k] : k; }
 
-/* mix (if J), then each model over dt: x' = f(x0) (ground) or F x0, P' = F P0 Fᵀ + Q; μ <- c̄.
+/* a ground model's Q times the selected track k's factor λ (the noise each track learns,
+   noise_adaptation.py), if the bank has factors */
+static void scale_noise(const Bank *b, Py_ssize_t k, int n, double *Q) {
+    if (!b->q_scale) return;
+    for (int i = 0; i < n * n; i++) Q[i] *= b->q_scale[k];
+}
+
+/* mix (if J), then each model over dt: x' = f(x0) (ground) or F x0, P' = F P0 Fᵀ + λQ; μ <- c̄.
    F, Q (K, M, n, n) are the linear models' matrices (NULL for ground models) */
 static void predict_rows(const Bank *b, const double *dt, const double *F_lin, const double *Q_lin) {
     int M = b->M, n = b->n, nn = n * n;
@@ -369,6 +377,7 @@ static void predict_rows(const Bank *b, const double *dt, const double *F_lin, c
             const double *Fj = F, *Qj = Q;
             if (b->ground) {
                 ground_motion(x0 + j * n, dt[k], b->ground + j * GROUND_PARAMETERS, x + j * n, F, Q);
+                scale_noise(b, k, n, Q);
             } else {
                 Fj = F_lin + (k * M + j) * nn;
                 Qj = Q_lin + (k * M + j) * nn;
@@ -481,6 +490,7 @@ static void forecast_rows(const Bank *b, const double *dt, double *mean, double 
             double xn[NMAX], F[NMAX * NMAX], Q[NMAX * NMAX], Pn[NMAX * NMAX], G[MMAX * NMAX], GP[MMAX * NMAX];
             if (dt[k] > 0.0) {
                 ground_motion(x, dt[k], b->ground + j * GROUND_PARAMETERS, xn, F, Q);
+                scale_noise(b, k, n, Q);
                 propagate_covariance(n, F, P, Q, Pn);
                 x = xn;
                 P = Pn;
@@ -560,6 +570,16 @@ static int check_intervals(const double *dt, Py_ssize_t K) {
     return 1;
 }
 
+/* a factor on Q must be finite and >= 0 */
+static int check_scales(const double *q_scale, Py_ssize_t K) {
+    for (Py_ssize_t k = 0; q_scale && k < K; k++)
+        if (!(q_scale[k] >= 0.0) || !isfinite(q_scale[k])) {
+            PyErr_Format(PyExc_ValueError, "process-noise scale %zd is not a finite number >= 0", k);
+            return 0;
+        }
+    return 1;
+}
+
 /* rows (K,) must name tracks in [0, N) */
 static int check_rows(const Bank *b) {
     if (!b->rows) {
@@ -591,9 +611,9 @@ static int bank_of(Buffers *bs, Bank *b, PyObject *x, PyObject *P, PyObject *mu,
 static PyObject *py_predict(PyObject *self, PyObject *args) {
     Py_ssize_t N, K;
     int M, n, angle;
-    PyObject *x, *P, *mu, *rows, *dt, *ground, *J, *F, *Q;
-    if (!PyArg_ParseTuple(args, "niinOOOOOOOOOi", &N, &M, &n, &K, &x, &P, &mu, &rows, &dt, &ground, &J, &F, &Q,
-                          &angle))
+    PyObject *x, *P, *mu, *rows, *dt, *ground, *J, *F, *Q, *q_scale;
+    if (!PyArg_ParseTuple(args, "niinOOOOOOOOOiO", &N, &M, &n, &K, &x, &P, &mu, &rows, &dt, &ground, &J, &F, &Q,
+                          &angle, &q_scale))
         return NULL;
     if (!check_sizes(N, K, M, n, 0, angle)) return NULL;
     Buffers bs = {.count = 0};
@@ -603,6 +623,8 @@ static PyObject *py_predict(PyObject *self, PyObject *args) {
     if (ok && !check_intervals(dt_, K)) ok = 0;
     b.ground = data_of(&bs, ground, "ground", M * GROUND_PARAMETERS, 0, 0, 1, &ok);
     b.J = data_of(&bs, J, "J", M * M, 0, 0, 1, &ok);
+    b.q_scale = data_of(&bs, q_scale, "q_scale", K, 0, 0, 1, &ok);
+    if (ok && !check_scales(b.q_scale, K)) ok = 0;
     const double *F_ = data_of(&bs, F, "F", K * M * n * n, 0, 0, 1, &ok);
     const double *Q_ = data_of(&bs, Q, "Q", K * M * n * n, 0, 0, 1, &ok);
     if (ok && (b.ground ? n != GROUND_DIM : !(F_ && Q_))) {
@@ -684,8 +706,9 @@ static PyObject *py_correct(PyObject *self, PyObject *args) {
 static PyObject *py_forecast(PyObject *self, PyObject *args) {
     Py_ssize_t N, K;
     int M;
-    PyObject *x, *P, *mu, *rows, *dt, *ground, *mean, *cov;
-    if (!PyArg_ParseTuple(args, "ninOOOOOOOO", &N, &M, &K, &x, &P, &mu, &rows, &dt, &ground, &mean, &cov))
+    PyObject *x, *P, *mu, *rows, *dt, *ground, *mean, *cov, *q_scale;
+    if (!PyArg_ParseTuple(args, "ninOOOOOOOOO", &N, &M, &K, &x, &P, &mu, &rows, &dt, &ground, &mean, &cov,
+                          &q_scale))
         return NULL;
     if (!check_sizes(N, K, M, GROUND_DIM, 0, -1)) return NULL;
     Buffers bs = {.count = 0};
@@ -696,6 +719,8 @@ static PyObject *py_forecast(PyObject *self, PyObject *args) {
     b.ground = data_of(&bs, ground, "ground", M * GROUND_PARAMETERS, 0, 0, 0, &ok);
     double *mean_ = data_of(&bs, mean, "mean", K * MMAX, 1, 0, 0, &ok);
     double *cov_ = data_of(&bs, cov, "cov", K * MMAX * MMAX, 1, 0, 0, &ok);
+    b.q_scale = data_of(&bs, q_scale, "q_scale", K, 0, 0, 1, &ok);
+    if (ok && !check_scales(b.q_scale, K)) ok = 0;
     if (ok && !b.mu) {
         PyErr_SetString(PyExc_ValueError, "forecast needs mu");
         ok = 0;

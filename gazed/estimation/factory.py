@@ -16,8 +16,20 @@ from gazed.estimation.ground_models import cd, cs, csd
 from gazed.estimation.imm import switching_matrix
 from gazed.estimation.kinematic_estimator import KinematicEstimator
 from gazed.estimation.kinematic_models import kinematic_model
+from gazed.estimation.noise_adaptation import NoiseAdaptation
 
 FILTER_MODES = ("imm", "innovation", "alphabeta", "image-cv", "cv", "ca")
+
+
+def noise_adaptation(section: EstimatorSection, n_tracks: int) -> NoiseAdaptation:
+    """The IMM's per-track noise adaptation of the section, for n_tracks tracks."""
+    return NoiseAdaptation(
+        n_tracks,
+        prior_variance_m2=section.position_noise_m**2,
+        prior_obs=section.noise_prior_obs,
+        window_obs=section.noise_window_obs,
+        scale_max=section.process_noise_scale_max,
+    )
 
 
 def build_estimator(
@@ -43,6 +55,7 @@ def build_estimator(
             switching_matrix(e.stay_probability, len(models)),
             n_tracks,
             initial_rate_std=(e.csd_speed_rate_noise_m_s2, e.csd_turn_rate_noise_rad_s),
+            adaptation=noise_adaptation(e, n_tracks) if e.adapt_noise else None,
             **track,
         )
     if mode == "alphabeta":

@@ -1,6 +1,8 @@
 """The `imm` mode: CSD, CS and CD extended Kalman filters in an IMM (seed 000 §4-5).
 
-State [X, Y, s, θ, ṡ, θ̇] on the ground plane; measurements [X, Y] or [X, Y, Ẋ, Ẏ].
+State [X, Y, s, θ, ṡ, θ̇] on the ground plane; measurements [X, Y] or [X, Y, Ẋ, Ẏ]. With a
+`NoiseAdaptation`, each track learns its position noise and its process-noise scale from its
+own innovations (`noise_adaptation`).
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ from gazed.estimation.ground_models import (
 )
 from gazed.estimation.imm import ImmFilter
 from gazed.estimation.kalman import Innovation
+from gazed.estimation.noise_adaptation import NoiseAdaptation
 
 
 class ImmEstimator(TrackEstimator):
@@ -37,18 +40,26 @@ class ImmEstimator(TrackEstimator):
         n_tracks: int = 1,
         *,
         initial_rate_std: tuple[float, float] = (0.5, 0.5),
+        adaptation: NoiseAdaptation | None = None,
         **track_options: float,
     ) -> None:
         bank = GroundModelBank(models)
         super().__init__(bank.names, n_tracks, **track_options)
         self.imm = ImmFilter.empty(bank, J, n_tracks, STATE_DIM, HEADING_INDEX)
         self.initial_rate_var = np.square(initial_rate_std)
+        if adaptation is not None and len(adaptation.alpha) != n_tracks:
+            raise ValueError(f"noise adaptation for {len(adaptation.alpha)} tracks, not {n_tracks}")
+        self.adaptation = adaptation
 
     def _initialise(
         self, idx: np.ndarray, zv: np.ndarray, Rv: np.ndarray, interval_s: np.ndarray
     ) -> None:
         """Polar state from position and velocity: s = |v|, θ = atan2(vy, vx), with
-        cov = T Rv Tᵀ, T the Jacobian of (v -> s, θ); ṡ, θ̇ start at 0."""
+        cov = T Rv Tᵀ, T the Jacobian of (v -> s, θ); ṡ, θ̇ start at 0. With adaptation, Rv
+        holds the prior position noise where it exceeds the measurements' own."""
+        if self.adaptation is not None:
+            self.adaptation.reset(idx)
+            Rv = self.adaptation.start_cov(Rv, interval_s)
         vx, vy = zv[:, 2], zv[:, 3]
         s = np.hypot(vx, vy)
         s_safe = np.maximum(s, 1e-9)
@@ -74,29 +85,50 @@ class ImmEstimator(TrackEstimator):
         self.imm.P[idx] = P[:, None]
         self.imm.mu[idx] = 1.0 / M
 
+    def _q_scale(self, idx: slice | np.ndarray) -> np.ndarray | None:
+        return None if self.adaptation is None else self.adaptation.q_scale(idx)
+
     def _predict(self, idx: slice | np.ndarray, dt: np.ndarray) -> None:
-        self.imm.predict(idx, dt)
+        self.imm.predict(idx, dt, self._q_scale(idx))
 
     def _innovate(
         self, idx: slice | np.ndarray, z: np.ndarray, R: np.ndarray
-    ) -> tuple[np.ndarray, Innovation]:
+    ) -> tuple[np.ndarray, tuple[Innovation, np.ndarray | None, np.ndarray | None]]:
+        """With adaptation, R is the adapted one, and the handle carries the combined position
+        innovation and tr H P⁻ Hᵀ for the noise estimates of the tracks the gate accepts."""
+        if self.adaptation is None:
+            innovation = self.imm.innovate(idx, z, R)
+            return innovation.nis.min(axis=-1), (innovation, None, None)
+        R = self.adaptation.measurement_cov(idx, R)
         innovation = self.imm.innovate(idx, z, R)
-        return innovation.nis.min(axis=-1), innovation
+        x, P = self.imm.combined(idx)
+        position = z[:, :2] - x[:, :2]
+        return innovation.nis.min(axis=-1), (innovation, position, P[:, 0, 0] + P[:, 1, 1])
 
     def _correct(
-        self, idx: slice | np.ndarray, handle: Innovation, inside: np.ndarray | None
+        self,
+        idx: slice | np.ndarray,
+        handle: tuple[Innovation, np.ndarray | None, np.ndarray | None],
+        inside: np.ndarray | None,
     ) -> None:
+        innovation, position, predicted_m2 = handle
         if inside is not None:
             idx = np.arange(self.n_tracks)[idx][inside]
-            handle = handle.rows(inside)
-        self.imm.correct(idx, handle)  # a negative speed comes out positive, heading turned
+            innovation = innovation.rows(inside)
+            if position is not None and predicted_m2 is not None:
+                position, predicted_m2 = position[inside], predicted_m2[inside]
+        self.imm.correct(idx, innovation)  # a negative speed comes out positive, heading turned
+        if self.adaptation is not None and position is not None and predicted_m2 is not None:
+            self.adaptation.observe(idx, position, predicted_m2)
 
     def _forecast(self, idx: slice | np.ndarray, dt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Each model predicted dt ahead without mixing, mapped to [X, Y, s cos θ, s sin θ]
         through its Jacobian, then the μ-weighted mixture moments. At dt = 0 (the state at
         its own time, as the estimator publishes it) the propagation is the identity."""
         imm = self.imm
-        return kalman.forecast(imm.x, imm.P, imm.mu, idx, dt, imm.models.parameters)
+        return kalman.forecast(
+            imm.x, imm.P, imm.mu, idx, dt, imm.models.parameters, self._q_scale(idx)
+        )
 
     def _probabilities(self, idx: slice | np.ndarray) -> np.ndarray:
         return self.imm.mu[idx]

@@ -155,8 +155,9 @@ class ImmFilter:
     def _ground(self) -> np.ndarray | None:
         return self.models.parameters if isinstance(self.models, GroundModelBank) else None
 
-    def predict(self, idx: Index, dt: np.ndarray) -> None:
-        """Steps 1-2 (predict) for the tracks idx over dt (K,); μ becomes c̄."""
+    def predict(self, idx: Index, dt: np.ndarray, q_scale: np.ndarray | None = None) -> None:
+        """Steps 1-2 (predict) for the tracks idx over dt (K,); μ becomes c̄. q_scale (K,)
+        multiplies each track's ground-model Q (None: 1)."""
         ground = self._ground
         F, Q = (None, None) if ground is not None else self.models.matrices(dt)
         kalman.predict(
@@ -170,6 +171,7 @@ class ImmFilter:
             mu=self.mu,
             J=self.J,
             angle_index=self.angle_index,
+            q_scale=q_scale,
         )
 
     def innovate(self, idx: Index, z: np.ndarray, R: np.ndarray) -> Innovation:

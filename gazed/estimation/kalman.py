@@ -12,7 +12,8 @@ How the models move and are measured is one of two kinds:
 - linear (`F`, `Q` (K, M, n, n) for the step's intervals, `H` (m, n)): seed 003 eqs. (4)-(10).
 
 The equations, one comment each, are in `_kalman.c`:
-    predict:  mix (§5 step 1, with J and mu), x' = f(x0), P' = F P0 Fᵀ + Q, μ <- c̄
+    predict:  mix (§5 step 1, with J and mu), x' = f(x0), P' = F P0 Fᵀ + λQ, μ <- c̄
+              (λ: each track's factor on its ground models' Q, `q_scale`, default 1)
     innovate: ν = z - h(x), S = H P Hᵀ + R, K = P Hᵀ S⁻¹, NIS = νᵀ S⁻¹ ν, ℓ = log N(ν; 0, S)
     correct:  x + K ν, P = (I - K H) P (I - K H)ᵀ + K R Kᵀ (Joseph form), μ ∝ μ exp(ℓ) (§5 step 3)
     forecast: each ground model ahead without mixing, its [X, Y, Ẋ, Ẏ], moments combined
@@ -91,9 +92,11 @@ def predict(
     mu: np.ndarray | None = None,
     J: np.ndarray | None = None,
     angle_index: int | None = None,
+    q_scale: np.ndarray | None = None,
 ) -> None:
     """The selected tracks over dt (K,) seconds, in place: mixed first when J (M, M) is given
-    (J[i, j] = P(model j next | model i now); mu becomes c̄)."""
+    (J[i, j] = P(model j next | model i now); mu becomes c̄). q_scale (K,) multiplies each
+    selected track's ground-model Q (None: 1)."""
     N, M, n = x.shape
     rows, K = _selection(idx, N)
     _kalman.predict(
@@ -111,6 +114,7 @@ def predict(
         floats(F),
         floats(Q),
         angle_code(angle_index),
+        floats(q_scale),
     )
 
 
@@ -177,14 +181,22 @@ def correct(
 
 
 def forecast(
-    x: np.ndarray, P: np.ndarray, mu: np.ndarray, idx: Index, dt: np.ndarray, ground: np.ndarray
+    x: np.ndarray,
+    P: np.ndarray,
+    mu: np.ndarray,
+    idx: Index,
+    dt: np.ndarray,
+    ground: np.ndarray,
+    q_scale: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """A ground IMM's selected tracks dt (K,) >= 0 ahead, unchanged: the mixture's mean
-    [X, Y, Ẋ, Ẏ] (K, 4) and covariance (K, 4, 4). A dt that is negative or not finite is a
-    ValueError (as in `predict`)."""
+    [X, Y, Ẋ, Ẏ] (K, 4) and covariance (K, 4, 4), with Q times q_scale (K,) (None: 1). A dt
+    that is negative or not finite is a ValueError (as in `predict`)."""
     N, M, _ = x.shape
     rows, K = _selection(idx, N)
     mean = np.empty((K, 4))
     cov = np.empty((K, 4, 4))
-    _kalman.forecast(N, M, K, x, P, mu, rows, floats(dt), floats(ground), mean, cov)
+    _kalman.forecast(
+        N, M, K, x, P, mu, rows, floats(dt), floats(ground), mean, cov, floats(q_scale)
+    )
     return mean, cov

@@ -134,7 +134,11 @@ def format_report(report: dict[str, Any]) -> str:
             )
         d = report["switch_delay_obs"]
         tr = report["turn_rate_rad_s"]
-        lines.append(f"switch delay: median {d['median']:g} obs, max {d['max']} obs")
+        lines.append(
+            f"switch delay: median {d['median']:g} obs, max {d['max']} obs; the ideal detector "
+            f"at {d['threshold_nats']:.2f} nats: {d['ideal']} obs; observations to switch "
+            f"{d['ratio_to_ideal']:.2f}x the ideal's"
+        )
         lines.append(
             f"turn rate in CS segments: {tr['cs_segments']:.3f} rad/s (CS model) vs {tr['true']:.3f} "
             f"true: relative error {report['turn_rate_rel_error']:.1%}; IMM combined "

@@ -1,7 +1,7 @@
 """Estimation modes scored on seeded scenarios against the papers' tables.
 
 - rounded square (seed 000 §4.2, Table 1): the IMM with position and velocity measured;
-  segments of most-likely model, switch delays, turn rate.
+  segments of most-likely model, switch delays beside the ideal detector's, turn rate.
 - kelly (seed 003 §III, Table 3): the innovation mode on rest / accelerate / constant /
   decelerate / rest; innovation means per phase and model against Table 3's terms.
 """
@@ -22,6 +22,40 @@ from gazed.eval.metrics import segments, switch_delays
 from gazed.eval.scenarios import kelly, rounded_square
 
 TRUE_TURN_RATE_RAD_S = math.radians(45.0)
+
+
+def turn_evidence_nats(
+    observations: int,
+    speed_m_s: float,
+    turn_rate_rad_s: float,
+    period_s: float,
+    position_noise_m: float,
+    velocity_noise_m_s: float,
+) -> np.ndarray:
+    """The expected log-likelihood ratio (nats) for a turn against going straight (or the
+    reverse) after 1..observations observations, for a detector that knows the state at the
+    switch, both motions and the switch's time (docs/estimation.md, "How fast the switch can
+    be"): Σ_k |Δp_k|²/2σ_p² + |Δv_k|²/2σ_v², where after t = kT the two paths differ by
+    Δp = (s/ω) |(sin ωt - ωt, 1 - cos ωt)| and Δv = 2 s sin(ωt/2)."""
+    u = turn_rate_rad_s * period_s * np.arange(1, observations + 1)
+    dp = speed_m_s / turn_rate_rad_s * np.hypot(np.sin(u) - u, 1.0 - np.cos(u))
+    dv = 2.0 * speed_m_s * np.sin(u / 2.0)
+    return np.cumsum(dp**2 / (2 * position_noise_m**2) + dv**2 / (2 * velocity_noise_m_s**2))
+
+
+def ideal_switch_delay_obs(threshold_nats: float, **motion: float) -> int:
+    """The delay (in the convention of `switch_delays`: 0 = on the first observation of the
+    new motion) at which the ideal detector's expected evidence first reaches threshold_nats;
+    `motion` as `turn_evidence_nats` takes it."""
+    evidence = turn_evidence_nats(1000, **motion)
+    reached = np.flatnonzero(evidence >= threshold_nats)
+    return int(reached[0]) if len(reached) else len(evidence)
+
+
+def switch_threshold_nats(stay_probability: float, n_models: int) -> float:
+    """The IMM's prior odds against one switch, ln(J_d / J_ij): the evidence at which the new
+    model's probability overtakes the old one's in a step."""
+    return math.log(stay_probability * (n_models - 1) / (1.0 - stay_probability))
 
 
 def rounded_square_report(
@@ -77,6 +111,15 @@ def rounded_square_report(
             }
         )
     delays = switch_delays(truth, likely)
+    threshold = switch_threshold_nats(section.stay_probability, len(names))
+    ideal = ideal_switch_delay_obs(
+        threshold,
+        speed_m_s=float(scenario.truth[0, 2]),
+        turn_rate_rad_s=TRUE_TURN_RATE_RAD_S,
+        period_s=float(scenario.t_s[1] - scenario.t_s[0]),
+        position_noise_m=scenario.position_noise_m,
+        velocity_noise_m_s=scenario.velocity_noise_m_s,
+    )
     in_cs = np.array([m == "CS" for m in likely])
     own_turn = float(own_a[in_cs, 1].mean()) if in_cs.any() else 0.0
     combined_turn = float(combined_a[in_cs, 1].mean()) if in_cs.any() else 0.0
@@ -103,6 +146,9 @@ def rounded_square_report(
             "median": float(np.median(delays)),
             "max": int(max(delays)),
             "all": delays,
+            "ideal": ideal,
+            "threshold_nats": threshold,
+            "ratio_to_ideal": (float(np.median(delays)) + 1.0) / (ideal + 1.0),
         },
         "turn_rate_rad_s": {
             "true": TRUE_TURN_RATE_RAD_S,
