@@ -115,6 +115,7 @@ class VisionService:
             "detector": self.stage.pipeline.detector.name,
             "source": f"{self.source_name} ({status.link})",
             "compensation": self.stage.compensation_note(),
+            "camera_delay": self.stage.capture_stamp.note(),
         }
         if status.last_error:
             notes["source_error"] = status.last_error
@@ -122,7 +123,8 @@ class VisionService:
             notes["stream"] = self.stream.url
         if self.stage.last_drop:
             notes["last_drop"] = self.stage.last_drop
-        return HealthReport(counters=counters, stage_ms=self.stage.times_ms(), notes=notes)
+        stage_ms = {**self.stage.times_ms(), **self.stage.capture_stamp.stage_ms()}
+        return HealthReport(counters=counters, stage_ms=stage_ms, notes=notes)
 
     def close(self) -> None:
         self.source.disconnect()

@@ -84,13 +84,13 @@ def test_the_estimator_converges_and_the_correction_follows_in_steps() -> None:
     estimator = CameraDelayEstimator(0.0)
     for t_s, pan, tilt in odometry:
         estimator.add_odometry(t_s, pan, tilt)
-    assert estimator.correct(10.0) == 10.0  # nothing known yet: the stamp as it came
+    assert estimator.next_correction_s() == 0.0  # nothing known yet: the stamp as it came
     for a, b, du, dv in shifts:
         estimator.add_shift(a, b, du, dv)
         estimator.update(b)
     assert estimator.fits >= 5
     assert estimator.delay_s == pytest.approx(0.2, abs=0.005)
-    corrected = [estimator.correct(10.0 + k * PERIOD_S) for k in range(60)]
+    corrected = [10.0 + k * PERIOD_S - estimator.next_correction_s() for k in range(60)]
     assert np.all(np.diff(corrected) > 0)  # frames keep their order while the stamps move
     assert 10.0 - corrected[0] == pytest.approx(estimator.max_step_s)
     assert 10.0 + 59 * PERIOD_S - corrected[-1] == pytest.approx(estimator.delay_s)

@@ -15,8 +15,8 @@ only when the head's rates varied over the window (a still head, or one turning 
 rate, shows no lag) and the rotation explains most of the shifts.
 
 `CameraDelayEstimator` keeps a sliding window of shifts and odometry, fits it every
-`fit_every_s`, and takes the median of the recent fits as its estimate. `correct` moves each
-frame's stamp back by the estimate, following a changed estimate by at most `max_step_s` per
+`fit_every_s`, and takes the median of the recent fits as its estimate. Each frame's stamp moves
+back by the estimate (`next_correction_s`), following a changed estimate by at most `max_step_s` per
 frame so that consecutive frames keep their order.
 """
 
@@ -223,8 +223,9 @@ class CameraDelayEstimator:
         self.delay_s = float(np.median(self._recent))
         return True
 
-    def correct(self, t_arrival_s: float) -> float:
-        """The exposure time of a frame that arrived at `t_arrival_s`."""
+    def next_correction_s(self) -> float:
+        """The delay to take off the next frame's arrival stamp: the estimate, followed by at
+        most `max_step_s` per frame."""
         step = min(max(self.delay_s - self.applied_s, -self.max_step_s), self.max_step_s)
         self.applied_s += step
-        return t_arrival_s - self.applied_s
+        return self.applied_s
