@@ -51,7 +51,7 @@ COMMANDS: dict[str, Command | Group] = {
         "gazed.record.replay_cli", "publish an MCAP recording back on a rig's bus, in its timing"
     ),
     "calibrate": Group(
-        "solve the frontal-plane -> ground homography",
+        "calibrate with the rig: the ground homography, the camera's delay",
         {
             "points": Command(
                 "gazed.geometry.calibrate_cli",
@@ -69,6 +69,10 @@ COMMANDS: dict[str, Command | Group] = {
                 "gazed.gaze.trace_cli",
                 "trace 4+ ground lines with the running rig, then the line calibration "
                 "(seed 000 §3.2.1)",
+            ),
+            "latency": Command(
+                "gazed.calibrate.camera_latency",
+                "step the running rig's head and time the image's motion: the camera's delay",
             ),
         },
     ),
