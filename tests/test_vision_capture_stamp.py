@@ -59,4 +59,6 @@ def test_the_online_estimate_finds_the_delay_of_a_panning_camera() -> None:
     assert correction.estimator.fits >= 3
     assert corrected[-1] * 1e-9 == pytest.approx(delay_ns * 1e-9, abs=0.02)
     assert "online" in correction.note()
-    assert correction.stage_ms()["camera_delay"] == pytest.approx(corrected[-1] * 1e-6, abs=0.01)
+    times = correction.stage_ms()
+    assert times["camera_delay"] == pytest.approx(corrected[-1] * 1e-6, abs=0.01)
+    assert times["camera_delay_shift_median"] > 0 and times["camera_delay_fit_median"] > 0

@@ -91,8 +91,8 @@ def fit_lag(
     if len(a) < 4:
         return None
     x = _rotations(t, angles, a, b, lags_s)  # (K, N, 2)
-    rates = x / (b - a)[None, :, None]
-    if not np.any(rates.std(axis=1).max(axis=0) >= min_rate_std_rad_s):
+    rates = x[len(lags_s) // 2] / (b - a)[:, None]  # (N, 2), at the grid's middle lag
+    if not np.any(rates.std(axis=0) >= min_rate_std_rad_s):
         return None
     keep = np.ones(len(a), dtype=bool)
     for _ in range(3):  # fit, drop the shifts far from it, fit again
@@ -137,13 +137,18 @@ def _rotations(
 
 def _costs(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Per lag: the residual energy of y (N, 2) ~ x (K, N, 2) @ G (2x2 least squares), and the
-    gains G (K, 2, 2)."""
-    xtx = np.einsum("kni,knj->kij", x, x)
-    xtx += RIDGE * (np.trace(xtx, axis1=1, axis2=2)[:, None, None] + 1e-12) * np.eye(2)
-    xty = np.einsum("kni,nj->kij", x, y)
-    gains = np.linalg.solve(xtx, xty)  # (K, 2, 2)
-    residuals = y[None] - np.einsum("kni,kij->knj", x, gains)
-    return np.sum(residuals**2, axis=(1, 2)), gains
+    gains G (K, 2, 2). With the normal equations S G = B (S = x'x, B = x'y), the residual
+    energy is |y|^2 - sum(G * B)."""
+    pan, tilt = x[..., 0], x[..., 1]
+    s_pp, s_pt, s_tt = np.sum(pan * pan, 1), np.sum(pan * tilt, 1), np.sum(tilt * tilt, 1)
+    ridge = RIDGE * (s_pp + s_tt) + 1e-30
+    s_pp, s_tt = s_pp + ridge, s_tt + ridge
+    det = s_pp * s_tt - s_pt * s_pt
+    b_p, b_t = pan @ y, tilt @ y  # (K, 2): the rows of B
+    g_p = (s_tt[:, None] * b_p - s_pt[:, None] * b_t) / det[:, None]
+    g_t = (s_pp[:, None] * b_t - s_pt[:, None] * b_p) / det[:, None]
+    explained = np.sum(g_p * b_p + g_t * b_t, axis=1)
+    return float(np.sum(y * y)) - explained, np.stack([g_p, g_t], axis=1)
 
 
 class CameraDelayEstimator:
@@ -203,9 +208,13 @@ class CameraDelayEstimator:
         while self._shifts[0][1] < t1_s - self.window_s:
             self._shifts.popleft()
 
+    def fit_due(self, now_s: float) -> bool:
+        """Whether `update(now_s)` would fit the window: `fit_every_s` has passed."""
+        return now_s - self._last_fit_s >= self.fit_every_s and bool(self._shifts)
+
     def update(self, now_s: float) -> bool:
         """Fit the window if `fit_every_s` has passed; whether the estimate took a new fit."""
-        if now_s - self._last_fit_s < self.fit_every_s or not self._shifts:
+        if not self.fit_due(now_s):
             return False
         self._last_fit_s = now_s
         fit = fit_lag(
