@@ -9,7 +9,8 @@ arrival). `off`: `[camera] delay_estimate = false` (stamps left at arrival); `on
 vision process estimates the delay; `told`: `[camera] delay_ms` is the true delay and the
 estimate is off. For each: gaze error RMS and fovea fraction after acquisition (as `gazed eval
 loop`), and the stamp correction's error against the truth (each detection's capture stamp
-against its frame's true exposure, over the run's last half), with the vision's own note.
+against its frame's true exposure, over the run's last half, and the time after which it
+stays within a frame period), with the vision's own note.
 """
 
 from __future__ import annotations
@@ -96,7 +97,8 @@ def one_run(args: argparse.Namespace, mode: str) -> dict[str, Any]:
         rig.gaze.fovea_half_angle_deg,
         FieldOfRegard.for_scoring(rig),
     )
-    result.update(stamp_errors_ms(got["detections"], got["truth"]))
+    period_ms = rig.camera.frame_period_s * 1e3
+    result.update(stamp_errors_ms(got["detections"], got["truth"], period_ms))
     notes: list[Health] = got["health"]
     if notes:
         result["vision_note"] = notes[-1].notes.get("camera_delay")
@@ -104,18 +106,28 @@ def one_run(args: argparse.Namespace, mode: str) -> dict[str, Any]:
     return {"mode": mode, **result}
 
 
-def stamp_errors_ms(detections: list[Detection], truth: list[Any]) -> dict[str, Any]:
-    """Each detection's capture stamp minus its frame's true exposure, over the last half."""
+def stamp_errors_ms(
+    detections: list[Detection], truth: list[Any], period_ms: float
+) -> dict[str, Any]:
+    """Each detection's capture stamp minus its frame's true exposure, over the last half; and
+    the time from the first frame after which it stays within a frame period."""
     exposure = {t.seq: t.t_capture_ns for t in truth}
-    errors = [(d.t_capture_ns - exposure[d.seq]) / 1e6 for d in detections if d.seq in exposure]
-    late = np.array(errors[len(errors) // 2 :])
+    matched = [d for d in detections if d.seq in exposure]
+    errors = np.array([(d.t_capture_ns - exposure[d.seq]) / 1e6 for d in matched])
+    late = errors[len(errors) // 2 :]
     if not late.size:
-        return {"stamp_error_ms": None}
+        return {"stamp_error_ms": None, "converged_after_s": None}
+    outside = np.flatnonzero(np.abs(errors) >= period_ms)
+    first = 0 if not outside.size else int(outside[-1]) + 1
+    converged = None
+    if first < len(matched):
+        converged = round((exposure[matched[first].seq] - exposure[matched[0].seq]) / 1e9, 2)
     return {
         "stamp_error_ms": {
             "median": round(float(np.median(late)), 1),
             "p95_abs": round(float(np.percentile(np.abs(late), 95)), 1),
-        }
+        },
+        "converged_after_s": converged,
     }
 
 
@@ -134,13 +146,17 @@ def main() -> int:
         print(json.dumps(results, indent=2))
         return 0
     print(f"hidden camera delay {args.delay_ms:g} ms, {args.scenario}, {args.seconds:g} s")
-    print(f"{'mode':<8} {'rms deg':>8} {'fovea':>7} {'stamp err ms':>13} {'p95 |err|':>10}")
+    print(
+        f"{'mode':<8} {'rms deg':>8} {'fovea':>7} {'stamp err ms':>13} {'p95 |err|':>10}"
+        f" {'within a frame after s':>23}"
+    )
     for r in results:
         rms = (r.get("gaze_error_deg") or {}).get("rms")
         stamp = r.get("stamp_error_ms") or {}
         print(
             f"{r['mode']:<8} {rms if rms is not None else '-':>8} {r['fovea_fraction']:>7} "
             f"{stamp.get('median', '-'):>13} {stamp.get('p95_abs', '-'):>10}"
+            f" {r.get('converged_after_s')!s:>23}"
         )
         print(f"         vision: {r.get('vision_note')}; shift {r.get('shift_ms')} ms/frame")
     return 0
