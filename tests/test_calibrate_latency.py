@@ -38,7 +38,7 @@ def pan_steps(t_s: np.ndarray, starts_s: list[float], step_rad: float) -> np.nda
     return pan
 
 
-def stepped(delay_s: float, steps: int = 4) -> Recording:
+def stepped(delay_s: float, steps: int = 4, jitter_s: float = 0.0) -> Recording:
     starts_s = [100.0 + 1.0 + k * HOLD_S for k in range(steps)]
     exposure = np.arange(100.0, 100.0 + 1.0 + steps * HOLD_S, FRAME_PERIOD_S)
     step_rad = np.radians(8.0)
@@ -47,7 +47,9 @@ def stepped(delay_s: float, steps: int = 4) -> Recording:
         [exposure[:-1] + delay_s, exposure[1:] + delay_s, du, np.zeros_like(du)], axis=1
     )
     t = np.arange(99.0, 100.0 + 2.0 + steps * HOLD_S, 0.02)
-    odometry = np.stack([t, pan_steps(t, starts_s, step_rad), np.zeros_like(t)], axis=1)
+    read_s = t + np.random.default_rng(5).uniform(0.0, jitter_s, len(t))  # stamped late
+    pan = pan_steps(t, starts_s, step_rad)
+    odometry = np.stack([read_s, pan, np.zeros_like(t)], axis=1)
     return Recording(shifts, odometry, starts_s, HOLD_S)
 
 
@@ -58,6 +60,11 @@ def test_each_step_finds_the_delay(delay_s: float) -> None:
     result = summary(delays)
     assert result["delay_ms"] == pytest.approx(delay_s * 1e3, abs=5.0)
     assert result["steps_fitted"] == 4
+
+
+def test_late_odometry_stamps_do_not_make_the_moving_frames_outliers() -> None:
+    delays = step_delays_s(stepped(0.15, jitter_s=0.012), max_delay_s=0.9)
+    assert all(d is not None and abs(d - 0.15) < 0.012 for d in delays)
 
 
 def test_too_few_steps_with_a_fit_are_refused() -> None:

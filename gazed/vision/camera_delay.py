@@ -10,14 +10,16 @@ best: for each lag on a grid, a least-squares map from the rotation (pan, tilt) 
 (u, v) — sign and scale fitted, so no axis convention or focal length is assumed — and its
 residual; the best grid lag is refined by a parabola through its neighbours. Shifts far from
 the fit (three robust standard deviations, from the median absolute residual) — a failed
-correlation, the target filling the frame — are dropped and the fit repeated. A fit counts
-only when the head's rates varied over the window (a still head, or one turning at a constant
-rate, shows no lag) and the rotation explains most of the shifts.
+correlation, the target filling the frame — are dropped and the fit repeated. A residual under
+a fifth of the large shifts never counts as far: with the head still half the time, the median
+residual alone would call every moving frame an outlier. A fit counts only when the head's
+rates varied over the window (a still head, or one turning at a constant rate, shows no lag)
+and the rotation explains most of the shifts.
 
 `CameraDelayEstimator` keeps a sliding window of shifts and odometry, fits it every
-`fit_every_s`, and takes the median of the recent fits as its estimate. Each frame's stamp moves
-back by the estimate (`next_correction_s`), following a changed estimate by at most `max_step_s` per
-frame so that consecutive frames keep their order.
+`fit_every_s`, and takes the median of the recent fits as its estimate. Each frame's stamp
+moves back by the estimate (`next_correction_s`), following a changed estimate by at most
+`max_step_s` per frame so that consecutive frames keep their order.
 """
 
 from __future__ import annotations
@@ -33,6 +35,9 @@ GRID_WIDTH_PX = 160  # width of the grey copy the shift is measured on
 MAD_TO_SIGMA = 1.4826  # median absolute deviation -> standard deviation of a normal
 OUTLIER_SIGMAS = 3.0
 SHIFT_PRECISION_PX = 0.25  # residuals below this are never outliers
+SHIFT_FRACTION = (
+    0.2  # nor those below this share of the large shifts (the head still half the time)
+)
 RIDGE = 1e-9  # keeps the per-lag least squares solvable when one axis does not move
 
 
@@ -95,6 +100,9 @@ def fit_lag(
     if not np.any(rates.std(axis=0) >= min_rate_std_rad_s):
         return None
     keep = np.ones(len(a), dtype=bool)
+    floor_px = max(
+        SHIFT_PRECISION_PX, SHIFT_FRACTION * float(np.percentile(np.linalg.norm(y, axis=1), 90))
+    )
     for _ in range(3):  # fit, drop the shifts far from it, fit again
         if keep.sum() < 4:
             return None
@@ -102,7 +110,7 @@ def fit_lag(
         k = int(np.argmin(costs))
         norms = np.linalg.norm(y - x[k] @ gains[k], axis=1)
         scale = MAD_TO_SIGMA * float(np.median(norms[keep]))
-        inliers = norms <= max(OUTLIER_SIGMAS * scale, SHIFT_PRECISION_PX)
+        inliers = norms <= max(OUTLIER_SIGMAS * scale, floor_px)
         if np.array_equal(inliers, keep):
             break
         keep = inliers
