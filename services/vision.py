@@ -16,8 +16,9 @@ Settings: [camera] (source, size, intrinsics, reopen_max_s, timeout_ms), [head] 
 
 It runs at the camera's rate: each step takes the newest frame (older ones are skipped, never
 queued). Frames that cannot be used are dropped and counted (`dropped:<reason>`). Health
-carries the source's link state and the last error, whether compensation is on, and the
-detector's time per frame.
+carries the source's link state and the last error, whether compensation is on, the
+detector's time per frame, and the camera delay taken off the capture stamps
+(`gazed.vision.capture_stamp`).
 """
 
 from __future__ import annotations

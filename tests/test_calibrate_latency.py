@@ -19,6 +19,7 @@ from gazed.calibrate.camera_latency import (
     step_delays_s,
     summary,
 )
+from gazed.cli import main as cli_main
 from gazed.eval.loop import private_rig
 
 FRAME_PERIOD_S = 0.04
@@ -70,6 +71,14 @@ def test_late_odometry_stamps_do_not_make_the_moving_frames_outliers() -> None:
 def test_too_few_steps_with_a_fit_are_refused() -> None:
     with pytest.raises(LatencyCalibrationError, match="only 1 of 3 steps"):
         summary([0.1, None, None])
+
+
+@pytest.mark.parametrize(
+    "options", [["--hold-s", "0.5", "--max-delay-ms", "600"], ["--steps", "1"]]
+)
+def test_bad_options_exit_2_before_the_bus(options: list[str]) -> None:
+    rig = str(REPO / "configs" / "sim.toml")
+    assert cli_main(["calibrate", "latency", "--rig", rig, *options]) == 2
 
 
 @pytest.mark.e2e

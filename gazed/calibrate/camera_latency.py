@@ -31,7 +31,7 @@ from gazed.messages import GazeDemand, Odometry
 from gazed.topics import GAZE_DEMAND, SERVO_ODOMETRY
 from gazed.vision.bus_frames import BusFrameSource
 from gazed.vision.camera_delay import ImageShift, fit_lag
-from gazed.vision.frames import CapturedFrame, gray_frame
+from gazed.vision.frames import CapturedFrame, FrameError, gray_frame
 from gazed.vision.opencv_camera import OpenCvCamera, capture_target
 from gazed.vision.source import FrameSource
 from gazed.wakeup import Wakeup
@@ -219,7 +219,14 @@ class StepRecorder:
 
     def _frame(self, frame: CapturedFrame) -> None:
         camera = self.rig.camera
-        measured = self.shift.update(gray_frame(frame, camera.width_px, camera.height_px))
+        try:
+            gray = gray_frame(frame, camera.width_px, camera.height_px)
+        except FrameError as exc:  # not the rig's camera size or type: left out, the chain restarts
+            print(f"frame left out: {exc}", file=sys.stderr)
+            self.shift.reset()
+            self.last_arrival_s = None
+            return
+        measured = self.shift.update(gray)
         arrival_s = frame.t_capture_ns * 1e-9
         if measured is not None and self.last_arrival_s is not None:
             du_px, dv_px, response = measured
