@@ -10,7 +10,8 @@ Outputs: `vision/detection` for every frame processed, found or not, with the he
          was removed; `vision/candidates` (when `[vision] candidates`, and not while `gaze/state`
          says the controller pursues, saccades or traces); while it traces a ground line
          (`trace`), `vision/edge` instead: the edge under the fovea.
-Settings: [camera] (source, size, intrinsics, reopen_max_s, timeout_ms), [head] kinematics,
+Settings: [camera] (source, size, intrinsics, reopen_max_s, timeout_ms, delay_ms,
+         delay_estimate), [head] kinematics,
          [servo] protocol, [wide] (the digital head's wide camera and stream),
          [vision] (detector and its thresholds, odometry interpolation).
 
