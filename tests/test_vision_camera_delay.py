@@ -96,15 +96,6 @@ def test_the_estimator_converges_and_the_correction_follows_in_steps() -> None:
     assert 10.0 + 59 * PERIOD_S - corrected[-1] == pytest.approx(estimator.delay_s)
 
 
-def test_a_change_larger_than_jump_s_is_applied_at_once() -> None:
-    estimator = CameraDelayEstimator(0.0, max_step_s=0.01, jump_s=0.04)
-    estimator.delay_s = 0.15
-    assert estimator.next_correction_s() == 0.15  # the detectors restart once
-    estimator.delay_s = 0.17
-    assert estimator.next_correction_s() == pytest.approx(0.16)  # small: a step at a time
-    assert estimator.next_correction_s() == pytest.approx(0.17)
-
-
 def test_no_motion_leaves_the_estimate_where_it_was() -> None:
     shifts, odometry = synthetic(0.2, pan=still, tilt=still)
     estimator = CameraDelayEstimator(0.12)

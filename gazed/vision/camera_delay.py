@@ -18,11 +18,8 @@ and the rotation explains most of the shifts.
 
 `CameraDelayEstimator` keeps a sliding window of shifts and odometry, fits it every
 `fit_every_s`, and takes the median of the recent fits as its estimate. Each frame's stamp
-moves back by the estimate (`next_correction_s`). A small change is followed by at most
-`max_step_s` per frame, so that consecutive frames keep their order; one larger than `jump_s`
-(the first estimate, most often) is taken at once: the detectors restart and the estimator
-refuses the frames stamped before its last one, a smaller harm than a second of frames stamped
-at the wrong spacing.
+moves back by the estimate (`next_correction_s`), following a changed estimate by at most
+`max_step_s` per frame so that consecutive frames keep their order.
 """
 
 from __future__ import annotations
@@ -181,7 +178,6 @@ class CameraDelayEstimator:
         min_response: float = 0.05,
         max_pair_s: float = 0.25,
         max_step_s: float = 0.005,
-        jump_s: float = math.inf,
     ) -> None:
         self.delay_s = initial_s
         self.applied_s = initial_s
@@ -193,7 +189,6 @@ class CameraDelayEstimator:
         self.min_response = min_response
         self.max_pair_s = max_pair_s
         self.max_step_s = max_step_s
-        self.jump_s = jump_s
         self.fits = 0
         self.last_fit: LagFit | None = None
         self._recent: deque[float] = deque(maxlen=fits_kept)
@@ -247,10 +242,7 @@ class CameraDelayEstimator:
 
     def next_correction_s(self) -> float:
         """The delay to take off the next frame's arrival stamp: the estimate, followed by at
-        most `max_step_s` per frame, or at once when it is more than `jump_s` away."""
-        change = self.delay_s - self.applied_s
-        if abs(change) > self.jump_s:
-            self.applied_s = self.delay_s
-        else:
-            self.applied_s += min(max(change, -self.max_step_s), self.max_step_s)
+        most `max_step_s` per frame."""
+        step = min(max(self.delay_s - self.applied_s, -self.max_step_s), self.max_step_s)
+        self.applied_s += step
         return self.applied_s

@@ -21,16 +21,14 @@ from gazed.vision.camera_delay import CameraDelayEstimator, ImageShift
 from gazed.vision.frames import CapturedFrame
 
 TIMING_WINDOW = 100  # frames over which the shift's cost is reported
-STEP_PERIODS = 0.25  # a small change of the correction: at most this many periods per frame
+STEP_PERIODS = 0.25  # the correction moves at most this many frame periods per frame
 
 
 class CaptureStampCorrection:
     def __init__(self, camera: CameraSection) -> None:
         self.online = camera.delay_estimate
         self.estimator = CameraDelayEstimator(
-            camera.delay_ms * 1e-3,
-            max_step_s=STEP_PERIODS * camera.frame_period_s,
-            jump_s=camera.frame_period_s,
+            camera.delay_ms * 1e-3, max_step_s=STEP_PERIODS * camera.frame_period_s
         )
         self.shift = ImageShift(camera.width_px, camera.height_px)
         self.shift_time = LatencyWindow(default_s=0.0, size=TIMING_WINDOW)
