@@ -103,6 +103,7 @@ def one_run(args: argparse.Namespace, mode: str) -> dict[str, Any]:
     if notes:
         result["vision_note"] = notes[-1].notes.get("camera_delay")
         result["shift_ms"] = notes[-1].stage_ms.get("camera_delay_shift_median")
+        result["fit_ms"] = notes[-1].stage_ms.get("camera_delay_fit_median")
     return {"mode": mode, **result}
 
 
@@ -158,7 +159,10 @@ def main() -> int:
             f"{stamp.get('median', '-'):>13} {stamp.get('p95_abs', '-'):>10}"
             f" {r.get('converged_after_s')!s:>23}"
         )
-        print(f"         vision: {r.get('vision_note')}; shift {r.get('shift_ms')} ms/frame")
+        print(
+            f"         vision: {r.get('vision_note')}; shift {r.get('shift_ms')} ms/frame, "
+            f"fit {r.get('fit_ms')} ms twice a second"
+        )
     return 0
 
 
