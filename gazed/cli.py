@@ -59,7 +59,7 @@ COMMANDS: dict[str, Command | Group] = {
     ),
     "plot": Command("gazed.plots.plot_cli", "the paper's figures (PNG) from an MCAP recording"),
     "calibrate": Group(
-        "solve the frontal-plane -> ground homography",
+        "calibrate with the rig: the ground homography, the camera's delay",
         {
             "points": Command(
                 "gazed.geometry.calibrate_cli",
@@ -80,7 +80,11 @@ COMMANDS: dict[str, Command | Group] = {
             ),
             "speeds": Command(
                 "gazed.servo.speed_calibration",
-                "measure an ONVIF camera's rate per speed step with its own position readings",
+                "measure a speed-driven head's rate per speed step with its own position readings",
+            ),
+            "latency": Command(
+                "gazed.calibrate.camera_latency",
+                "step the running rig's head and time the image's motion: the camera's delay",
             ),
         },
     ),

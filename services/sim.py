@@ -3,12 +3,13 @@
 Inputs: the serial bytes the `servo` process writes to the emulated head's pty (the rig's
 `[servo] port` is a symlink to it; the head answers in the rig's protocol,
 `gazed.sim.head_emulator`).
-Outputs: `sim/frame` (what the camera sees, published `[sim] visual_latency_ms` after capture
-but stamped with the true capture time) and `sim/truth` (the target's ground position and
-velocity, its height, the true head pose, at the capture time of every frame, published at once).
+Outputs: `sim/frame` (what the camera sees, stamped on arrival `[sim] camera_delay_ms` after
+its exposure, a delay gazed is not told, and published `[sim] visual_latency_ms` after that) and
+`sim/truth` (the target's ground position and velocity, its height, the true head pose, at the
+exposure of every frame, published at once).
 Settings: [camera] size, intrinsics and rate; [head] kinematics and limits (the emulated axes);
 [servo] protocol and port; [sim] seed, trajectory and its speed/scale/centre, target size,
-frame encoding, distractor, the true camera pose, latency, noise, flicker, blur, the court
+frame encoding, distractor, the true camera pose, latency and hidden camera delay, noise, flicker, blur, the court
 (ground lines to trace), and the emulated head's keys.
 
 The world's snapshots and pixels are `gazed.sim.world`; when frames are captured, rendered and
@@ -48,7 +49,9 @@ class SimService:
         t0_s = time.monotonic()
         self.world = SimWorld(rig, self.emulator.pose_at, t0_s)
         self.schedule: CameraSchedule[Scene, tuple[FrameHeader, np.ndarray]] = CameraSchedule(
-            rig.camera.frame_period_s, rig.sim.visual_latency_ms / 1000.0, t0_s
+            rig.camera.frame_period_s,
+            (rig.sim.camera_delay_ms + rig.sim.visual_latency_ms) / 1000.0,
+            t0_s,
         )
         self.published = 0
         self.render_ms = 0.0

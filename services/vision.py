@@ -11,14 +11,16 @@ Outputs: `vision/detection` for every frame processed, found or not, with the he
          segments); `vision/candidates` (when `[vision] candidates`, and not while
          `gaze/state` says the controller pursues, saccades or traces); while it traces a ground line
          (`trace`), `vision/edge` instead: the edge under the fovea.
-Settings: [camera] (source, size, intrinsics, reopen_max_s, timeout_ms), [head] kinematics,
+Settings: [camera] (source, size, intrinsics, reopen_max_s, timeout_ms, delay_ms,
+         delay_estimate), [head] kinematics,
          [servo] protocol, [wide] (the digital head's wide camera and stream),
          [vision] (detector and its thresholds, odometry interpolation).
 
 It runs at the camera's rate: each step takes the newest frame (older ones are skipped, never
 queued). Frames that cannot be used are dropped and counted (`dropped:<reason>`). Health
-carries the source's link state and the last error, whether compensation is on, and the
-detector's time per frame.
+carries the source's link state and the last error, whether compensation is on, the
+detector's time per frame, and the camera delay taken off the capture stamps
+(`gazed.vision.capture_stamp`).
 """
 
 from __future__ import annotations
@@ -123,6 +125,7 @@ class VisionService:
             "detector": self.stage.pipeline.detector.name,
             "source": f"{self.source_name} ({status.link})",
             "compensation": self.stage.compensation_note(),
+            "camera_delay": self.stage.capture_stamp.note(),
         }
         if status.last_error:
             notes["source_error"] = status.last_error
@@ -130,7 +133,8 @@ class VisionService:
             notes["stream"] = self.stream.url
         if self.stage.last_drop:
             notes["last_drop"] = self.stage.last_drop
-        return HealthReport(counters=counters, stage_ms=self.stage.times_ms(), notes=notes)
+        stage_ms = {**self.stage.times_ms(), **self.stage.capture_stamp.stage_ms()}
+        return HealthReport(counters=counters, stage_ms=stage_ms, notes=notes)
 
     def close(self) -> None:
         self.source.disconnect()

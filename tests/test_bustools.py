@@ -10,9 +10,9 @@ from pathlib import Path
 import pytest
 from conftest import FAKE, PYTHON, SUPPORT, RunningSupervisor, child_env, write_rig
 
-from gazed.bustools.latency import latency_report
+from gazed.bustools.latency import latency_report, latency_text
 from gazed.config import SERVICE_NAMES
-from gazed.messages import Detection
+from gazed.messages import Detection, Health
 
 
 @pytest.fixture(scope="module")
@@ -139,6 +139,18 @@ def test_latency_report_arithmetic() -> None:
     assert entry["stages_ms"]["a"]["p50"] == 1.0
     assert entry["stages_ms"]["b"]["p99"] == 2.0
     assert entry["end_to_end_ms"]["p50"] == 3.0
+    assert "camera_delay" not in report
+    vision = Health(
+        t_capture_ns=0,
+        process="vision",
+        pid=1,
+        uptime_s=1.0,
+        stage_ms={"camera_delay": 150.2},
+        notes={"camera_delay": "150.2 ms (online)"},
+    )
+    report = latency_report(stamped, vision)
+    assert report["camera_delay"] == {"ms": 150.2, "note": "150.2 ms (online)"}
+    assert "camera delay" in latency_text(report)
 
 
 @pytest.mark.e2e

@@ -1,5 +1,5 @@
-"""The `sim` process on the bus: frames after the visual latency stamped with their capture
-time, truth at every capture, the head's pty where the rig's [servo] port says."""
+"""The `sim` process on the bus: frames after the visual latency stamped on arrival (the hidden
+camera delay after their exposure), truth at every exposure, the head's pty where the rig's [servo] port says."""
 
 from __future__ import annotations
 
@@ -19,12 +19,14 @@ from gazed.wakeup import Wakeup
 pytestmark = pytest.mark.e2e  # every test here starts the real processes
 
 
-def test_frames_truth_and_the_head_port(tmp_path: Path) -> None:
+@pytest.mark.parametrize("camera_delay_ms", [0, 80])
+def test_frames_truth_and_the_head_port(tmp_path: Path, camera_delay_ms: int) -> None:
     port = tmp_path / "head"
     body = (
         f'[servo]\nprotocol = "visca"\nport = "{port}"\n\n'
         "[camera]\nwidth_px = 320\nheight_px = 240\nrate_hz = 25\n\n"
         '[sim]\ntrajectory = "oval"\nvisual_latency_ms = 120\n'
+        f"camera_delay_ms = {camera_delay_ms}\n"
         "camera_xyz_m = [0.0, -4.0, 2.5]\ncamera_yaw_deg = 90.0\n"
     )
     rig_path = write_rig(tmp_path, body)
@@ -60,7 +62,8 @@ def test_frames_truth_and_the_head_port(tmp_path: Path) -> None:
         ((stage, published_ns),) = header.stamps
         assert stage == "sim"
         assert published_ns - header.t_capture_ns >= 120e6  # never before the visual latency
-        assert truth[header.seq].t_capture_ns == header.t_capture_ns  # truth of the same instant
+        exposure_ns = header.t_capture_ns - camera_delay_ms * 1_000_000  # stamped on arrival
+        assert truth[header.seq].t_capture_ns == exposure_ns  # truth of the same instant
     speeds = [abs(complex(*t.target_velocity_m_s)) for t in truth.values()]
     assert min(speeds) >= 0.4 - 1e-9 and max(speeds) <= 0.5 + 1e-9  # the oval's speeds
     assert all(t.target_height_m == rig.sim.target_height_m for t in truth.values())

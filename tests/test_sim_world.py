@@ -48,3 +48,13 @@ def test_gray8_frames_are_rendered_grey_and_a_distractor_is_a_second_body() -> N
     scene, _ = world.capture(T0_S, 1)
     assert len(scene.bodies) == 2 and scene.bodies[1].texture == 1
     assert world.render(scene).shape == (rig.camera.height_px, rig.camera.width_px)
+
+
+def test_a_hidden_camera_delay_stamps_the_frame_on_arrival_and_the_truth_at_exposure() -> None:
+    rig = load_rig(SIM_RIG)
+    sim = rig.sim.model_copy(update={"camera_delay_ms": 150.0})
+    world = SimWorld(rig.model_copy(update={"sim": sim}), head, T0_S)
+    scene, truth = world.capture(T0_S + 1.0, 1_000_000_000)
+    assert truth.t_capture_ns == 1_000_000_000
+    assert scene.header.t_capture_ns == 1_150_000_000
+    assert scene.head == truth.head == head(T0_S + 1.0)  # rendered at the exposure

@@ -110,3 +110,20 @@ def test_odometry_from_the_future_is_refused(tmp_path: Path) -> None:
     assert stage.counters["dropped:odometry_from_the_future"] == 1
     assert stage.history.pose_at(ahead.t_capture_ns) is None
     assert stage.last_drop is not None and "ahead of now" in stage.last_drop
+
+
+def test_a_told_camera_delay_moves_the_capture_stamp_before_the_pose_is_looked_up(
+    tmp_path: Path,
+) -> None:
+    stage = VisionStage(
+        load_rig(write_rig(tmp_path, CAMERA_BODY + "delay_ms = 100\ndelay_estimate = false\n")),
+        clock_ns=lambda: STAMP_NS,
+    )
+    for k in range(100):
+        stage.add_odometry(odometry(k / 100.0), T0_NS + 10**9)
+    frame = frames(6)[5]
+    detection = stage.process(frame).detection
+    assert detection is not None
+    assert detection.t_capture_ns == frame.t_capture_ns - 100_000_000
+    assert detection.head == stage.history.pose_at(detection.t_capture_ns)
+    assert detection.head != stage.history.pose_at(frame.t_capture_ns)

@@ -54,6 +54,18 @@ class CameraSection(Section):
         description="How long a source may stay silent: the open/read timeout of streams and "
         "files; no simulator frame for this long reports the link down.",
     )
+    delay_ms: float = Field(
+        0.0,
+        ge=0,
+        le=2000,
+        description="The camera's delay from exposure to a frame's arrival (its stamp), where "
+        "known; the online estimate starts from it.",
+    )
+    delay_estimate: bool = Field(
+        True,
+        description="Estimate the camera's delay online from the image's global motion against "
+        "odometry whenever the head moves, and correct each frame's capture stamp with it.",
+    )
 
     @model_validator(mode="after")
     def _focal_length(self) -> CameraSection:

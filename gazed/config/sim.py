@@ -45,6 +45,14 @@ class SimSection(Section):
         le=2000,
         description="Delay between capture and a frame reaching the bus (the paper: 100-200).",
     )
+    camera_delay_ms: float = Field(
+        0.0,
+        ge=0,
+        le=2000,
+        description="Hidden camera pipeline delay, not told to gazed: a frame is stamped when it "
+        "arrives, this long after its exposure, then reaches the bus visual_latency_ms later; "
+        "sim/truth keeps the exposure time.",
+    )
     head_latency_ms: float = Field(
         20.0,
         ge=0,

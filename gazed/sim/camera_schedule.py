@@ -2,7 +2,8 @@
 
 Frames are captured at their instants on the camera's clock (every `period_s` from the start);
 a capture that falls more than a frame behind (an overloaded machine) is skipped and counted,
-never queued. Each frame is published `latency_s` after its capture, the visual latency. Its
+never queued. Each frame is published `latency_s` after its capture: the hidden camera delay
+(exposure to arrival) plus the visual latency (arrival to the bus). Its
 pixels are rendered from the snapshot taken at capture, half a frame before the frame is due
 on the bus rather than at capture: with a visual latency that is not a whole number of frames,
 rendering at capture would put the renderer's work on a core while the loop works on the frame

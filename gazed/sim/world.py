@@ -62,6 +62,7 @@ class SimWorld:
 
     def __init__(self, rig: Rig, pose_at: Callable[[float], HeadPose], t0_s: float) -> None:
         sim = rig.sim
+        self.camera_delay_ns = round(sim.camera_delay_ms * 1e6)
         self.camera = CameraModel.from_section(rig.camera)
         self.renderer = Renderer(
             self.camera,
@@ -81,8 +82,9 @@ class SimWorld:
         self.seq = 0
 
     def capture(self, t_s: float, t_capture_ns: int) -> tuple[Scene, SimTruth]:
-        """The next frame's snapshot at monotonic `t_s` (wall clock `t_capture_ns`), and its
-        truth."""
+        """The next frame's snapshot at monotonic `t_s` (its exposure, wall clock `t_capture_ns`),
+        and its truth. The frame is stamped as a camera pipeline stamps it, on arrival: the
+        hidden `camera_delay_ms` after the exposure; the truth keeps the exposure time."""
         world_t_s = t_s - self.t0_s
         head = self.pose_at(t_s)
         target = self.target.state(world_t_s)
@@ -91,7 +93,7 @@ class SimWorld:
             other = self.distractor.state(world_t_s)
             bodies.append(Body(other.xy_m, self.height_m, self.width_m, texture=1))
         header = FrameHeader(
-            t_capture_ns=t_capture_ns,
+            t_capture_ns=t_capture_ns + self.camera_delay_ns,
             seq=self.seq,
             width=self.camera.width_px,
             height=self.camera.height_px,

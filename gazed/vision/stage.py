@@ -39,6 +39,7 @@ from gazed.messages import (
     Odometry,
 )
 from gazed.vision.candidates import MotionRegion
+from gazed.vision.capture_stamp import CaptureStampCorrection
 from gazed.vision.detector import DetectorOutput
 from gazed.vision.digital_camera import DigitalCamera
 from gazed.vision.edge_trace import EdgePoint, EdgeTracer
@@ -86,6 +87,7 @@ class VisionStage:
             high_threshold=vision.edge_canny_high,
         )
         self.intake = FrameIntake(self.camera.width_px, self.camera.height_px)
+        self.capture_stamp = CaptureStampCorrection(rig.camera)
         self.gaze_state: str | None = None
         self.counters: Counter[str] = Counter()
         self.last_drop: str | None = None
@@ -104,7 +106,9 @@ class VisionStage:
 
     def add_odometry(self, odometry: Odometry, now_ns: int) -> None:
         """A head pose; one stamped ahead of `now_ns` is dropped and counted."""
-        if not self.history.add(odometry, now_ns):
+        if self.history.add(odometry, now_ns):
+            self.capture_stamp.add_odometry(odometry)
+        else:
             self._drop(
                 "odometry_from_the_future",
                 f"odometry stamped {odometry.t_capture_ns} is ahead of now",
@@ -117,6 +121,7 @@ class VisionStage:
         except FrameError as exc:
             self._drop(exc.reason, str(exc))
             return VisionOutput()
+        frame = self.capture_stamp.frame(frame, gray)  # stamped at exposure, not arrival
         head = frame.head if frame.head is not None else self.history.pose_at(frame.t_capture_ns)
         if self.gaze_state == "trace":  # line calibration: the edge under the fovea, nothing else
             return VisionOutput(edge=self._edge(frame, head, self.edges.observe(gray)))

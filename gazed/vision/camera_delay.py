@@ -1,0 +1,248 @@
+"""The camera's delay from exposure to arrival, estimated from the image's global motion against
+the head's odometry.
+
+A camera pipeline (encoder, network, decoder) stamps a frame when it arrives, a delay after the
+light hit the sensor. Between two consecutive frames the background shifts by the head's
+rotation between their exposures. `ImageShift` measures that shift by phase correlation on a
+small grey copy of each frame. `fit_lag` finds the lag tau for which the odometry's rotation
+between (a - tau) and (b - tau), a and b the two frames' arrival stamps, explains the shifts
+best: for each lag on a grid, a least-squares map from the rotation (pan, tilt) to the shift
+(u, v) — sign and scale fitted, so no axis convention or focal length is assumed — and its
+residual; the best grid lag is refined by a parabola through its neighbours. Shifts far from
+the fit (three robust standard deviations, from the median absolute residual) — a failed
+correlation, the target filling the frame — are dropped and the fit repeated. A residual under
+a fifth of the large shifts never counts as far: with the head still half the time, the median
+residual alone would call every moving frame an outlier. A fit counts only when the head's
+rates varied over the window (a still head, or one turning at a constant rate, shows no lag)
+and the rotation explains most of the shifts.
+
+`CameraDelayEstimator` keeps a sliding window of shifts and odometry, fits it every
+`fit_every_s`, and takes the median of the recent fits as its estimate. Each frame's stamp
+moves back by the estimate (`next_correction_s`), following a changed estimate by at most
+`max_step_s` per frame so that consecutive frames keep their order.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+GRID_WIDTH_PX = 160  # width of the grey copy the shift is measured on
+MAD_TO_SIGMA = 1.4826  # median absolute deviation -> standard deviation of a normal
+OUTLIER_SIGMAS = 3.0
+SHIFT_PRECISION_PX = 0.25  # residuals below this are never outliers
+SHIFT_FRACTION = (
+    0.2  # nor those below this share of the large shifts (the head still half the time)
+)
+RIDGE = 1e-9  # keeps the per-lag least squares solvable when one axis does not move
+
+
+class ImageShift:
+    """The global shift (full-frame pixels) of each grey frame from the one before."""
+
+    def __init__(self, width_px: int, height_px: int, grid_width_px: int = GRID_WIDTH_PX) -> None:
+        grid_width_px = min(grid_width_px, width_px)
+        grid_height_px = max(16, round(height_px * grid_width_px / width_px))
+        self.size = (grid_width_px, grid_height_px)
+        self.scale = (width_px / grid_width_px, height_px / grid_height_px)
+        self.window = cv2.createHanningWindow(self.size, cv2.CV_32F)
+        self._previous: np.ndarray | None = None
+
+    def reset(self) -> None:
+        self._previous = None
+
+    def update(self, gray: np.ndarray) -> tuple[float, float, float] | None:
+        """(du_px, dv_px, response) from the previous frame to `gray`; None for the first.
+        The response (0-1) is the correlation peak's height: near 0 the shift is noise."""
+        small = cv2.resize(gray, self.size, interpolation=cv2.INTER_AREA).astype(np.float32)
+        previous, self._previous = self._previous, small
+        if previous is None:
+            return None
+        (du, dv), response = cv2.phaseCorrelate(previous, small, self.window)
+        return du * self.scale[0], dv * self.scale[1], float(response)
+
+
+@dataclass(frozen=True)
+class LagFit:
+    """The lag that explains the shifts best, the share of their energy it explains, and how
+    many shifts it kept."""
+
+    lag_s: float
+    explained: float
+    inliers: int
+
+
+def fit_lag(
+    shifts: np.ndarray,
+    odometry: np.ndarray,
+    lags_s: np.ndarray,
+    min_rate_std_rad_s: float,
+    min_explained: float,
+) -> LagFit | None:
+    """The lag from exposure to arrival. `shifts` (N, 4): a_s, b_s, du_px, dv_px (the arrival
+    stamps of a frame pair and the image's shift between them); `odometry` (M, 3): t_s, pan_rad,
+    tilt_rad in time order; `lags_s` (K,) the grid, evenly spaced. None when the head's rates
+    did not vary enough, the best lag is on the grid's edge, or the fit explains too little."""
+    if len(odometry) < 2 or len(shifts) < 4 or len(lags_s) < 3:
+        return None
+    t, angles = odometry[:, 0], odometry[:, 1:]
+    a, b, y = shifts[:, 0], shifts[:, 1], shifts[:, 2:]
+    covered = (a - lags_s[-1] >= t[0]) & (b - lags_s[0] <= t[-1]) & (b > a)
+    a, b, y = a[covered], b[covered], y[covered]
+    if len(a) < 4:
+        return None
+    x = _rotations(t, angles, a, b, lags_s)  # (K, N, 2)
+    rates = x[len(lags_s) // 2] / (b - a)[:, None]  # (N, 2), at the grid's middle lag
+    if not np.any(rates.std(axis=0) >= min_rate_std_rad_s):
+        return None
+    keep = np.ones(len(a), dtype=bool)
+    floor_px = max(
+        SHIFT_PRECISION_PX, SHIFT_FRACTION * float(np.percentile(np.linalg.norm(y, axis=1), 90))
+    )
+    for _ in range(3):  # fit, drop the shifts far from it, fit again
+        if keep.sum() < 4:
+            return None
+        costs, gains = _costs(x[:, keep], y[keep])
+        k = int(np.argmin(costs))
+        norms = np.linalg.norm(y - x[k] @ gains[k], axis=1)
+        scale = MAD_TO_SIGMA * float(np.median(norms[keep]))
+        inliers = norms <= max(OUTLIER_SIGMAS * scale, floor_px)
+        if np.array_equal(inliers, keep):
+            break
+        keep = inliers
+    else:
+        if keep.sum() < 4:
+            return None
+        costs, _ = _costs(x[:, keep], y[keep])
+        k = int(np.argmin(costs))
+    if k == 0 or k == len(lags_s) - 1:
+        return None
+    explained = 1.0 - costs[k] / max(float(np.sum(y[keep] ** 2)), 1e-12)
+    if explained < min_explained:
+        return None
+    c0, c1, c2 = costs[k - 1], costs[k], costs[k + 1]
+    curvature = c0 - 2.0 * c1 + c2
+    offset = 0.5 * (c0 - c2) / curvature if curvature > 0 else 0.0
+    step_s = float(lags_s[1] - lags_s[0])
+    return LagFit(float(lags_s[k]) + offset * step_s, float(explained), int(keep.sum()))
+
+
+def _rotations(
+    t: np.ndarray, angles: np.ndarray, a: np.ndarray, b: np.ndarray, lags_s: np.ndarray
+) -> np.ndarray:
+    """(K, N, 2): the head's rotation (pan, tilt) between a - lag and b - lag, per lag."""
+    ta = a[None, :] - lags_s[:, None]
+    tb = b[None, :] - lags_s[:, None]
+    return np.stack(
+        [np.interp(tb, t, angles[:, j]) - np.interp(ta, t, angles[:, j]) for j in (0, 1)],
+        axis=-1,
+    )
+
+
+def _costs(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per lag: the residual energy of y (N, 2) ~ x (K, N, 2) @ G (2x2 least squares), and the
+    gains G (K, 2, 2). With the normal equations S G = B (S = x'x, B = x'y), the residual
+    energy is |y|^2 - sum(G * B)."""
+    pan, tilt = x[..., 0], x[..., 1]
+    s_pp, s_pt, s_tt = np.sum(pan * pan, 1), np.sum(pan * tilt, 1), np.sum(tilt * tilt, 1)
+    ridge = RIDGE * (s_pp + s_tt) + 1e-30
+    s_pp, s_tt = s_pp + ridge, s_tt + ridge
+    det = s_pp * s_tt - s_pt * s_pt
+    b_p, b_t = pan @ y, tilt @ y  # (K, 2): the rows of B
+    g_p = (s_tt[:, None] * b_p - s_pt[:, None] * b_t) / det[:, None]
+    g_t = (s_pp[:, None] * b_t - s_pt[:, None] * b_p) / det[:, None]
+    explained = np.sum(g_p * b_p + g_t * b_t, axis=1)
+    return float(np.sum(y * y)) - explained, np.stack([g_p, g_t], axis=1)
+
+
+class CameraDelayEstimator:
+    """The camera's delay from exposure to arrival (seconds), from shifts and odometry given
+    with their stamps (wall-clock seconds). Starts at `initial_s`, the delay the rig states."""
+
+    def __init__(
+        self,
+        initial_s: float = 0.0,
+        *,
+        window_s: float = 4.0,
+        min_delay_s: float = -0.1,
+        max_delay_s: float = 1.0,
+        step_s: float = 0.005,
+        fit_every_s: float = 0.5,
+        fits_kept: int = 5,
+        min_rate_std_rad_s: float = math.radians(2.0),
+        min_explained: float = 0.6,
+        min_response: float = 0.05,
+        max_pair_s: float = 0.25,
+        max_step_s: float = 0.005,
+    ) -> None:
+        self.delay_s = initial_s
+        self.applied_s = initial_s
+        self.window_s = window_s
+        self.lags_s = np.arange(min_delay_s, max_delay_s + step_s / 2, step_s)
+        self.fit_every_s = fit_every_s
+        self.min_rate_std_rad_s = min_rate_std_rad_s
+        self.min_explained = min_explained
+        self.min_response = min_response
+        self.max_pair_s = max_pair_s
+        self.max_step_s = max_step_s
+        self.fits = 0
+        self.last_fit: LagFit | None = None
+        self._recent: deque[float] = deque(maxlen=fits_kept)
+        self._shifts: deque[tuple[float, float, float, float]] = deque()
+        self._odometry: deque[tuple[float, float, float]] = deque()
+        self._last_fit_s = -math.inf
+
+    def add_odometry(self, t_s: float, pan_rad: float, tilt_rad: float) -> None:
+        if self._odometry and t_s <= self._odometry[-1][0]:
+            return  # out of order or repeated: the window stays in time order
+        self._odometry.append((t_s, pan_rad, tilt_rad))
+        while self._odometry[0][0] < t_s - self.window_s - self.lags_s[-1] - 1.0:
+            self._odometry.popleft()
+
+    def add_shift(
+        self, t0_s: float, t1_s: float, du_px: float, dv_px: float, response: float = 1.0
+    ) -> None:
+        """The shift between frames that arrived at `t0_s` and `t1_s`; a weak correlation, a
+        non-finite shift or a pair too far apart is left out."""
+        if response < self.min_response or not 0.0 < t1_s - t0_s <= self.max_pair_s:
+            return
+        if not (math.isfinite(du_px) and math.isfinite(dv_px)):
+            return
+        self._shifts.append((t0_s, t1_s, du_px, dv_px))
+        while self._shifts[0][1] < t1_s - self.window_s:
+            self._shifts.popleft()
+
+    def fit_due(self, now_s: float) -> bool:
+        """Whether `update(now_s)` would fit the window: `fit_every_s` has passed."""
+        return now_s - self._last_fit_s >= self.fit_every_s and bool(self._shifts)
+
+    def update(self, now_s: float) -> bool:
+        """Fit the window if `fit_every_s` has passed; whether the estimate took a new fit."""
+        if not self.fit_due(now_s):
+            return False
+        self._last_fit_s = now_s
+        fit = fit_lag(
+            np.array(self._shifts),
+            np.array(self._odometry) if self._odometry else np.empty((0, 3)),
+            self.lags_s,
+            self.min_rate_std_rad_s,
+            self.min_explained,
+        )
+        if fit is None:
+            return False
+        self.last_fit = fit
+        self.fits += 1
+        self._recent.append(fit.lag_s)
+        self.delay_s = float(np.median(self._recent))
+        return True
+
+    def next_correction_s(self) -> float:
+        """The delay to take off the next frame's arrival stamp: the estimate, followed by at
+        most `max_step_s` per frame."""
+        step = min(max(self.delay_s - self.applied_s, -self.max_step_s), self.max_step_s)
+        self.applied_s += step
+        return self.applied_s

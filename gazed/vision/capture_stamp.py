@@ -1,0 +1,84 @@
+"""Each frame's capture stamp moved back from its arrival to its exposure by the camera's delay.
+
+The delay is the rig's `[camera] delay_ms`, or, with `[camera] delay_estimate`, the online
+estimate of `camera_delay` that starts from it: every frame's global shift from the one before
+(phase correlation on a small grey copy) and every odometry sample feed it. A digital head's
+views carry the pose they were rendered at and are stamped at their exposure: they pass as they
+are.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+
+import numpy as np
+
+from gazed.config import CameraSection
+from gazed.latency import LatencyWindow
+from gazed.messages import Odometry
+from gazed.vision.camera_delay import CameraDelayEstimator, ImageShift
+from gazed.vision.frames import CapturedFrame
+
+TIMING_WINDOW = 100  # frames over which the shift's cost is reported
+STEP_PERIODS = 0.25  # the correction moves at most this many frame periods per frame
+
+
+class CaptureStampCorrection:
+    def __init__(self, camera: CameraSection) -> None:
+        self.online = camera.delay_estimate
+        self.estimator = CameraDelayEstimator(
+            camera.delay_ms * 1e-3, max_step_s=STEP_PERIODS * camera.frame_period_s
+        )
+        self.shift = ImageShift(camera.width_px, camera.height_px)
+        self.shift_time = LatencyWindow(default_s=0.0, size=TIMING_WINDOW)
+        self.fit_time = LatencyWindow(default_s=0.0, size=TIMING_WINDOW)
+        self._last_arrival_s: float | None = None
+
+    def add_odometry(self, odometry: Odometry) -> None:
+        if self.online:
+            self.estimator.add_odometry(
+                odometry.t_capture_ns * 1e-9, odometry.pan_rad, odometry.tilt_rad
+            )
+
+    def frame(self, frame: CapturedFrame, gray: np.ndarray) -> CapturedFrame:
+        """The frame stamped at its exposure; `gray` (its grey pixels) feeds the estimate."""
+        if frame.head is not None:
+            return frame
+        arrival_s = frame.t_capture_ns * 1e-9
+        if self.online:
+            started = time.perf_counter()
+            shift = self.shift.update(gray)
+            if shift is not None and self._last_arrival_s is not None:
+                self.estimator.add_shift(self._last_arrival_s, arrival_s, *shift)
+            self._last_arrival_s = arrival_s
+            fitting = time.perf_counter()
+            self.shift_time.add(fitting - started)
+            if self.estimator.fit_due(arrival_s):
+                self.estimator.update(arrival_s)
+                self.fit_time.add(time.perf_counter() - fitting)
+        delay_ns = round(self.estimator.next_correction_s() * 1e9)
+        return dataclasses.replace(frame, t_capture_ns=frame.t_capture_ns - delay_ns)
+
+    def note(self) -> str:
+        """The delay applied, and where it comes from."""
+        applied_ms = self.estimator.applied_s * 1e3
+        if not self.online:
+            return f"{applied_ms:.1f} ms ([camera] delay_ms; online estimate off)"
+        fit = self.estimator.last_fit
+        if fit is None:
+            return f"{applied_ms:.1f} ms (not estimated yet: the head has not moved enough)"
+        return (
+            f"{applied_ms:.1f} ms (online: {self.estimator.fits} fits, last "
+            f"{fit.lag_s * 1e3:.1f} ms explaining {fit.explained:.0%} of the image's motion)"
+        )
+
+    def stage_ms(self) -> dict[str, float]:
+        """The delay applied, the shift's median cost per frame and the fit's (twice a
+        second)."""
+        times = {"camera_delay": round(self.estimator.applied_s * 1e3, 3)}
+        if self.shift_time.count:
+            times["camera_delay_shift_median"] = round(self.shift_time.median_s * 1e3, 3)
+        if self.fit_time.count:
+            times["camera_delay_fit_median"] = round(self.fit_time.median_s * 1e3, 3)
+        return times

@@ -1,0 +1,127 @@
+"""The camera-delay estimator on synthetic signals: a known lag between the image's shifts and
+the odometry is recovered; a still head or one turning at a constant rate gives no update;
+wrong shifts among the good ones do not move the estimate; the stamp correction follows the
+estimate a step at a time. `ImageShift` measures a known translation of a textured image."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import cv2
+import numpy as np
+import pytest
+
+from gazed.vision.camera_delay import CameraDelayEstimator, ImageShift, fit_lag
+
+FOCAL_PX = 550.0
+PERIOD_S = 0.04
+LAGS_S = np.arange(-0.1, 1.0 + 1e-9, 0.005)
+
+
+def pan_of(t_s: np.ndarray) -> np.ndarray:
+    """A head that pans back and forth at changing rates (radians)."""
+    return 0.3 * np.sin(1.7 * t_s) + 0.1 * np.sin(4.1 * t_s + 0.5)
+
+
+def tilt_of(t_s: np.ndarray) -> np.ndarray:
+    return 0.05 * np.sin(2.3 * t_s)
+
+
+def synthetic(
+    lag_s: float,
+    seconds: float = 4.0,
+    noise_px: float = 0.2,
+    seed: int = 3,
+    pan: Callable[[np.ndarray], np.ndarray] = pan_of,
+    tilt: Callable[[np.ndarray], np.ndarray] = tilt_of,
+) -> tuple[np.ndarray, np.ndarray]:
+    """(shifts, odometry) as `fit_lag` takes them: frames exposed every PERIOD_S and stamped
+    `lag_s` later, the image moving opposite the pan; odometry at 100 Hz."""
+    rng = np.random.default_rng(seed)
+    exposure = np.arange(1.0, 1.0 + seconds, PERIOD_S)
+    a, b = exposure[:-1], exposure[1:]
+    du = -FOCAL_PX * (pan(b) - pan(a)) + rng.normal(0, noise_px, len(a))
+    dv = FOCAL_PX * (tilt(b) - tilt(a)) + rng.normal(0, noise_px, len(a))
+    shifts = np.stack([a + lag_s, b + lag_s, du, dv], axis=1)
+    t = np.arange(0.0, 1.0 + seconds + lag_s + 0.5, 0.01)
+    odometry = np.stack([t, pan(t), tilt(t)], axis=1)
+    return shifts, odometry
+
+
+@pytest.mark.parametrize("lag_s", [0.0, 0.08, 0.15, 0.4])
+def test_a_known_lag_is_recovered(lag_s: float) -> None:
+    shifts, odometry = synthetic(lag_s)
+    fit = fit_lag(shifts, odometry, LAGS_S, math.radians(2.0), 0.6)
+    assert fit is not None
+    assert fit.lag_s == pytest.approx(lag_s, abs=0.004)
+    assert fit.explained > 0.95
+
+
+def still(t_s: np.ndarray) -> np.ndarray:
+    return 0.0 * t_s + 0.2
+
+
+def test_a_still_head_or_a_constant_rate_gives_no_fit() -> None:
+    for pan in (still, lambda t: 0.5 * t):  # still; 29 deg/s throughout
+        shifts, odometry = synthetic(0.15, pan=pan, tilt=still)
+        assert fit_lag(shifts, odometry, LAGS_S, math.radians(2.0), 0.6) is None
+
+
+def test_wrong_shifts_do_not_move_the_estimate() -> None:
+    shifts, odometry = synthetic(0.15)
+    rng = np.random.default_rng(7)
+    wrong = rng.choice(len(shifts), size=len(shifts) // 8, replace=False)
+    shifts[wrong, 2:] = rng.uniform(-40.0, 40.0, size=(len(wrong), 2))
+    fit = fit_lag(shifts, odometry, LAGS_S, math.radians(2.0), 0.6)
+    assert fit is not None
+    assert fit.lag_s == pytest.approx(0.15, abs=0.005)
+    assert fit.inliers <= len(shifts) - len(wrong)
+
+
+def test_the_estimator_converges_and_the_correction_follows_in_steps() -> None:
+    shifts, odometry = synthetic(0.2, seconds=6.0)
+    estimator = CameraDelayEstimator(0.0)
+    for t_s, pan, tilt in odometry:
+        estimator.add_odometry(t_s, pan, tilt)
+    assert estimator.next_correction_s() == 0.0  # nothing known yet: the stamp as it came
+    for a, b, du, dv in shifts:
+        estimator.add_shift(a, b, du, dv)
+        estimator.update(b)
+    assert estimator.fits >= 5
+    assert estimator.delay_s == pytest.approx(0.2, abs=0.005)
+    corrected = [10.0 + k * PERIOD_S - estimator.next_correction_s() for k in range(60)]
+    assert np.all(np.diff(corrected) > 0)  # frames keep their order while the stamps move
+    assert 10.0 - corrected[0] == pytest.approx(estimator.max_step_s)
+    assert 10.0 + 59 * PERIOD_S - corrected[-1] == pytest.approx(estimator.delay_s)
+
+
+def test_no_motion_leaves_the_estimate_where_it_was() -> None:
+    shifts, odometry = synthetic(0.2, pan=still, tilt=still)
+    estimator = CameraDelayEstimator(0.12)
+    for t_s, pan, tilt in odometry:
+        estimator.add_odometry(t_s, pan, tilt)
+    for a, b, du, dv in shifts:
+        estimator.add_shift(a, b, du, dv)
+        assert not estimator.update(b)
+    assert estimator.fits == 0 and estimator.delay_s == 0.12
+
+
+def test_a_weak_correlation_or_a_gap_is_left_out() -> None:
+    estimator = CameraDelayEstimator()
+    estimator.add_shift(1.0, 1.04, 3.0, 0.0, response=0.01)
+    estimator.add_shift(1.0, 2.0, 3.0, 0.0)
+    estimator.add_shift(1.0, 1.04, math.nan, 0.0)
+    assert not estimator.update(2.0)
+    estimator.add_shift(1.0, 1.04, 3.0, 0.0)
+    assert len(estimator._shifts) == 1
+
+
+def test_image_shift_measures_a_translation() -> None:
+    rng = np.random.default_rng(1)
+    texture = cv2.GaussianBlur(rng.integers(0, 256, size=(520, 700)).astype(np.uint8), (0, 0), 2)
+    shift = ImageShift(640, 480)
+    assert shift.update(texture[20:500, 30:670]) is None
+    du, dv, response = shift.update(texture[20 + 6 : 500 + 6, 30 - 12 : 670 - 12])
+    assert (du, dv) == pytest.approx((12.0, -6.0), abs=1.0)
+    assert response > 0.3
