@@ -1,0 +1,75 @@
+"""Where annotated people are in a digital head's view: each person's box centre in the wide
+frame, taken through the view's own geometry (`DigitalView.homography`, the wide lens's
+`undistort`) into the view at the head's pose.
+
+For one rendered frame and the people annotated in its footage frame it tells, per person:
+- in the wide view: the box centre lies within the wide frame;
+- the angle between the view's optical axis and the ray through the box centre (the gaze error);
+- in the view: the box centre lands within the view's pixels;
+- held: the box, in the wide frame, holds the pixel the view's centre sees.
+The person the gaze is on is the held one nearest the optical axis.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from gazed.vision.digital_view import DigitalView
+
+MIN_DEPTH = 1e-9  # a box centre with less depth along the view's axis is behind it
+
+
+@dataclass(frozen=True)
+class PeopleInView:
+    """Per person of one frame (rows in the order given)."""
+
+    in_wide: np.ndarray  # (N,) bool
+    error_rad: np.ndarray  # (N,), pi where behind the view
+    in_view: np.ndarray  # (N,) bool
+    held: np.ndarray  # (N,) bool
+
+    def gaze_on(self) -> int | None:
+        """The row of the person the gaze is on, or None."""
+        candidates = np.flatnonzero(self.held & self.in_wide)
+        if not len(candidates):
+            return None
+        return int(candidates[np.argmin(self.error_rad[candidates])])
+
+
+class ViewPeople:
+    """People's boxes against `view`'s image at a head pose."""
+
+    def __init__(self, view: DigitalView) -> None:
+        self.view = view
+
+    def at_pose(self, boxes_px: np.ndarray, pan_rad: float, tilt_rad: float) -> PeopleInView:
+        """`boxes_px` (N, 4): centre u, centre v, width, height in the wide frame's pixels."""
+        boxes = np.asarray(boxes_px, dtype=float).reshape(-1, 4)
+        wide, camera = self.view.wide, self.view.view
+        u, v = boxes[:, 0], boxes[:, 1]
+        in_wide = (u >= 0) & (u <= wide.width_px - 1) & (v >= 0) & (v <= wide.height_px - 1)
+        H = self.view.homography(pan_rad, tilt_rad)  # view pixel -> the wide's ideal pixel
+        ideal_u, ideal_v = wide.undistort(u, v)
+        view_h = np.linalg.solve(H, np.stack([ideal_u, ideal_v, np.ones_like(u)]))
+        ray = camera.K_inv @ view_h  # in the view's camera frame, z along its axis
+        ahead = ray[2] > MIN_DEPTH
+        error = np.arctan2(np.hypot(ray[0], ray[1]), ray[2])
+        error = np.where(ahead, error, math.pi)
+        depth = np.where(ahead, view_h[2], 1.0)
+        view_u, view_v = view_h[0] / depth, view_h[1] / depth
+        in_view = ahead & (view_u >= 0) & (view_u <= camera.width_px - 1)
+        in_view &= (view_v >= 0) & (view_v <= camera.height_px - 1)
+        centre_u, centre_v = self._centre_in_wide(H)
+        held = (np.abs(centre_u - u) <= boxes[:, 2] / 2) & (np.abs(centre_v - v) <= boxes[:, 3] / 2)
+        return PeopleInView(in_wide, error, in_view, held)
+
+    def _centre_in_wide(self, H: np.ndarray) -> tuple[float, float]:
+        """The wide frame's pixel (through its lens) that the view's principal point sees."""
+        camera = self.view.view
+        ideal = H @ np.array([camera.K[0, 2], camera.K[1, 2], 1.0])
+        wide = self.view.wide
+        pixel = wide.pixel(wide.K_inv @ (ideal / ideal[2]))
+        return float(pixel[0]), float(pixel[1])
