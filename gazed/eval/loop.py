@@ -330,7 +330,7 @@ def private_document(
     wide = document.get("wide")
     if wide is not None:
         if "source" in wide:
-            wide["source"] = load_rig(rig_path).wide_source
+            wide["source"] = load_rig(rig_path.resolve()).wide_source
         wide["stream_port"] = _free_port()
     servo = document.setdefault("servo", tomlkit.table())
     if str(servo.get("port", "")).startswith("visca-udp://"):  # VISCA over IP: a private UDP port
