@@ -146,9 +146,12 @@ def test_a_person_never_in_the_fovea_is_not_acquired(geometry: ViewPeople) -> No
     result = score(frames_at_rest(20), people, 3, geometry)
     assert result["visible_frames"] == 20 and result["acquired_after_s"] is None
     assert result["fovea_fraction"] == 0.0 and result["gaze_error_deg"] is None
-    assert score(frames_at_rest(20), {**people, 5: person(5, [99], [CENTRE])}, 5, geometry)[
-        "visible_frames"
-    ] == 0
+    assert (
+        score(frames_at_rest(20), {**people, 5: person(5, [99], [CENTRE])}, 5, geometry)[
+            "visible_frames"
+        ]
+        == 0
+    )
 
 
 def test_without_truth_pursuit_and_track_switches_by_id() -> None:
@@ -157,7 +160,8 @@ def test_without_truth_pursuit_and_track_switches_by_id() -> None:
     ids = [None] * 4 + [7] * 20 + [8, 8] + [7] * 10 + [9] * 3 + [9] * 5
     pursuing = [False] * 4 + [True] * (len(ids) - 4)
     frames = [
-        ViewFrame(k, k * DT_NS, 0.0, 0.0, p, t) for k, (p, t) in enumerate(zip(pursuing, ids))
+        ViewFrame(k, k * DT_NS, 0.0, 0.0, p, t)
+        for k, (p, t) in enumerate(zip(pursuing, ids, strict=True))
     ]
     summary = pursuit_summary(frames)
     assert summary["acquired_after_s"] == pytest.approx(4 * DT_NS / 1e9, abs=1e-3)
