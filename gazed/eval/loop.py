@@ -6,7 +6,8 @@ it (the real entry points); once the supervisor reports them all up, what the bu
 `--seconds` is recorded and scored (`loop_metrics`), with each process's CPU share over the
 same window. `--compare` runs `imm`, `image-cv` and `none` (the IMM without prediction over the
 latency) and the peers' control laws `pid` and `move-wait-move` on the same seed, one after the
-other.
+other. With `--truth`, a digital head's rig runs over its footage instead and is scored against
+the annotated people (`footage_loop`).
 """
 
 from __future__ import annotations
