@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 
+import cv2
 import numpy as np
 import pytest
 
@@ -25,6 +26,7 @@ from gazed.messages import EstimatorState
 from gazed.vision.digital_view import DigitalView
 
 WIDE = CameraModel.from_intrinsics(480, 360, 400.0, 400.0, 239.5, 179.5)
+LENS = CameraModel.from_intrinsics(160, 120, 133.0, 134.0, 77.0, 57.0, (-0.15, 0.07, 0, 0, -0.03))
 VIEW = CameraModel.from_intrinsics(240, 180, 400.0, 400.0, 119.5, 89.5)
 FOVEA_DEG = 3.0
 DT_NS = 142_857_143  # 7 Hz
@@ -35,6 +37,12 @@ CENTRE = (239.5, 179.5)
 @pytest.fixture(scope="module")
 def geometry() -> ViewPeople:
     return ViewPeople(DigitalView(WIDE, VIEW, HeadKinematics()))
+
+
+@pytest.fixture(scope="module")
+def lens_geometry() -> ViewPeople:
+    """A wide camera with a distorting lens, as a calibrated one has."""
+    return ViewPeople(DigitalView(LENS, VIEW, HeadKinematics()))
 
 
 def person(person_id: int, frames: list[int], centres: list[tuple[float, float]]) -> Person:
@@ -61,16 +69,20 @@ def score(frames, people, person_id, geometry, estimates=()):
     return score_person(frames, facts, people[person_id], FOVEA_DEG, list(estimates))
 
 
-def test_a_box_centre_is_placed_by_the_head_pose(geometry: ViewPeople) -> None:
+def test_a_box_centre_is_placed_by_the_head_pose(
+    geometry: ViewPeople, lens_geometry: ViewPeople
+) -> None:
     """The gaze error against the angle between the wide camera's ray through the box centre
-    and the view's optical axis turned by the head (an independent rotation of rays)."""
-    boxes = np.array([[300.0, 120.0, 20, 60], [100.0, 250.0, 20, 60], [470.0, 10.0, 20, 60]])
+    (OpenCV's undistortion) and the view's optical axis turned by the head."""
+    boxes = np.array([[100.0, 40.0, 7, 20], [33.0, 83.0, 7, 20], [157.0, 3.0, 7, 20]])
     pan, tilt = math.radians(8.0), math.radians(-4.0)
-    seen = geometry.at_pose(boxes, pan, tilt)
+    seen = lens_geometry.at_pose(boxes, pan, tilt)
     axis = FLIP_Y @ HeadKinematics().rotation(pan, tilt) @ FLIP_Y @ np.array([0.0, 0.0, 1.0])
-    rays = WIDE.ray(boxes[:, 0], boxes[:, 1])
+    ideal = cv2.undistortPoints(boxes[:, None, :2], LENS.K, LENS.distortion).reshape(-1, 2)
+    rays = np.column_stack([ideal, np.ones(len(ideal))])
     expected = np.arccos(rays @ axis / np.linalg.norm(rays, axis=1))
-    assert np.allclose(seen.error_rad, expected, atol=1e-9)
+    assert np.allclose(seen.error_rad, expected, atol=1e-6)
+    assert lens_geometry.at_pose(np.zeros((0, 4)), 0.1, 0.0).gaze_on() is None  # nobody
     at_rest = geometry.at_pose(np.array([[*CENTRE, 20, 60], [5.0, 5.0, 20, 60]]), 0.0, 0.0)
     assert at_rest.error_rad[0] == pytest.approx(0.0, abs=1e-12)
     assert at_rest.in_view.tolist() == [True, False]  # 5,5 lies outside the narrower view

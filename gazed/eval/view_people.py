@@ -48,6 +48,9 @@ class ViewPeople:
     def at_pose(self, boxes_px: np.ndarray, pan_rad: float, tilt_rad: float) -> PeopleInView:
         """`boxes_px` (N, 4): centre u, centre v, width, height in the wide frame's pixels."""
         boxes = np.asarray(boxes_px, dtype=float).reshape(-1, 4)
+        if not len(boxes):
+            nobody = np.zeros(0, bool)
+            return PeopleInView(nobody, np.zeros(0), nobody, nobody)
         wide, camera = self.view.wide, self.view.view
         u, v = boxes[:, 0], boxes[:, 1]
         in_wide = (u >= 0) & (u <= wide.width_px - 1) & (v >= 0) & (v <= wide.height_px - 1)
