@@ -58,3 +58,4 @@ def test_a_selected_person_is_scored_and_acquired() -> None:
     assert person["visible_frames"] > 30 and person["acquired_after_s"] is not None
     assert set(person["gaze_error_deg"]) == {"rms", "p95"}
     assert result["selected_frame"] is not None and result["frames"] > 30
+    assert set(result["person_reach"]) == {"out_of_reach_fraction", "fovea_fraction_reachable"}

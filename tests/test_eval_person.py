@@ -16,13 +16,16 @@ from gazed.eval.person_score import (
     ViewFrame,
     first_pursued,
     pursuit_summary,
+    reach_scores,
     score_person,
 )
 from gazed.eval.truth import Person
 from gazed.eval.view_people import ViewPeople
 from gazed.geometry.camera import CameraModel
 from gazed.geometry.kinematics import FLIP_Y, HeadKinematics
+from gazed.geometry.pose import CameraPose
 from gazed.messages import EstimatorState
+from gazed.sim.reach import FieldOfRegard
 from gazed.vision.digital_view import DigitalView
 
 WIDE = CameraModel.from_intrinsics(480, 360, 400.0, 400.0, 239.5, 179.5)
@@ -89,6 +92,31 @@ def test_a_box_centre_is_placed_by_the_head_pose(
     assert at_rest.held.tolist() == [True, False] and at_rest.gaze_on() == 0
     outside = geometry.at_pose(np.array([[-5.0, 100.0, 20, 60]]), 0.0, 0.0)
     assert not outside.in_wide[0]
+
+
+def test_a_person_out_of_the_heads_reach_is_told_apart(geometry: ViewPeople) -> None:
+    """Pan limits ±0.1 rad: a person 0.05 rad off the axis can be foveated, one 0.2 rad off
+    cannot; their frames are left out of the fovea fraction over the reachable."""
+    reach = FieldOfRegard(
+        CameraPose(np.array([0.0, 0.0, 1.0]), 0.0), (-0.1, 0.1), (-0.1, 0.1), (0.0, 0.0), 0.0
+    )
+    limited = ViewPeople(geometry.view, reach)
+    near, far = CENTRE[0] + 400.0 * math.tan(0.05), CENTRE[0] + 400.0 * math.tan(0.2)
+    seen = limited.at_pose(
+        np.array([[near, CENTRE[1], 20, 60], [far, CENTRE[1], 20, 60]]), 0.0, 0.0
+    )
+    assert seen.reachable.tolist() == [True, False]
+    assert geometry.at_pose(np.array([[far, CENTRE[1], 20, 60]]), 0.0, 0.0).reachable.all()
+    frames = list(range(30))
+    people = {6: person(6, frames, [CENTRE] * 20 + [(far, CENTRE[1])] * 10)}
+    facts = FrameFacts.of(frames_at_rest(30), people, limited)
+    assert reach_scores(facts, 6, FOVEA_DEG) == {
+        "out_of_reach_fraction": pytest.approx(1 / 3, abs=1e-4),
+        "fovea_fraction_reachable": 1.0,
+    }
+    assert score_person(frames_at_rest(30), facts, people[6], FOVEA_DEG, [])["fovea_fraction"] == (
+        pytest.approx(2 / 3, abs=1e-4)
+    )
 
 
 def test_a_person_walking_through_the_view(geometry: ViewPeople) -> None:

@@ -36,6 +36,7 @@ from gazed.eval.person_score import (
     ViewFrame,
     first_pursued,
     pursuit_summary,
+    reach_scores,
     score_person,
 )
 from gazed.eval.truth import Person, TruthFileError, read_truth
@@ -43,6 +44,7 @@ from gazed.eval.view_people import ViewPeople
 from gazed.geometry.camera import CameraModel
 from gazed.geometry.kinematics import HeadKinematics
 from gazed.messages import Detection, GazeSelect, GazeState
+from gazed.sim.reach import FieldOfRegard
 from gazed.topics import (
     ESTIMATOR_STATE,
     GAZE_SELECT,
@@ -164,19 +166,15 @@ def run_footage(
         CameraModel.from_section(rig.camera),
         HeadKinematics.from_section(rig.head),
     )
-    facts = FrameFacts.of(frames, people, ViewPeople(view))
+    facts = FrameFacts.of(frames, people, ViewPeople(view, FieldOfRegard.for_scoring(rig)))
     person_id = select_id if select_id is not None else first_pursued(facts)
-    result["person"] = (
-        None
-        if person_id is None
-        else score_person(
-            frames,
-            facts,
-            people[person_id],
-            rig.gaze.fovea_half_angle_deg,
-            messages[ESTIMATOR_STATE.suffix],
-        )
-    )
+    fovea_deg = rig.gaze.fovea_half_angle_deg
+    if person_id is None:
+        result.update(person=None, person_reach=None)
+    else:
+        estimates = messages[ESTIMATOR_STATE.suffix]
+        result["person"] = score_person(frames, facts, people[person_id], fovea_deg, estimates)
+        result["person_reach"] = reach_scores(facts, person_id, fovea_deg)
     result["latency_ms"] = latencies_ms(messages[SERVO_COMMAND.suffix])
     result["cpu_percent"] = recording.cpu_percent
     result["servo"] = servo_summary(messages[SERVO_STATUS.suffix])

@@ -16,6 +16,10 @@ person annotated in that footage frame in the view. For the scored person:
 - `ground_rmse_m`: the estimator's ground point (its chosen track, not coasting) at a frame's
   capture time against the person's annotated ground point in that frame, from acquisition.
 
+`reach_scores` tells, over the same frames, the share in which the head could not put the
+person in its fovea within its joint limits, and the fovea fraction over the others: a loop
+that could not follow from a person who walked where the head cannot look.
+
 Without a person scored, `pursuit_summary` tells what a run shows without truth: when the gaze
 first pursued for `ACQUIRED_FRAMES` frames, the share of frames in pursuit from then, and how
 often the pursued track's id changed for at least `SWITCH_FRAMES` frames.
@@ -84,16 +88,36 @@ class FrameFacts:
             gaze_on.append(own[on] if on is not None and frame.pursuing else None)
         return cls(ids, seen, gaze_on)
 
-    def person(self, person_id: int) -> tuple[np.ndarray, np.ndarray]:
-        """Per frame: whether the person is in the wide view, and their gaze error (nan where
-        not annotated)."""
-        visible = np.zeros(len(self.ids), bool)
-        error = np.full(len(self.ids), np.nan)
+    def person(self, person_id: int) -> PersonFrames:
+        """The person in every frame."""
+        n = len(self.ids)
+        visible, reachable = np.zeros(n, bool), np.zeros(n, bool)
+        error = np.full(n, np.nan)
         for k, (own, here) in enumerate(zip(self.ids, self.seen, strict=True)):
             if person_id in own:
                 row = own.index(person_id)
                 visible[k], error[k] = here.in_wide[row], here.error_rad[row]
-        return visible, error
+                reachable[k] = here.reachable[row]
+        return PersonFrames(visible, error, reachable)
+
+
+@dataclass(frozen=True)
+class PersonFrames:
+    """Per frame: whether the person is in the wide view, their gaze error (nan where not
+    annotated) and whether the head could foveate them."""
+
+    visible: np.ndarray
+    error_rad: np.ndarray
+    reachable: np.ndarray
+
+    def scored(self, fovea_rad: float) -> tuple[int, int | None, int] | None:
+        """The run's first frame, its acquisition (None: not acquired) and its end."""
+        span = run_span(self.visible)
+        if span is None:
+            return None
+        first, end = span
+        acquired = acquisition_index(self.error_rad[first:end], fovea_rad)
+        return first, None if acquired is None else first + acquired, end
 
 
 def run_span(visible: np.ndarray) -> tuple[int, int] | None:
@@ -127,7 +151,7 @@ def score_person(
 ) -> dict[str, Any]:
     """The `person` scores of the module docstring (frames in capture order, `facts` of them)."""
     person_id = person.id
-    visible, error_rad = facts.person(person_id)
+    own = facts.person(person_id)
     result: dict[str, Any] = {
         "id": person_id,
         "visible_frames": 0,
@@ -137,17 +161,14 @@ def score_person(
         "gaze_error_deg": None,
         "ground_rmse_m": None,
     }
-    span = run_span(visible)
-    if span is None:
+    scored = own.scored(math.radians(fovea_half_angle_deg))
+    if scored is None:
         return result
-    first, end = span
+    first, start, end = scored
     result["visible_frames"] = end - first
-    fovea_rad = math.radians(fovea_half_angle_deg)
-    acquired = acquisition_index(error_rad[first:end], fovea_rad)
-    if acquired is None:
+    if start is None:
         return result
-    start = first + acquired
-    after_deg = np.degrees(error_rad[start:end])
+    after_deg = np.degrees(own.error_rad[start:end])
     result.update(
         acquired_after_s=round((frames[start].t_capture_ns - frames[first].t_capture_ns) / 1e9, 3),
         fovea_fraction=round(float(np.mean(after_deg <= fovea_half_angle_deg)), 4),
@@ -161,6 +182,26 @@ def score_person(
         ground_rmse_m=ground_rmse_m(frames[start:end], person, estimates),
     )
     return result
+
+
+def reach_scores(
+    facts: FrameFacts, person_id: int, fovea_half_angle_deg: float
+) -> dict[str, float | None]:
+    """Over the person's scored frames (from acquisition, or the run's first frame when not
+    acquired): the share the head could not foveate, and the fovea fraction over the rest."""
+    own = facts.person(person_id)
+    scored = own.scored(math.radians(fovea_half_angle_deg))
+    if scored is None:
+        return {"out_of_reach_fraction": None, "fovea_fraction_reachable": None}
+    first, start, end = scored
+    frames = slice(first if start is None else start, end)
+    reachable = own.reachable[frames]
+    inside = np.degrees(own.error_rad[frames][reachable]) <= fovea_half_angle_deg
+    fraction = round(float(np.mean(inside)), 4) if inside.size else None
+    return {
+        "out_of_reach_fraction": round(float(np.mean(~reachable)), 4),
+        "fovea_fraction_reachable": 0.0 if start is None else fraction,
+    }
 
 
 def ground_rmse_m(

@@ -6,7 +6,10 @@ For one rendered frame and the people annotated in its footage frame it tells, p
 - in the wide view: the box centre lies within the wide frame;
 - the angle between the view's optical axis and the ray through the box centre (the gaze error);
 - in the view: the box centre lands within the view's pixels;
-- held: the box, in the wide frame, holds the pixel the view's centre sees.
+- held: the box, in the wide frame, holds the pixel the view's centre sees;
+- reachable: the joint angles that centre the box centre lie within the head's field of regard
+  (`FieldOfRegard.for_scoring`: its limits widened by the fovea; the wide camera's ray in
+  gazed's base frame, y up, gives the angles, as the view's rotation does).
 The person the gaze is on is the held one nearest the optical axis.
 """
 
@@ -17,6 +20,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from gazed.geometry.kinematics import FLIP_Y
+from gazed.sim.reach import FieldOfRegard
 from gazed.vision.digital_view import DigitalView
 
 MIN_DEPTH = 1e-9  # a box centre with less depth along the view's axis is behind it
@@ -30,6 +35,7 @@ class PeopleInView:
     error_rad: np.ndarray  # (N,), pi where behind the view
     in_view: np.ndarray  # (N,) bool
     held: np.ndarray  # (N,) bool
+    reachable: np.ndarray  # (N,) bool
 
     def gaze_on(self) -> int | None:
         """The row of the person the gaze is on, or None."""
@@ -40,17 +46,19 @@ class PeopleInView:
 
 
 class ViewPeople:
-    """People's boxes against `view`'s image at a head pose."""
+    """People's boxes against `view`'s image at a head pose; with a `reach`, whether the head
+    can foveate each (else every one counts as reachable)."""
 
-    def __init__(self, view: DigitalView) -> None:
+    def __init__(self, view: DigitalView, reach: FieldOfRegard | None = None) -> None:
         self.view = view
+        self.reach = reach
 
     def at_pose(self, boxes_px: np.ndarray, pan_rad: float, tilt_rad: float) -> PeopleInView:
         """`boxes_px` (N, 4): centre u, centre v, width, height in the wide frame's pixels."""
         boxes = np.asarray(boxes_px, dtype=float).reshape(-1, 4)
         if not len(boxes):
             nobody = np.zeros(0, bool)
-            return PeopleInView(nobody, np.zeros(0), nobody, nobody)
+            return PeopleInView(nobody, np.zeros(0), nobody, nobody, nobody)
         wide, camera = self.view.wide, self.view.view
         u, v = boxes[:, 0], boxes[:, 1]
         in_wide = (u >= 0) & (u <= wide.width_px - 1) & (v >= 0) & (v <= wide.height_px - 1)
@@ -67,7 +75,12 @@ class ViewPeople:
         in_view &= (view_v >= 0) & (view_v <= camera.height_px - 1)
         centre_u, centre_v = self._centre_in_wide(H)
         held = (np.abs(centre_u - u) <= boxes[:, 2] / 2) & (np.abs(centre_v - v) <= boxes[:, 3] / 2)
-        return PeopleInView(in_wide, error, in_view, held)
+        reachable = np.ones(len(boxes), bool)
+        if self.reach is not None:
+            wide_rays = np.stack([ideal_u, ideal_v, np.ones_like(u)], axis=1) @ wide.K_inv.T
+            angles = self.view.kinematics.angles_from_direction(wide_rays @ FLIP_Y.T)
+            reachable = self.reach.contains_angles(*angles)
+        return PeopleInView(in_wide, error, in_view, held, reachable)
 
     def _centre_in_wide(self, H: np.ndarray) -> tuple[float, float]:
         """The wide frame's pixel (through its lens) that the view's principal point sees."""

@@ -7,7 +7,8 @@ delay, with the estimation modes imm, image-cv and none side by side.
 First half (frames 0–399, annotated): each person visible for at least `--min-seconds` is one
 `gazed eval loop --truth … --start-frame FIRST --select-id ID --json` run per mode and delay:
 the footage starts at the person's first frame, where they are chosen, and the run ends when
-they leave the wide view. The table gives fovea fraction / switches / gaze error RMS (deg); the
+they leave the wide view. The table gives the share of the person's frames out of the head's
+reach, then fovea fraction (over the reachable frames) / switches / gaze error RMS (deg); the
 summary, per mode and delay, how many people hold the fovea at or above 0.95, how many were
 pursued for another person at least once, and the median error.
 
@@ -48,11 +49,13 @@ def run(*arguments: str) -> dict[str, Any]:
     return json.loads(done.stdout)
 
 
-def cell(person: dict[str, Any] | None) -> str:
+def cell(result: dict[str, Any]) -> str:
+    person = result["person"]
     if person is None or person["acquired_after_s"] is None:
         return "not acquired"
     rms = person["gaze_error_deg"]["rms"]
-    return f"{person['fovea_fraction']:.2f} / {person['switches']} / {rms:.2f}"
+    reachable = result["person_reach"]["fovea_fraction_reachable"]
+    return f"{person['fovea_fraction']:.2f} ({reachable:.2f}) / {person['switches']} / {rms:.2f}"
 
 
 def first_half(people: list[int], modes: list[str], delays: list[float]) -> list[dict]:
@@ -73,7 +76,7 @@ def first_half(people: list[int], modes: list[str], delays: list[float]) -> list
                     str(person_id),
                 )
                 row["runs"][mode] = result
-                print(f"  person {person_id}, {delay:g} ms, {mode}: {cell(result['person'])}")
+                print(f"  person {person_id}, {delay:g} ms, {mode}: {cell(result)}")
             rows.append(row)
     return rows
 
@@ -101,20 +104,32 @@ def second_half(modes: list[str], delays: list[float]) -> list[dict]:
 
 
 def report(first: list[dict], second: list[dict], modes: list[str]) -> str:
-    lines = ["frames 0-399: fovea fraction / switches / gaze error rms (deg)"]
-    lines.append(f"  {'person':>6} {'delay':>6} " + "".join(f"{m:>24}" for m in modes))
+    lines = [
+        "frames 0-399: fovea fraction (over the frames the head can reach) / switches / "
+        "gaze error rms (deg); out of reach: the share of the person's frames the head cannot "
+        "foveate within its limits"
+    ]
+    header = "".join(f"{m:>30}" for m in modes)
+    lines.append(f"  {'person':>6} {'delay':>6} {'out of reach':>12} {header}")
     for row in first:
-        cells = "".join(f"{cell(row['runs'][m]['person']):>24}" for m in modes)
-        lines.append(f"  {row['id']:>6} {row['delay_ms']:>6g} {cells}")
+        cells = "".join(f"{cell(row['runs'][m]):>30}" for m in modes)
+        reach = row["runs"][modes[0]]["person_reach"]["out_of_reach_fraction"]
+        lines.append(f"  {row['id']:>6} {row['delay_ms']:>6g} {reach!s:>12} {cells}")
     for delay in sorted({row["delay_ms"] for row in first}):
         for mode in modes:
-            scored = [r["runs"][mode]["person"] for r in first if r["delay_ms"] == delay]
+            runs = [r["runs"][mode] for r in first if r["delay_ms"] == delay]
+            scored = [r["person"] for r in runs]
             held = sum(1 for p in scored if p and p["fovea_fraction"] >= TARGET)
+            reach = [r["person_reach"] for r in runs if r["person_reach"]]
+            held_reachable = sum(
+                1 for r in reach if (r["fovea_fraction_reachable"] or 0.0) >= TARGET
+            )
             switched = sum(1 for p in scored if p and (p["switches"] or 0) > 0)
             errors = [p["gaze_error_deg"]["rms"] for p in scored if p and p["gaze_error_deg"]]
             median = f"{statistics.median(errors):.2f}" if errors else "-"
             lines.append(
-                f"  {delay:g} ms {mode:<9} fovea >= {TARGET}: {held}/{len(scored)}, "
+                f"  {delay:g} ms {mode:<9} fovea >= {TARGET}: {held}/{len(scored)} "
+                f"(over the reachable frames: {held_reachable}/{len(scored)}), "
                 f"with switches: {switched}, median rms {median} deg"
             )
     if second:
