@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from gazed import cli
-from gazed.eval.footage_loop import LEFT_FRAMES, Selection, view_frames
+from gazed.eval.footage_loop import LEFT_FRAMES, Selection, table, view_frames
 from gazed.eval.truth import COLUMNS, Person
 from gazed.messages import Detection, GazeSelect, GazeState, HeadPose
 from gazed.topics import GAZE_SELECT, VISION_DETECTION
@@ -142,3 +142,19 @@ def test_each_view_has_the_gazes_state_at_its_capture() -> None:
     assert [f.pursuing for f in frames] == [False, False, True, True, False]
     assert [f.target_id for f in frames] == [None, None, 4, 4, None]
     assert frames[2].pan_rad == pytest.approx(0.02)
+
+
+def test_the_table_puts_the_runs_side_by_side() -> None:
+    person = {"id": 5, "visible_frames": 40, "acquired_after_s": 1.2, "fovea_fraction": 0.9}
+    person |= {"switches": 1, "gaze_error_deg": {"rms": 1.5, "p95": 2.5}, "ground_rmse_m": 0.4}
+    pursuit = {"frames": 50, "acquired_after_s": 0.5, "pursuit_fraction": 0.9, "track_switches": 0}
+    common = {"frame_delay_ms": 150.0, "footage_frames": [10, 59], "select_id": 5}
+    runs = [
+        {**common, "filter": "imm", "person": person, "pursuit": pursuit},
+        {**common, "filter": "none", "person": None, "pursuit": pursuit},
+    ]
+    lines = table(runs).splitlines()
+    assert lines[0] == "footage frames [10, 59], person 5"
+    assert lines[1].split()[-2:] == ["imm", "none"]
+    rms = next(line for line in lines if "gaze error rms" in line)
+    assert rms.split()[-2:] == ["1.5", "None"]

@@ -5,7 +5,6 @@ frame, taken through the view's own geometry (`DigitalView.homography`, the wide
 For one rendered frame and the people annotated in its footage frame it tells, per person:
 - in the wide view: the box centre lies within the wide frame;
 - the angle between the view's optical axis and the ray through the box centre (the gaze error);
-- in the view: the box centre lands within the view's pixels;
 - held: the box, in the wide frame, holds the pixel the view's centre sees;
 - reachable: the joint angles that centre the box centre lie within the head's field of regard
   (`FieldOfRegard.for_scoring`: its limits widened by the fovea; the wide camera's ray in
@@ -15,7 +14,6 @@ The person the gaze is on is the held one nearest the optical axis.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -24,16 +22,13 @@ from gazed.geometry.kinematics import FLIP_Y
 from gazed.sim.reach import FieldOfRegard
 from gazed.vision.digital_view import DigitalView
 
-MIN_DEPTH = 1e-9  # a box centre with less depth along the view's axis is behind it
-
 
 @dataclass(frozen=True)
 class PeopleInView:
     """Per person of one frame (rows in the order given)."""
 
     in_wide: np.ndarray  # (N,) bool
-    error_rad: np.ndarray  # (N,), pi where behind the view
-    in_view: np.ndarray  # (N,) bool
+    error_rad: np.ndarray  # (N,)
     held: np.ndarray  # (N,) bool
     reachable: np.ndarray  # (N,) bool
 
@@ -58,29 +53,23 @@ class ViewPeople:
         boxes = np.asarray(boxes_px, dtype=float).reshape(-1, 4)
         if not len(boxes):
             nobody = np.zeros(0, bool)
-            return PeopleInView(nobody, np.zeros(0), nobody, nobody, nobody)
-        wide, camera = self.view.wide, self.view.view
+            return PeopleInView(nobody, np.zeros(0), nobody, nobody)
+        wide = self.view.wide
         u, v = boxes[:, 0], boxes[:, 1]
         in_wide = (u >= 0) & (u <= wide.width_px - 1) & (v >= 0) & (v <= wide.height_px - 1)
         H = self.view.homography(pan_rad, tilt_rad)  # view pixel -> the wide's ideal pixel
-        ideal_u, ideal_v = wide.undistort(u, v)
-        view_h = np.linalg.solve(H, np.stack([ideal_u, ideal_v, np.ones_like(u)]))
-        ray = camera.K_inv @ view_h  # in the view's camera frame, z along its axis
-        ahead = ray[2] > MIN_DEPTH
+        ideal = np.stack([*wide.undistort(u, v), np.ones_like(u)])
+        ray = self.view.view.K_inv @ np.linalg.solve(H, ideal)  # the view's frame, z its axis
         error = np.arctan2(np.hypot(ray[0], ray[1]), ray[2])
-        error = np.where(ahead, error, math.pi)
-        depth = np.where(ahead, view_h[2], 1.0)
-        view_u, view_v = view_h[0] / depth, view_h[1] / depth
-        in_view = ahead & (view_u >= 0) & (view_u <= camera.width_px - 1)
-        in_view &= (view_v >= 0) & (view_v <= camera.height_px - 1)
         centre_u, centre_v = self._centre_in_wide(H)
         held = (np.abs(centre_u - u) <= boxes[:, 2] / 2) & (np.abs(centre_v - v) <= boxes[:, 3] / 2)
         reachable = np.ones(len(boxes), bool)
         if self.reach is not None:
-            wide_rays = np.stack([ideal_u, ideal_v, np.ones_like(u)], axis=1) @ wide.K_inv.T
-            angles = self.view.kinematics.angles_from_direction(wide_rays @ FLIP_Y.T)
-            reachable = self.reach.contains_angles(*angles)
-        return PeopleInView(in_wide, error, in_view, held, reachable)
+            base = FLIP_Y @ wide.K_inv @ ideal  # the rays in gazed's base frame, y up
+            reachable = self.reach.contains_angles(
+                *self.view.kinematics.angles_from_direction(base.T)
+            )
+        return PeopleInView(in_wide, error, held, reachable)
 
     def _centre_in_wide(self, H: np.ndarray) -> tuple[float, float]:
         """The wide frame's pixel (through its lens) that the view's principal point sees."""
