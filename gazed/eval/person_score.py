@@ -20,7 +20,7 @@ person annotated in that footage frame in the view. For the scored person:
 person in its fovea within its joint limits, and the fovea fraction over the others: a loop
 that could not follow from a person who walked where the head cannot look.
 
-Without a person scored, `pursuit_summary` tells what a run shows without truth: when the gaze
+`pursuit_summary` tells what a run shows without truth: when the gaze
 first pursued for `ACQUIRED_FRAMES` frames, the share of frames in pursuit from then, and how
 often the pursued track's id changed for at least `SWITCH_FRAMES` frames.
 """
@@ -237,7 +237,7 @@ def first_pursued(facts: FrameFacts) -> int | None:
 def pursuit_summary(frames: list[ViewFrame]) -> dict[str, Any]:
     """What a run shows without truth (module docstring)."""
     pursuing = np.array([f.pursuing for f in frames], bool)
-    acquired = acquisition_index(np.where(pursuing, 0.0, 1.0), 0.5)
+    acquired = acquisition_index(np.where(pursuing, 0.0, 1.0), 0.5)  # pursuit: "in the fovea"
     if acquired is None:
         return {
             "frames": len(frames),
