@@ -322,7 +322,8 @@ def private_document(
     base = rig_path.resolve().parent
     document["rig"]["name"] = f"eval{uuid.uuid4().hex[:8]}"
     bus = document.setdefault("bus", tomlkit.table())
-    bus["listen"] = [f"tcp/127.0.0.1:{_free_port()}"]
+    bus_port, stream_port = _free_ports(2, socket.SOCK_STREAM)
+    bus["listen"] = [f"tcp/127.0.0.1:{bus_port}"]
     bus.pop("connect", None)
     bus["router"] = True
     for key in ("zenoh_config_path", "credentials_path"):  # relative to the original rig file
@@ -332,10 +333,10 @@ def private_document(
     if wide is not None:
         if "source" in wide:
             wide["source"] = load_rig(rig_path.resolve()).wide_source
-        wide["stream_port"] = _free_port()
+        wide["stream_port"] = stream_port
     servo = document.setdefault("servo", tomlkit.table())
     if str(servo.get("port", "")).startswith("visca-udp://"):  # VISCA over IP: a private UDP port
-        servo["port"] = f"visca-udp://127.0.0.1:{_free_port(socket.SOCK_DGRAM)}"
+        servo["port"] = f"visca-udp://127.0.0.1:{_free_ports(1, socket.SOCK_DGRAM)[0]}"
     else:
         servo["port"] = str(directory / "head")
     estimator = document.setdefault("estimator", tomlkit.table())
@@ -355,10 +356,16 @@ def write_rig(document: tomlkit.TOMLDocument, directory: Path) -> Path:
     return path
 
 
-def _free_port(kind: int = socket.SOCK_STREAM) -> int:
-    with socket.socket(socket.AF_INET, kind) as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
+def _free_ports(count: int, kind: int) -> list[int]:
+    """`count` distinct free loopback ports (each held while the next is found: the system may
+    hand out a port again as soon as it is released)."""
+    with contextlib.ExitStack() as held:
+        ports = []
+        for _ in range(count):
+            s = held.enter_context(socket.socket(socket.AF_INET, kind))
+            s.bind(("127.0.0.1", 0))
+            ports.append(int(s.getsockname()[1]))
+        return ports
 
 
 def _table(results: list[dict[str, Any]]) -> str:

@@ -42,11 +42,15 @@ RATE_HZ = 7.0
 
 
 def run(*arguments: str) -> dict[str, Any]:
+    """One `gazed eval loop` run, tried again once where the rig did not run (a shared machine
+    can take a port between its choice and its use)."""
     command = [GAZED, "eval", "loop", "--rig", str(RIG), "--truth", str(TRUTH), "--json"]
-    done = subprocess.run([*command, *arguments], capture_output=True, text=True, check=False)
-    if done.returncode != 0:
-        raise SystemExit(f"gazed eval loop {' '.join(arguments)} failed:\n{done.stderr}")
-    return json.loads(done.stdout)
+    for _ in range(2):
+        done = subprocess.run([*command, *arguments], capture_output=True, text=True, check=False)
+        if done.returncode == 0:
+            return json.loads(done.stdout)
+        print(f"gazed eval loop {' '.join(arguments)} failed:\n{done.stderr[-1500:]}")
+    raise SystemExit(f"gazed eval loop {' '.join(arguments)} failed twice")
 
 
 def cell(result: dict[str, Any]) -> str:
