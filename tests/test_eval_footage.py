@@ -12,6 +12,7 @@ import pytest
 
 from gazed import cli
 from gazed.eval.footage_loop import LEFT_FRAMES, Selection, table, view_frames
+from gazed.eval.loop import private_document
 from gazed.eval.truth import COLUMNS, Person
 from gazed.messages import Detection, GazeSelect, GazeState, HeadPose
 from gazed.topics import GAZE_SELECT, VISION_DETECTION
@@ -158,3 +159,10 @@ def test_the_table_puts_the_runs_side_by_side() -> None:
     assert lines[1].split()[-2:] == ["imm", "none"]
     rms = next(line for line in lines if "gaze error rms" in line)
     assert rms.split()[-2:] == ["1.5", "None"]
+
+
+def test_the_private_rig_has_its_own_bus_and_stream_ports(tmp_path: Path) -> None:
+    document = private_document(rig_file(tmp_path), tmp_path, "none", None)
+    bus_port = int(str(document["bus"]["listen"][0]).rsplit(":", 1)[1])
+    assert document["wide"]["stream_port"] not in (bus_port, 8090)
+    assert document["estimator"]["predict_over_latency"] is False
