@@ -203,16 +203,17 @@ TOOLS: tuple[Process, ...] = (
     ),
     Process(
         "gazed eval loop",
-        "scores the running loop against the simulator's truth",
+        "scores the running loop against the simulator's truth or the footage's annotations",
         reads=(
             SIM_TRUTH,
+            VISION_DETECTION,
             GAZE_STATE,
             SERVO_COMMAND,
             ESTIMATOR_STATE,
             SERVO_STATUS,
             SUPERVISOR_STATUS,
         ),
-        publishes=(),
+        publishes=(GAZE_SELECT,),
     ),
 )
 

@@ -16,11 +16,17 @@ from gazed import cli
 from gazed.config import parse_rig
 from gazed.geometry.camera import CameraModel
 from gazed.messages import Odometry
-from gazed.vision.digital_camera import DigitalCamera, wide_camera
+from gazed.vision.digital_camera import (
+    DigitalCamera,
+    WideCapture,
+    file_frame_count,
+    open_digital_camera,
+    wide_camera,
+)
 from gazed.vision.digital_view import DigitalView
 from gazed.vision.frames import CapturedFrame
 from gazed.vision.opencv_camera import OpenCvCamera
-from gazed.vision.source import FrameSource, SourceStatus
+from gazed.vision.source import FrameSource, SourceError, SourceStatus
 from gazed.vision.stage import VisionStage
 
 MS = 1_000_000
@@ -172,3 +178,67 @@ def test_a_file_plays_at_the_rigs_rate_not_its_containers(tmp_path: Path) -> Non
     with source:
         poll_until(lambda: len(times_ns) >= 11, 5.0)
     assert float(np.median(np.diff(times_ns[:11]))) < 0.2e9
+
+
+def test_a_file_starts_at_its_start_frame_and_each_frame_is_numbered_by_its_index(
+    tmp_path: Path,
+) -> None:
+    """Frame i of the file is grey 20·i; from start frame 8 of 12 the capture plays 8…11, then
+    loops to 0…, and `frame_index` names each frame's index in the file."""
+    path = tmp_path / "counted.avi"
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 7.0, (64, 48))
+    for i in range(12):
+        writer.write(np.full((48, 64, 3), 20 * i, np.uint8))
+    writer.release()
+    assert file_frame_count(str(path)) == 12
+    source = WideCapture(
+        str(path),
+        start_frame=8,
+        width_px=64,
+        height_px=48,
+        rate_hz=200.0,
+        reopen_max_s=0.01,
+        timeout_ms=2000.0,
+        file_rate_hz=200.0,
+    )
+    taken: list[CapturedFrame] = []
+
+    def take() -> bool:
+        frame = source.read()
+        if frame is not None:
+            taken.append(frame)
+        return len(taken) >= 10 and taken[-1].seq >= 9
+
+    with source:
+        poll_until(take, 5.0)
+    indices = [source.frame_index(f.seq) for f in taken]
+    assert indices == [round(float(f.pixels.mean()) / 20) for f in taken]
+    assert 8 <= indices[0] <= 11 and min(indices) < 8  # the newest is taken: some are passed
+
+
+def test_the_view_carries_its_footage_frame_and_a_start_past_the_end_is_refused(
+    tmp_path: Path,
+) -> None:
+    stage, view, clock, wide, _ = setup()
+    camera = DigitalCamera(
+        wide,
+        view,
+        stage.history.pose_at,
+        clock_ns=lambda: clock["ns"],
+        frame_index=lambda s: s + 40,
+    )
+    camera.connect()
+    stage.add_odometry(odometry(0, 0.0, 0.0, 0.0), 0)
+    stage.add_odometry(odometry(200 * MS, 0.0, 0.0, 0.0), 0)
+    wide.waiting.append(wide_frame(100 * MS, 2))
+    clock["ns"] = 150 * MS
+    rendered = camera.read()
+    assert rendered is not None and rendered.seq == 42
+    path = tmp_path / "short.avi"
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 7.0, (320, 240))
+    for _ in range(3):
+        writer.write(np.zeros((240, 320, 3), np.uint8))
+    writer.release()
+    rig = parse_rig(RIG.format(source=path) + "start_frame = 3\n")
+    with pytest.raises(SourceError, match=r"start_frame = 3: .* has 3 frames"):
+        open_digital_camera(rig, stage.history.pose_at)

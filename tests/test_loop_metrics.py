@@ -69,6 +69,13 @@ def test_score_counts_from_acquisition() -> None:
             t_capture_ns=0, state="saccade", reason="candidate"
         ),  # before acquisition: not counted
         GazeState(t_capture_ns=30 * 40_000_000, state="saccade", reason="candidate"),
+        GazeState(  # the target changed during that saccade: not another one
+            t_capture_ns=31 * 40_000_000,
+            state="saccade",
+            previous="saccade",
+            reason="operator's choice",
+            target_id=2,
+        ),
     ]
     estimates = [
         EstimatorState(

@@ -36,6 +36,12 @@ class WideSection(Section):
         description="Frame rate of the camera; a file plays at this rate, whatever its "
         "container says.",
     )
+    start_frame: int = Field(
+        0,
+        ge=0,
+        description="A video file's first pass starts at this frame (0-based); it loops from its "
+        "first frame. Each view's sequence number is its frame's index in the file.",
+    )
     frame_delay_ms: float = Field(
         0.0,
         ge=0,

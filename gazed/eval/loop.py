@@ -6,7 +6,8 @@ it (the real entry points); once the supervisor reports them all up, what the bu
 `--seconds` is recorded and scored (`loop_metrics`), with each process's CPU share over the
 same window. `--compare` runs `imm`, `image-cv` and `none` (the IMM without prediction over the
 latency) and the peers' control laws `pid` and `move-wait-move` on the same seed, one after the
-other.
+other. With `--truth`, a digital head's rig runs over its footage instead and is scored against
+the annotated people (`footage_loop`).
 """
 
 from __future__ import annotations
@@ -26,12 +27,12 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import psutil
 import tomlkit
 
 from gazed.bus import Bus, BusError
 from gazed.config import Rig, RigError, load_rig
 from gazed.eval.loop_metrics import LoopRecord, score
+from gazed.eval.loop_record import Recording, Watch, record
 from gazed.geometry.pose import CameraPose
 from gazed.messages import ServoStatus
 from gazed.sim.reach import FieldOfRegard
@@ -41,7 +42,7 @@ from gazed.topics import (
     SERVO_COMMAND,
     SERVO_STATUS,
     SIM_TRUTH,
-    SUPERVISOR_STATUS,
+    Topic,
 )
 from gazed.wakeup import Wakeup
 
@@ -57,28 +58,52 @@ COMPARED = (
     (None, "move-wait-move"),
 )
 START_TIMEOUT_S = 60.0
+DEFAULT_SECONDS = 30.0
+SIM_TOPICS = (SIM_TRUTH, GAZE_STATE, SERVO_COMMAND, ESTIMATOR_STATE, SERVO_STATUS)
 
 
 def loop_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--rig", type=Path, required=True, help="the rig to run (its [sim] world)")
+    parser.add_argument(
+        "--rig", type=Path, required=True, help="the rig to run (its [sim] world, or footage)"
+    )
     parser.add_argument(
         "--scenario",
-        required=True,
         help="a trajectory: rounded-square, oval, stop-and-go, figure-eight, random, file:PATH#ped_id",
     )
     parser.add_argument(
-        "--seconds", type=float, default=30.0, help="scored time after every process is up"
+        "--truth",
+        type=Path,
+        help="score a digital head's run on footage against this annotation CSV (no --scenario)",
+    )
+    parser.add_argument(
+        "--start-frame",
+        type=int,
+        help="with --truth: the footage's first frame ([wide] start_frame)",
+    )
+    parser.add_argument(
+        "--select-id", type=int, help="with --truth: choose this person at their first frame"
+    )
+    parser.add_argument(
+        "--seconds",
+        type=float,
+        help="scored time after every process is up (default 30; with --select-id, until the "
+        "person leaves the wide view)",
     )
     parser.add_argument(
         "--filter", choices=FILTERS, help="estimator mode (none: IMM without prediction)"
     )
-    parser.add_argument("--latency-ms", type=float, help="the simulated visual latency")
+    parser.add_argument(
+        "--latency-ms",
+        type=float,
+        help="the simulated visual latency; with --truth, the frames' delay ([wide] frame_delay_ms)",
+    )
     parser.add_argument("--seed", type=int, help="the simulated world's seed")
     parser.add_argument("--control", choices=CONTROLS, help="gaze control mode")
     parser.add_argument(
         "--compare",
         action="store_true",
-        help="run imm, image-cv, none, pid and move-wait-move on the same seed",
+        help="run imm, image-cv, none, pid and move-wait-move on the same seed (with --truth: "
+        "imm, image-cv and none)",
     )
     parser.add_argument("--json", action="store_true", help="print JSON")
     parser.add_argument("--plot", type=Path, help="write the run's figures (PNG) into this folder")
@@ -90,6 +115,15 @@ def loop_command(args: argparse.Namespace) -> int:
     except RigError as exc:
         print(exc, file=sys.stderr)
         return 2
+    if args.truth is not None:
+        from gazed.eval.footage_loop import footage_command  # it builds on this module
+
+        return footage_command(args)
+    if args.scenario is None:
+        print(
+            "gazed eval loop: give --scenario (the simulator) or --truth (footage)", file=sys.stderr
+        )
+        return 2
     runs = COMPARED if args.compare else ((args.filter, args.control),)
     results = []
     for mode, control in runs:
@@ -98,7 +132,7 @@ def loop_command(args: argparse.Namespace) -> int:
                 run_loop(
                     args.rig,
                     args.scenario,
-                    args.seconds,
+                    args.seconds if args.seconds is not None else DEFAULT_SECONDS,
                     mode,
                     args.latency_ms,
                     args.seed,
@@ -133,7 +167,14 @@ def run_loop(
             rig_path, Path(directory), scenario, filter_mode, latency_ms, seed, control
         )
         with running(private) as (rig, supervisor, log_path):
-            record, cpu, servo = _record(rig, supervisor, seconds, log_path)
+            recording = record_run(rig, supervisor, log_path, SIM_TOPICS, seconds)
+        messages = recording.messages
+        record = LoopRecord(
+            messages[SIM_TRUTH.suffix],
+            messages[GAZE_STATE.suffix],
+            messages[SERVO_COMMAND.suffix],
+            messages[ESTIMATOR_STATE.suffix],
+        )
         result: dict[str, Any] = {
             "scenario": scenario,
             "filter": filter_mode or rig.estimator.filter,
@@ -147,8 +188,8 @@ def run_loop(
 
             plot_loop_run(record, rig, f"{scenario} {result['filter']}", plot_dir)
         del result["frames"]
-        result["cpu_percent"] = cpu
-        result["servo"] = servo_summary(servo)
+        result["cpu_percent"] = recording.cpu_percent
+        result["servo"] = servo_summary(messages[SERVO_STATUS.suffix])
         return result
 
 
@@ -210,6 +251,23 @@ def observed(
             bus.close()
 
 
+def record_run(
+    rig: Rig,
+    supervisor: subprocess.Popen[bytes],
+    log_path: Path,
+    topics: tuple[Topic, ...],
+    seconds: float,
+    watch: Watch | None = None,
+) -> Recording:
+    """`record` on a bus session of the rig `running` runs."""
+    bus = Bus(rig, "eval")
+    open_observer(bus, supervisor, log_path)
+    try:
+        return record(bus, supervisor, log_path, topics, seconds, START_TIMEOUT_S, watch)
+    finally:
+        bus.close()
+
+
 def _exit_on_sigterm(signum: int, _frame: object) -> None:
     raise SystemExit(128 + signum)
 
@@ -246,38 +304,53 @@ def private_rig(
     seed: int | None,
     control: str | None,
 ) -> Path:
-    """A copy of the rig on a private bus and pty, with the run's settings."""
+    """A copy of the rig on a private bus and pty, with the run's settings, its simulator on."""
+    document = private_document(rig_path, directory, filter_mode, control)
+    sim = document.setdefault("sim", tomlkit.table())
+    if scenario.startswith("file:"):
+        path, hash_, ped = scenario[len("file:") :].partition("#")
+        scenario = f"file:{(rig_path.resolve().parent / path).resolve()}{hash_}{ped}"
+    sim["trajectory"] = scenario
+    if latency_ms is not None:
+        sim["visual_latency_ms"] = latency_ms
+    if seed is not None:
+        sim["seed"] = seed
+    services = document.setdefault("services", tomlkit.table())
+    sim_service = services.setdefault("sim", tomlkit.table())
+    sim_service["enabled"] = True
+    return write_rig(document, directory)
+
+
+def private_document(
+    rig_path: Path, directory: Path, filter_mode: str | None, control: str | None
+) -> tomlkit.TOMLDocument:
+    """The rig file with a private rig name, bus, head port and (for a digital head) stream
+    port, and the run's estimation mode and control law."""
     document = tomlkit.parse(rig_path.read_text())
     base = rig_path.resolve().parent
     document["rig"]["name"] = f"eval{uuid.uuid4().hex[:8]}"
     bus = document.setdefault("bus", tomlkit.table())
-    bus["listen"] = [f"tcp/127.0.0.1:{_free_port()}"]
+    bus_port, stream_port = _free_ports(2, socket.SOCK_STREAM)
+    bus["listen"] = [f"tcp/127.0.0.1:{bus_port}"]
     bus.pop("connect", None)
     bus["router"] = True
     for key in ("zenoh_config_path", "credentials_path"):  # relative to the original rig file
         if key in bus:
             bus[key] = str(base / str(bus[key]))
     wide = document.get("wide")
-    if wide is not None and "source" in wide:
-        wide["source"] = load_rig(rig_path).wide_source
+    if wide is not None:
+        if "source" in wide:
+            wide["source"] = load_rig(rig_path.resolve()).wide_source
+        wide["stream_port"] = stream_port
     servo = document.setdefault("servo", tomlkit.table())
     if str(servo.get("port", "")).startswith("visca-udp://"):  # VISCA over IP: a private UDP port
-        servo["port"] = f"visca-udp://127.0.0.1:{_free_port(socket.SOCK_DGRAM)}"
+        servo["port"] = f"visca-udp://127.0.0.1:{_free_ports(1, socket.SOCK_DGRAM)[0]}"
     elif str(servo.get("port", "")).startswith("onvif://"):  # ONVIF: a private TCP port
-        servo["port"] = f"onvif://127.0.0.1:{_free_port()}"
+        servo["port"] = f"onvif://127.0.0.1:{_free_ports(1, socket.SOCK_STREAM)[0]}"
         if "password_file" in servo:  # relative to the original rig file
             servo["password_file"] = str(base / str(servo["password_file"]))
     else:
         servo["port"] = str(directory / "head")
-    sim = document.setdefault("sim", tomlkit.table())
-    if scenario.startswith("file:"):
-        path, hash_, ped = scenario[len("file:") :].partition("#")
-        scenario = f"file:{(base / path).resolve()}{hash_}{ped}"
-    sim["trajectory"] = scenario
-    if latency_ms is not None:
-        sim["visual_latency_ms"] = latency_ms
-    if seed is not None:
-        sim["seed"] = seed
     estimator = document.setdefault("estimator", tomlkit.table())
     if filter_mode == "none":
         estimator["filter"] = "imm"
@@ -286,96 +359,25 @@ def private_rig(
         estimator["filter"] = filter_mode
     if control is not None:
         document.setdefault("gaze", tomlkit.table())["control"] = control
-    services = document.setdefault("services", tomlkit.table())
-    sim_service = services.setdefault("sim", tomlkit.table())
-    sim_service["enabled"] = True
+    return document
+
+
+def write_rig(document: tomlkit.TOMLDocument, directory: Path) -> Path:
     path = directory / "rig.toml"
     path.write_text(tomlkit.dumps(document))
     return path
 
 
-def _record(
-    rig: Any, supervisor: subprocess.Popen[bytes], seconds: float, log_path: Path
-) -> tuple[LoopRecord, dict[str, float], list[ServoStatus]]:
-    bus = Bus(rig, "eval")
-    deadline = time.monotonic() + START_TIMEOUT_S
-    open_observer(bus, supervisor, log_path)
-    wakeup = Wakeup()
-    bus.on_arrival(wakeup.notify)
-    try:
-        truth, states = (
-            bus.subscribe(SIM_TRUTH, capacity=100000),
-            bus.subscribe(GAZE_STATE, capacity=10000),
-        )
-        commands, estimates = (
-            bus.subscribe(SERVO_COMMAND, capacity=100000),
-            bus.subscribe(ESTIMATOR_STATE, capacity=100000),
-        )
-        servo_statuses = bus.subscribe(SERVO_STATUS, capacity=10000)
-        status = bus.subscribe(SUPERVISOR_STATUS)
-        pids = _wait_running(wakeup, status, supervisor, deadline, log_path)
-        for subscription in (truth, states, commands, estimates, servo_statuses):
-            subscription.take()
-        processes = {name: psutil.Process(pid) for name, pid in pids.items()}
-        cpu_start = {name: cpu_seconds(p) for name, p in processes.items()}
-        started = time.monotonic()
-        record = LoopRecord([], [], [], [])
-        servo: list[ServoStatus] = []
-        while time.monotonic() - started < seconds:
-            wakeup.wait(0.5)
-            record.truth.extend(truth.take())
-            record.states.extend(states.take())
-            record.commands.extend(commands.take())
-            record.estimates.extend(estimates.take())
-            servo.extend(servo_statuses.take())
-            if supervisor.poll() is not None:
-                raise RuntimeError(
-                    f"gazed run stopped during the run:\n{log_path.read_text()[-2000:]}"
-                )
-        elapsed = time.monotonic() - started
-        cpu = {
-            name: round(100.0 * (cpu_seconds(p) - cpu_start[name]) / elapsed, 1)
-            for name, p in processes.items()
-        }
-        return record, cpu, servo
-    finally:
-        wakeup.close()
-        bus.close()
-
-
-def _wait_running(
-    wakeup: Wakeup,
-    status: Any,
-    supervisor: subprocess.Popen[bytes],
-    deadline: float,
-    log_path: Path,
-) -> dict[str, int]:
-    """Pids of the processes once the supervisor reports every one running."""
-    while time.monotonic() < deadline:
-        wakeup.wait(0.5)
-        latest = status.latest()
-        if latest is not None and latest.state == "running":
-            running = {p.name: p.pid for p in latest.processes if p.state == "running" and p.pid}
-            if len(running) == len([p for p in latest.processes if p.state != "disabled"]):
-                return running
-        if supervisor.poll() is not None:
-            break
-    raise RuntimeError(f"the rig's processes did not all come up:\n{log_path.read_text()[-2000:]}")
-
-
-def cpu_seconds(process: psutil.Process) -> float:
-    """User plus system CPU time of a process so far (0 once it is gone)."""
-    try:
-        times = process.cpu_times()
-    except psutil.NoSuchProcess:
-        return 0.0
-    return times.user + times.system
-
-
-def _free_port(kind: int = socket.SOCK_STREAM) -> int:
-    with socket.socket(socket.AF_INET, kind) as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
+def _free_ports(count: int, kind: int) -> list[int]:
+    """`count` distinct free loopback ports (each held while the next is found: the system may
+    hand out a port again as soon as it is released)."""
+    with contextlib.ExitStack() as held:
+        ports = []
+        for _ in range(count):
+            s = held.enter_context(socket.socket(socket.AF_INET, kind))
+            s.bind(("127.0.0.1", 0))
+            ports.append(int(s.getsockname()[1]))
+        return ports
 
 
 def _table(results: list[dict[str, Any]]) -> str:

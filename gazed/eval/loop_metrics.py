@@ -101,8 +101,10 @@ def score(
     else:
         acquired_ns = truth[start].t_capture_ns
         after = np.degrees(errors[start:])
-        saccades = sum(
-            1 for s in record.states if s.state == "saccade" and s.t_capture_ns >= acquired_ns
+        saccades = sum(  # entries into saccade: a change of target within one is not another
+            1
+            for s in record.states
+            if s.state == "saccade" and s.previous != "saccade" and s.t_capture_ns >= acquired_ns
         )
         result.update(
             acquired_after_s=round((acquired_ns - truth[0].t_capture_ns) / 1e9, 3),

@@ -11,14 +11,23 @@ then rendered (`DigitalView`) at the pose the head's odometry gives for its capt
 whose capture instant odometry does not cover yet (before the servo's first reading, or a
 stalled servo) cannot be rendered: it is dropped and counted. Of the frames due at once only
 the newest is rendered. Every rendered view goes to `on_view` (the MJPEG stream).
+
+A video file plays from `[wide] start_frame` and loops from its first frame (`WideCapture`);
+each view's sequence number is then its wide frame's index in the file, which is how a score
+against the footage's annotations (`gazed eval loop --truth`) knows the frame it was rendered
+from.
 """
 
 from __future__ import annotations
 
+import threading
 import time
 from collections import Counter, deque
 from collections.abc import Callable
+from pathlib import Path
+from typing import Any
 
+import cv2
 import numpy as np
 
 from gazed.config import Rig, WideSection
@@ -31,6 +40,7 @@ from gazed.vision.opencv_camera import OpenCvCamera, capture_target
 from gazed.vision.source import FrameSource, SourceError, SourceStatus
 
 PENDING_MAX = 64  # wide frames held back at most (a frame delay of seconds at a high rate)
+PASSES_KEPT = 4  # a file's passes remembered for numbering (frames in flight span one or two)
 
 
 def wide_camera(wide: WideSection) -> CameraModel:
@@ -59,8 +69,10 @@ class DigitalCamera(FrameSource):
         frame_delay_s: float = 0.0,
         on_view: Callable[[np.ndarray], None] | None = None,
         clock_ns: Callable[[], int] = time.time_ns,
+        frame_index: Callable[[int], int] | None = None,
     ) -> None:
         self.wide = wide
+        self.frame_index = frame_index
         self.view = view
         self.pose_at = pose_at
         self.frame_delay_ns = round(frame_delay_s * 1e9)
@@ -113,9 +125,56 @@ class DigitalCamera(FrameSource):
         if self.on_view is not None:
             self.on_view(pixels)
         self.counters["views_rendered"] += 1
+        seq = frame.seq if self.frame_index is None else self.frame_index(frame.seq)
         return CapturedFrame(
-            pixels, frame.encoding, frame.t_capture_ns, frame.seq, frame.stamps, head=pose
+            pixels, frame.encoding, frame.t_capture_ns, seq, frame.stamps, head=pose
         )
+
+
+class WideCapture(OpenCvCamera):
+    """The wide camera, read as `OpenCvCamera` reads it; a video file's first pass starts at
+    `start_frame` and the file loops from its first frame. `frame_index` gives the file's frame
+    index of a sequence number the capture handed out (a camera's or stream's: the number).
+
+    The capture numbers frames as it reads them, across passes; each opening of a file notes the
+    number its pass begins at and the file frame it begins with."""
+
+    def __init__(self, target: int | str, *, start_frame: int = 0, **options: Any) -> None:
+        super().__init__(target, **options)
+        self.start_frame = start_frame
+        self._passes: deque[tuple[int, int]] = deque(maxlen=PASSES_KEPT)
+        self._passes_lock = threading.Lock()
+
+    def frame_index(self, seq: int) -> int:
+        with self._passes_lock:
+            for first_seq, first_index in reversed(self._passes):
+                if seq >= first_seq:
+                    return first_index + seq - first_seq
+        return seq
+
+    def _open(self) -> cv2.VideoCapture | None:
+        capture = super()._open()
+        if capture is None or not self._is_file:
+            return capture
+        with self._passes_lock:
+            first_index = 0 if self._passes else self.start_frame
+            self._passes.append((self._frames, first_index))
+        if first_index:
+            capture.set(cv2.CAP_PROP_POS_FRAMES, first_index)
+        return capture
+
+
+def file_frame_count(path: str) -> int | None:
+    """The number of frames a video file holds, as its container says (None: not a file, or
+    not said)."""
+    if not Path(path).is_file():
+        return None
+    capture = cv2.VideoCapture(path)
+    try:
+        count = int(capture.get(cv2.CAP_PROP_FRAME_COUNT)) if capture.isOpened() else 0
+    finally:
+        capture.release()
+    return count if count > 0 else None
 
 
 def open_digital_camera(
@@ -125,13 +184,19 @@ def open_digital_camera(
     on_frame: Callable[[], None] | None = None,
     on_view: Callable[[np.ndarray], None] | None = None,
 ) -> DigitalCamera:
-    """The rig's digital head camera: `[wide]`'s source (a file plays at `[wide] rate_hz` and
-    loops), rendered to `[camera]`'s view."""
+    """The rig's digital head camera: `[wide]`'s source (a file plays at `[wide] rate_hz` from
+    `[wide] start_frame` and loops), rendered to `[camera]`'s view."""
     wide = rig.wide
     if rig.wide_source is None:
         raise SourceError("[wide] source: missing (the digital head needs a wide camera)")
-    source = OpenCvCamera(
+    frames = file_frame_count(rig.wide_source)
+    if frames is not None and wide.start_frame >= frames:
+        raise SourceError(
+            f"[wide] start_frame = {wide.start_frame}: {rig.wide_source} has {frames} frames"
+        )
+    source = WideCapture(
         capture_target(rig.wide_source),
+        start_frame=wide.start_frame,
         width_px=wide.width_px,
         height_px=wide.height_px,
         rate_hz=wide.rate_hz,
@@ -146,5 +211,10 @@ def open_digital_camera(
         HeadKinematics.from_section(rig.head),
     )
     return DigitalCamera(
-        source, view, pose_at, frame_delay_s=wide.frame_delay_ms * 1e-3, on_view=on_view
+        source,
+        view,
+        pose_at,
+        frame_delay_s=wide.frame_delay_ms * 1e-3,
+        on_view=on_view,
+        frame_index=source.frame_index,
     )
