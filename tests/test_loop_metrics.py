@@ -13,6 +13,7 @@ from gazed.eval.loop_metrics import (
     LoopRecord,
     acquisition_index,
     gaze_errors_rad,
+    ground_rmse_m,
     latencies_ms,
     reachable,
     score,
@@ -205,3 +206,18 @@ def test_servo_summary_of_a_run() -> None:
         "response_lag_ms": 90.0,
     }
     assert servo_summary([])["line_load_mean"] is None
+
+
+def test_ground_error_takes_the_capture_nearest_an_estimates_stamp() -> None:
+    frames = [truth(k, 0.0) for k in range(10)]  # every 40 ms, the target at (0, 1) m
+
+    def estimate(t_ns: int, y_m: float) -> EstimatorState:
+        return EstimatorState(
+            t_capture_ns=t_ns, filter="imm", x=(0.0,), P=((1.0,),), ground_xy_m=(0.0, y_m)
+        )
+
+    # vision moved the stamps by a few ms (its estimate of the camera's delay): still matched
+    moved = [estimate(3 * 40_000_000 - 2_000_000, 1.3), estimate(6 * 40_000_000 + 3_000_000, 1.4)]
+    assert ground_rmse_m(frames, moved) == pytest.approx(math.sqrt((0.3**2 + 0.4**2) / 2), abs=1e-4)
+    # past the last capture by more than half an interval: no frame it was made from
+    assert ground_rmse_m(frames, [estimate(9 * 40_000_000 + 30_000_000, 5.0)]) is None

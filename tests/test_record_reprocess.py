@@ -57,5 +57,7 @@ def test_reprocessing_with_the_recorded_settings_reproduces_the_detections(tmp_p
     assert detections["found_agrees"] >= 0.95
     assert detections["pixel_error_px"]["p50"] < 1.0
     assert detections["pixel_error_px"]["within_1px"] >= 0.9
-    assert report["fed"]["sim/frame"] == detections["recorded"]
+    # every recorded frame is fed; the recording may cut a frame from its detection at either end
+    # (a detection of a frame sent before it began, a frame whose detection came after it ended)
+    assert abs(report["fed"]["sim/frame"] - detections["recorded"]) <= 2
     assert report["most_likely_model"]["captures_in_both"] > 0

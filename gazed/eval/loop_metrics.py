@@ -139,13 +139,28 @@ def _reach_scores(
 
 
 def ground_rmse_m(truth: list[SimTruth], estimates: list[EstimatorState]) -> float | None:
-    by_time = {t.t_capture_ns: t for t in truth}
-    squared = [
-        (e.ground_xy_m[0] - by_time[e.t_capture_ns].target_xy_m[0]) ** 2
-        + (e.ground_xy_m[1] - by_time[e.t_capture_ns].target_xy_m[1]) ** 2
-        for e in estimates
-        if e.ground_xy_m is not None and not e.coasting and e.t_capture_ns in by_time
-    ]
+    """The estimator's ground position against the truth of the frame it was made from: the
+    capture nearest its stamp, within half a frame interval (vision may have moved the stamp by
+    its estimate of the camera's delay, so it need not equal the capture's exactly)."""
+    if len(truth) < 2:
+        return None
+    times_ns = np.array([t.t_capture_ns for t in truth])
+    order = np.argsort(times_ns)
+    times_ns = times_ns[order]
+    half_interval_ns = float(np.median(np.diff(times_ns))) / 2.0
+    squared = []
+    for e in estimates:
+        if e.ground_xy_m is None or e.coasting:
+            continue
+        k = int(np.searchsorted(times_ns, e.t_capture_ns))
+        nearest = min(
+            (j for j in (k - 1, k) if 0 <= j < len(times_ns)),
+            key=lambda j: abs(times_ns[j] - e.t_capture_ns),
+        )
+        if abs(times_ns[nearest] - e.t_capture_ns) > half_interval_ns:
+            continue
+        x_m, y_m = truth[order[nearest]].target_xy_m
+        squared.append((e.ground_xy_m[0] - x_m) ** 2 + (e.ground_xy_m[1] - y_m) ** 2)
     return round(math.sqrt(float(np.mean(squared))), 4) if squared else None
 
 
