@@ -33,6 +33,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from gazed.config import Rig, RigError, load_rig
+from gazed.config.head import HeadSection
 from gazed.geometry.kinematics import joint_from_device
 from gazed.messages import HeadPose
 from gazed.servo.visca_ip_transport import SCHEME, address_of
@@ -46,6 +47,17 @@ READ_CHUNK = 4096
 
 class EmulatorError(RuntimeError):
     """The emulator cannot take the rig's port (not a path, or a real file is in the way)."""
+
+
+def joint_pose(head: HeadSection, sample: AxisSample) -> HeadPose:
+    """A head's joint angles and rates from its device's axes (their zero and sense)."""
+    pan, tilt = joint_from_device(head, sample.pan_rad, sample.tilt_rad)
+    return HeadPose(
+        pan_rad=pan,
+        tilt_rad=tilt,
+        pan_rate_rad_s=head.pan_sign * sample.pan_rate_rad_s,
+        tilt_rate_rad_s=head.tilt_sign * sample.tilt_rate_rad_s,
+    )
 
 
 class HeadEmulator:
@@ -236,15 +248,7 @@ class HeadEmulator:
 
     def pose_at(self, t_s: float) -> HeadPose:
         """The camera's true joint angles and rates at monotonic `t_s` (for the renderer)."""
-        sample = self.device_pose_at(t_s)
-        head = self.rig.head
-        pan, tilt = joint_from_device(head, sample.pan_rad, sample.tilt_rad)
-        return HeadPose(
-            pan_rad=pan,
-            tilt_rad=tilt,
-            pan_rate_rad_s=head.pan_sign * sample.pan_rate_rad_s,
-            tilt_rate_rad_s=head.tilt_sign * sample.tilt_rate_rad_s,
-        )
+        return joint_pose(self.rig.head, self.device_pose_at(t_s))
 
     @property
     def settled(self) -> bool:

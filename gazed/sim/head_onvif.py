@@ -20,10 +20,9 @@ from aiohttp import web
 
 from gazed.config import Rig
 from gazed.config.servo import OnvifServo
-from gazed.geometry.kinematics import joint_from_device
 from gazed.messages import HeadPose
 from gazed.servo.onvif_head import SCHEME, read_password
-from gazed.sim.head_emulator import HeadEmulator
+from gazed.sim.head_emulator import HeadEmulator, joint_pose
 from gazed.sim.head_mechanics import AxisSample, HeadMechanics
 from gazed.sim.onvif_device import OnvifDevice
 
@@ -148,15 +147,7 @@ class OnvifEmulator:
 
     def pose_at(self, t_s: float) -> HeadPose:
         """The camera's true joint angles and rates at monotonic `t_s` (for the renderer)."""
-        sample = self.device_pose_at(t_s)
-        head = self.rig.head
-        pan, tilt = joint_from_device(head, sample.pan_rad, sample.tilt_rad)
-        return HeadPose(
-            pan_rad=pan,
-            tilt_rad=tilt,
-            pan_rate_rad_s=head.pan_sign * sample.pan_rate_rad_s,
-            tilt_rate_rad_s=head.tilt_sign * sample.tilt_rate_rad_s,
-        )
+        return joint_pose(self.rig.head, self.device_pose_at(t_s))
 
     @property
     def settled(self) -> bool:
