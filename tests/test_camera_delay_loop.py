@@ -25,6 +25,7 @@ def test_the_online_estimate_converges_on_the_hidden_delay(tmp_path: Path) -> No
     rig_path = private_rig(REPO / "configs" / "sim.toml", tmp_path, "oval", None, None, 1, None)
     document = tomlkit.parse(rig_path.read_text())
     document["sim"]["camera_delay_ms"] = HIDDEN_MS
+    document["camera"]["delay_estimate"] = True
     rig_path.write_text(tomlkit.dumps(document))
     supervisor = RunningSupervisor(rig_path, tmp_path)
     bus, wakeup = supervisor.bus, supervisor.wakeup

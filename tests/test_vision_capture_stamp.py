@@ -43,7 +43,9 @@ def test_the_online_estimate_finds_the_delay_of_a_panning_camera() -> None:
     def pan_rad(t_s: float) -> float:
         return 0.35 * math.sin(2.0 * t_s) + 0.15 * math.sin(5.0 * t_s)
 
-    correction = CaptureStampCorrection(CameraSection(width_px=320, height_px=240))
+    correction = CaptureStampCorrection(
+        CameraSection(width_px=320, height_px=240, delay_estimate=True)
+    )
     for j in range(800):  # odometry at 100 Hz over 8 s
         t_ns = T0_NS + j * 10_000_000
         correction.add_odometry(Odometry(t_capture_ns=t_ns, pan_rad=pan_rad(j * 0.01), tilt_rad=0))

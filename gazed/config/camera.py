@@ -62,9 +62,11 @@ class CameraSection(Section):
         "known; the online estimate starts from it.",
     )
     delay_estimate: bool = Field(
-        True,
+        False,
         description="Estimate the camera's delay online from the image's global motion against "
-        "odometry whenever the head moves, and correct each frame's capture stamp with it.",
+        "odometry whenever the head moves, and correct each frame's capture stamp with it. Off "
+        "by default: until the estimate has converged the stamps are wrong, and a target taken "
+        "up meanwhile can be lost; `gazed calibrate latency` measures the delay for `delay_ms`.",
     )
 
     @model_validator(mode="after")
