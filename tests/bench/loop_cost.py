@@ -24,7 +24,8 @@ REPO = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(REPO))
 
 from gazed.config import SERVICE_NAMES  # noqa: E402
-from gazed.eval.loop import cpu_seconds, observed, private_rig  # noqa: E402
+from gazed.eval.loop import observed, private_rig  # noqa: E402
+from gazed.eval.loop_record import cpu_seconds  # noqa: E402
 from gazed.latency import processing_s  # noqa: E402
 from gazed.topics import SERVO_COMMAND, SUPERVISOR_STATUS  # noqa: E402
 
