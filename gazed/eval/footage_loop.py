@@ -14,7 +14,6 @@ person scored is the first one the gaze pursues (whom the rig's rule chose). `--
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import tempfile
 from pathlib import Path
@@ -24,6 +23,7 @@ from gazed.bus import Bus
 from gazed.config import Rig, RigError, load_rig
 from gazed.eval.loop import (
     DEFAULT_SECONDS,
+    print_results,
     private_document,
     record_run,
     running,
@@ -98,10 +98,7 @@ def footage_command(args: argparse.Namespace) -> int:
         except (RuntimeError, RigError) as exc:
             print(f"gazed eval loop: {exc}", file=sys.stderr)
             return 1
-    if args.json:
-        print(json.dumps(results[0] if len(results) == 1 else {"runs": results}, indent=2))
-    else:
-        print(table(results))
+    print_results(results, args.json, table)
     return 0
 
 

@@ -22,7 +22,7 @@ import sys
 import tempfile
 import time
 import uuid
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -143,11 +143,18 @@ def loop_command(args: argparse.Namespace) -> int:
         except (RuntimeError, RigError) as exc:
             print(f"gazed eval loop: {exc}", file=sys.stderr)
             return 1
-    if args.json:
+    print_results(results, args.json, _table)
+    return 0
+
+
+def print_results(
+    results: list[dict[str, Any]], as_json: bool, table: Callable[[list[dict[str, Any]]], str]
+) -> None:
+    """One run's JSON (several runs' under "runs"), or the table of them."""
+    if as_json:
         print(json.dumps(results[0] if len(results) == 1 else {"runs": results}, indent=2))
     else:
-        print(_table(results))
-    return 0
+        print(table(results))
 
 
 def run_loop(
