@@ -37,7 +37,7 @@ class Message(BaseModel):
 
     @classmethod
     def schema_id(cls) -> str:
-        """`gazed.Detection/2`: the schema part of the zenoh encoding."""
+        """`gazed.Detection/3`: the schema part of the zenoh encoding."""
         return f"{cls.SCHEMA}/{cls.VERSION}"
 
     def stamped(self, stage: str, t_ns: int | None = None) -> Self:
@@ -57,6 +57,13 @@ class HeadPose(BaseModel):
     tilt_rad: float
     pan_rate_rad_s: float = 0.0
     tilt_rate_rad_s: float = 0.0
+    zoom: float | None = Field(
+        None,
+        ge=0,
+        le=1,
+        description="Zoom position, 0 widest to 1 longest ([camera] zoom_focal_px gives its "
+        "focal length); None for a fixed lens.",
+    )
 
 
 class FrameHeader(Message):
@@ -103,10 +110,10 @@ class Mover(BaseModel):
 
 class Detection(Message):
     """The target as the detector saw it in one frame (pixels, image coordinates: u right, v down),
-    and every mover the frame shows. Version 2 adds `movers`."""
+    and every mover the frame shows. Version 2 adds `movers`, version 3 the head's `zoom`."""
 
     SCHEMA: ClassVar[str] = "gazed.Detection"
-    VERSION: ClassVar[int] = 2
+    VERSION: ClassVar[int] = 3
     seq: int = Field(ge=0, description="Frame sequence number.")
     detector: str
     found: bool
@@ -156,9 +163,10 @@ class Candidate(BaseModel):
 
 
 class Candidates(Message):
-    """Whole-frame motion regions, ranked, for saccades."""
+    """Whole-frame motion regions, ranked, for saccades. Version 2 adds the head's `zoom`."""
 
     SCHEMA: ClassVar[str] = "gazed.Candidates"
+    VERSION: ClassVar[int] = 2
     seq: int = Field(ge=0)
     width_px: int = Field(gt=0)
     height_px: int = Field(gt=0)
@@ -167,15 +175,20 @@ class Candidates(Message):
 
 
 class Odometry(Message):
-    """Head position as read from the device; `t_capture_ns` is when the reply was read."""
+    """Head position as read from the device; `t_capture_ns` is when the reply was read.
+    Version 2 adds `zoom`."""
 
     SCHEMA: ClassVar[str] = "gazed.Odometry"
+    VERSION: ClassVar[int] = 2
     pan_rad: float
     tilt_rad: float
     pan_rate_rad_s: float = 0.0
     tilt_rate_rad_s: float = 0.0
     dead_reckoned: bool = Field(
         False, description="Computed from commands: the device cannot report position."
+    )
+    zoom: float | None = Field(
+        None, ge=0, le=1, description="Zoom position (0 widest, 1 longest); None: fixed lens."
     )
 
 
@@ -216,14 +229,22 @@ class ServoStatus(Message):
 
 
 class GazeDemand(Message):
-    """Where the head should be: position, plus feed-forward rates for pursuit."""
+    """Where the head should be: position, plus feed-forward rates for pursuit, and where the
+    zoom should go. Version 2 adds `zoom`."""
 
     SCHEMA: ClassVar[str] = "gazed.GazeDemand"
+    VERSION: ClassVar[int] = 2
     kind: Literal["position", "pursuit", "hold", "park"]
     pan_rad: float
     tilt_rad: float
     pan_rate_rad_s: float = 0.0
     tilt_rate_rad_s: float = 0.0
+    zoom: float | None = Field(
+        None,
+        ge=0,
+        le=1,
+        description="Zoom position to go to (0 widest, 1 longest); None: leave it.",
+    )
 
 
 GazeStateName = Literal["park", "search", "saccade", "pursuit", "lost", "trace"]
@@ -246,9 +267,10 @@ class GazeState(Message):
 class GazeSelect(Message):
     """An operator's choice of target: a track id, a ground point, or a pixel with the head pose
     it was seen at; the nearest track is chosen. None of them hands the choice back to the rig's
-    rule."""
+    rule. Version 2 adds the head's `zoom`."""
 
     SCHEMA: ClassVar[str] = "gazed.GazeSelect"
+    VERSION: ClassVar[int] = 2
     track_id: int | None = Field(None, ge=0)
     ground_xy_m: tuple[float, float] | None = None
     pixel_px: tuple[float, float] | None = None
@@ -266,10 +288,13 @@ class GazeSelect(Message):
 
 class GazeCommand(Message):
     """An operator's request to the gaze controller: trace a ground line's image edge from a
-    start gaze (line calibration, seed 000 §3.2.1), or stop tracing."""
+    start gaze (line calibration, seed 000 §3.2.1), or stop tracing; park the head, search for a
+    target, hold where it is, or resume following. Version 2 adds park, search, hold and
+    resume."""
 
     SCHEMA: ClassVar[str] = "gazed.GazeCommand"
-    command: Literal["trace", "stop"]
+    VERSION: ClassVar[int] = 2
+    command: Literal["trace", "stop", "park", "search", "hold", "resume"]
     request_id: str = Field(min_length=1, max_length=64)
     pan_rad: float = 0.0
     tilt_rad: float = 0.0
@@ -278,9 +303,11 @@ class GazeCommand(Message):
 
 class EdgeObservation(Message):
     """The edge nearest the fovea's centre in one frame (image coordinates): the point on it
-    nearest the centre, and the points a step ahead and behind along its string."""
+    nearest the centre, and the points a step ahead and behind along its string. Version 2 adds
+    the head's `zoom`."""
 
     SCHEMA: ClassVar[str] = "gazed.EdgeObservation"
+    VERSION: ClassVar[int] = 2
     seq: int = Field(ge=0)
     found: bool
     u_px: float = 0.0
@@ -376,9 +403,10 @@ class ManeuverEvent(Message):
 
 class SimTruth(Message):
     """What the simulator knows at a frame's capture: the target on the ground and the true
-    head pose, for scoring the loop."""
+    head pose, for scoring the loop. Version 2 adds the head's `zoom`."""
 
     SCHEMA: ClassVar[str] = "gazed.SimTruth"
+    VERSION: ClassVar[int] = 2
     seq: int = Field(ge=0)
     target_xy_m: tuple[float, float]
     target_velocity_m_s: tuple[float, float]

@@ -73,7 +73,7 @@ def test_malformed_payload_is_counted_not_raised(rig) -> None:
         peer.session.put(
             key,
             Odometry(t_capture_ns=1, pan_rad=0, tilt_rad=0).to_json(),
-            encoding=zenoh.Encoding("application/json").with_schema("gazed.Odometry/1"),
+            encoding=zenoh.Encoding("application/json").with_schema("gazed.Odometry/2"),
         )
         publisher.put(detection(5))
         got = poll_until(detections.take, 5.0)

@@ -173,7 +173,7 @@ def test_vision_process_end_to_end(tmp_path: Path) -> None:
                 bus.session.put(
                     SERVO_ODOMETRY.key(rig.name),
                     b'{"t_capture_ns": "soon"}',
-                    encoding=zenoh.Encoding("application/json").with_schema("gazed.Odometry/1"),
+                    encoding=zenoh.Encoding("application/json").with_schema("gazed.Odometry/2"),
                 )
 
             send_bad_input()

@@ -40,6 +40,14 @@ class CameraSection(Section):
         max_length=8,
         description="OpenCV distortion coefficients k1, k2, p1, p2[, k3…]; empty for none.",
     )
+    zoom_focal_px: list[list[float]] = Field(
+        default_factory=list,
+        max_length=64,
+        description="A zoom lens: rows [zoom, fx_px] or [zoom, fx_px, cx_px, cy_px], the zoom "
+        "position (0 widest, 1 longest) increasing, the focal length interpolated linearly "
+        "between rows; `gazed calibrate zoom` measures it. Empty: a fixed lens, as fx_px or "
+        "hfov_deg say.",
+    )
     reopen_max_s: float = Field(
         10.0,
         gt=0,
@@ -68,6 +76,20 @@ class CameraSection(Section):
         "by default: until the estimate has converged the stamps are wrong, and a target taken "
         "up meanwhile can be lost; `gazed calibrate latency` measures the delay for `delay_ms`.",
     )
+
+    @model_validator(mode="after")
+    def _zoom_table(self) -> CameraSection:
+        rows = self.zoom_focal_px
+        for i, row in enumerate(rows):
+            if len(row) not in (2, 4):
+                raise ValueError(f"zoom_focal_px: row {i} has {len(row)} numbers (expected 2 or 4)")
+            if not 0.0 <= row[0] <= 1.0 or row[1] <= 0:
+                raise ValueError(f"zoom_focal_px: row {i} needs 0 <= zoom <= 1 and fx_px > 0")
+            if i and row[0] <= rows[i - 1][0]:
+                raise ValueError(f"zoom_focal_px: row {i}'s zoom does not increase")
+        if len(rows) == 1:
+            raise ValueError("zoom_focal_px: one row (expected at least two, or none)")
+        return self
 
     @model_validator(mode="after")
     def _focal_length(self) -> CameraSection:

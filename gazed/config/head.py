@@ -46,6 +46,13 @@ class HeadSection(Section):
     tilt_accel_max_deg_s2: float = Field(
         600.0, gt=0, le=1e6, description="Tilt acceleration limit."
     )
+    zoom_rate_max_s: float = Field(
+        0.5,
+        gt=0,
+        le=100,
+        description="Zoom speed limit as a fraction of the zoom range per second (a head with a "
+        "zoom lens: [camera] zoom_focal_px).",
+    )
     park_pan_deg: float = Field(0.0, description="Pan the head returns to when parked.")
     park_tilt_deg: float = Field(0.0, description="Tilt the head returns to when parked.")
     angle_noise_deg: float = Field(

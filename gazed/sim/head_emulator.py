@@ -49,14 +49,16 @@ class EmulatorError(RuntimeError):
     """The emulator cannot take the rig's port (not a path, or a real file is in the way)."""
 
 
-def joint_pose(head: HeadSection, sample: AxisSample) -> HeadPose:
-    """A head's joint angles and rates from its device's axes (their zero and sense)."""
+def joint_pose(head: HeadSection, sample: AxisSample, zoom_lens: bool = False) -> HeadPose:
+    """A head's joint angles and rates from its device's axes (their zero and sense), and its
+    zoom position where the camera has a zoom lens."""
     pan, tilt = joint_from_device(head, sample.pan_rad, sample.tilt_rad)
     return HeadPose(
         pan_rad=pan,
         tilt_rad=tilt,
         pan_rate_rad_s=head.pan_sign * sample.pan_rate_rad_s,
         tilt_rate_rad_s=head.tilt_sign * sample.tilt_rate_rad_s,
+        zoom=sample.zoom if zoom_lens else None,
     )
 
 

@@ -8,7 +8,8 @@ t + `head_latency_ms`. The motor side moves under `AxisMotion`; the encoder read
 camera (output) side follows the motor through a dead band of `head_backlash_deg`
 (o = clamp(o, m - b/2, m + b/2)), so the camera lags on every reversal while the encoder does
 not. `pose_at(t)` gives the camera side at any instant of the last two seconds, which is what a
-renderer needs.
+renderer needs. A third axis, `zoom`, moves the zoom position (0 widest, 1 longest) at up to
+`[head] zoom_rate_max_s`; a head whose rig has no zoom lens simply never moves it.
 """
 
 from __future__ import annotations
@@ -37,6 +38,7 @@ class AxisSample:
     tilt_rad: float
     pan_rate_rad_s: float
     tilt_rate_rad_s: float
+    zoom: float = 0.0
 
 
 def device_bounds(head: HeadSection) -> tuple[tuple[float, float], tuple[float, float]]:
@@ -56,6 +58,9 @@ class HeadMechanics:
         pan_accel, tilt_accel = head.accel_max_rad_s2
         self.pan = AxisMotion(pan_rate, pan_accel, pan0, pan_lo, pan_hi)
         self.tilt = AxisMotion(tilt_rate, tilt_accel, tilt0, tilt_lo, tilt_hi)
+        # A zoom motor reaches its speed within a tenth of a second.
+        zoom_rate = head.zoom_rate_max_s
+        self.zoom = AxisMotion(zoom_rate, 10.0 * zoom_rate, 0.0, 0.0, 1.0)
         self.latency_s = sim.head_latency_ms / 1000.0
         self.encoder_step_rad = math.radians(sim.head_encoder_resolution_deg)
         self.half_backlash_rad = math.radians(sim.head_backlash_deg) / 2.0
@@ -78,7 +83,7 @@ class HeadMechanics:
     @property
     def settled(self) -> bool:
         """Nothing scheduled and both axes at rest where they were told to be."""
-        return not self._events and self.pan.settled and self.tilt.settled
+        return not self._events and self.pan.settled and self.tilt.settled and self.zoom.settled
 
     # --- time ------------------------------------------------------------------------------
 
@@ -93,7 +98,12 @@ class HeadMechanics:
     def _integrate(self, t_s: float) -> None:
         if t_s <= self.t_s:
             return
-        if self.pan.settled and self.tilt.settled and self._rates == [0.0, 0.0]:
+        if (
+            self.pan.settled
+            and self.tilt.settled
+            and self.zoom.settled
+            and self._rates == [0.0, 0.0]
+        ):
             self.t_s = t_s
             self._record()
             return
@@ -108,11 +118,12 @@ class HeadMechanics:
                 )
                 self._output[i] = after
                 self._rates[i] = (after - before) / h
+            self.zoom.advance(h)
             self.t_s += h
             self._record()
 
     def _record(self) -> None:
-        sample = AxisSample(self.t_s, *self._output, *self._rates)
+        sample = AxisSample(self.t_s, *self._output, *self._rates, self.zoom.position_rad)
         if self._times and self._times[-1] >= self.t_s:
             self._history[-1] = sample
             return
@@ -149,4 +160,5 @@ class HeadMechanics:
             a.tilt_rad + w * (b.tilt_rad - a.tilt_rad),
             a.pan_rate_rad_s + w * (b.pan_rate_rad_s - a.pan_rate_rad_s),
             a.tilt_rate_rad_s + w * (b.tilt_rate_rad_s - a.tilt_rate_rad_s),
+            a.zoom + w * (b.zoom - a.zoom),
         )
