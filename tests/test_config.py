@@ -273,3 +273,9 @@ def test_a_bad_rig_exits_2_from_the_one_loader(
     assert f"{path}: gaze.rate_hz: input should be greater than 0" in capsys.readouterr().err
     path.write_text('[rig]\nname = "x"\n')
     assert load_rig_or_exit(path).name == "x"
+
+
+@pytest.mark.parametrize("value", ["nan", "inf", "-inf"])
+def test_a_number_that_is_not_finite_is_refused_naming_its_key(value: str) -> None:
+    with pytest.raises(RigError, match=r"camera\.cx_px"):
+        parse_rig(f'[rig]\nname = "x"\n[camera]\ncx_px = {value}\n')
