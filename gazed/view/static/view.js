@@ -13,6 +13,7 @@ const view = {
   framesShown: 0,
   overlaysDrawn: 0,
   selected: null, // the server's answer to the last click
+  commanded: null, // the server's answer to the last button (park, search, hold, resume)
   models: [], // [{t, values: {name: p}}]
   latency: [], // [{t, values: {stage: ms}}]
   trails: new Map(), // track id -> [[x, y], ...]
@@ -76,6 +77,9 @@ function onText(message) {
   } else if (message.type === "selected") {
     view.selected = message;
     $("selected").textContent = message.ok ? message.message : `not selected: ${message.message}`;
+  } else if (message.type === "commanded") {
+    view.commanded = message;
+    $("commanded").textContent = message.ok ? message.message : `not sent: ${message.message}`;
   }
 }
 
@@ -100,6 +104,11 @@ function showState(state) {
   $("gaze-state").textContent = state.gaze ? state.gaze.state : "—";
   $("gaze-reason").textContent = state.gaze && state.gaze.reason ? `(${state.gaze.reason})` : "";
   $("target-id").textContent = state.target_id === null ? "—" : String(state.target_id);
+  // park and hold stay on until resume: their buttons show it
+  const now = state.gaze ? state.gaze.state : null;
+  for (const button of document.querySelectorAll("button[data-command]")) {
+    button.setAttribute("aria-pressed", String(button.dataset.command === now));
+  }
 }
 
 // -- the camera frame and its overlays -------------------------------------------------------
@@ -189,11 +198,16 @@ $("frame").addEventListener("click", (event) => {
   view.socket.send(JSON.stringify({ type: "select", seq: view.frame.meta.seq, u, v }));
 });
 
-$("rule").addEventListener("click", () => {
-  if (view.socket && view.socket.readyState === WebSocket.OPEN) {
-    view.socket.send(JSON.stringify({ type: "select" }));
-  }
-});
+$("rule").addEventListener("click", () => send({ type: "select" }));
+
+for (const button of document.querySelectorAll("button[data-command]")) {
+  button.addEventListener("click", () => send({ type: "command", command: button.dataset.command }));
+}
+
+function send(message) {
+  if (view.socket && view.socket.readyState === WebSocket.OPEN) view.socket.send(JSON.stringify(message));
+  else $("commanded").textContent = "not connected";
+}
 
 // -- the ground map -----------------------------------------------------------------------
 
