@@ -66,6 +66,12 @@ def test_the_page_shows_frames_and_overlays_and_a_click_selects(tmp_path: Path) 
         )
         assert view("overlaysDrawn") >= 1
         assert overlay["fovea"]["side"] > 0
+        # the map: the tracks, where they are predicted to be, and their uncertainty
+        drawn = poll_until(
+            lambda: (d := view("mapDrawn"))["tracks"] and d["predictions"] and d, 30.0, 0.1
+        )
+        assert drawn["ellipses"] >= 1
+        assert driver.find_element("id", "gaze-reason").text.startswith("(")  # the state's reason
         assert driver.find_element("id", "gaze-state").text in (
             "saccade",
             "pursuit",
