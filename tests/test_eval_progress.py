@@ -14,7 +14,7 @@ import termios
 from pathlib import Path
 
 import pytest
-from conftest import PYTHON, child_env
+from conftest import PYTHON, REPO, child_env
 from test_eval_estimator import write_tracks
 
 from gazed.eval.progress import EvalProgress
@@ -104,22 +104,12 @@ def test_a_recording_shows_the_start_then_the_seconds_recorded(
         assert progress.bar.n == pytest.approx(2.0)
 
 
-def run_estimator(tmp_path: Path, *extra: str, on_terminal: bool) -> tuple[str, str]:
-    """`gazed eval estimator --data` over all filters: its stdout, and stderr (a pty or a pipe)."""
-    data = write_tracks(tmp_path / "walkers.txt")
-    argv = [PYTHON, "-m", "gazed.cli", "eval", "estimator", "--data", str(data), "--filter"]
-    if not on_terminal:
-        done = subprocess.run(
-            [*argv, "all", *extra], env=child_env(), capture_output=True, text=True, timeout=120
-        )
-        assert done.returncode == 0, done.stderr
-        return done.stdout, done.stderr
+def on_a_pty(argv: list[str]) -> tuple[str, str]:
+    """`argv` run with its stderr on a terminal: its stdout, and what the terminal showed."""
     main, child = pty.openpty()
     # a terminal's size, as a real one has (tqdm shows nothing on one 0 rows high)
     fcntl.ioctl(child, termios.TIOCSWINSZ, struct.pack("HHHH", 24, 120, 0, 0))
-    with subprocess.Popen(
-        [*argv, "all", *extra], env=child_env(), stdout=subprocess.PIPE, stderr=child
-    ) as process:
+    with subprocess.Popen(argv, env=child_env(), stdout=subprocess.PIPE, stderr=child) as process:
         os.close(child)
         shown = bytearray()
         while True:
@@ -136,6 +126,19 @@ def run_estimator(tmp_path: Path, *extra: str, on_terminal: bool) -> tuple[str, 
     return out, shown.decode(errors="replace")
 
 
+def run_estimator(tmp_path: Path, *extra: str, on_terminal: bool) -> tuple[str, str]:
+    """`gazed eval estimator --data` over all filters: its stdout, and stderr (a pty or a pipe)."""
+    data = write_tracks(tmp_path / "walkers.txt")
+    argv = [PYTHON, "-m", "gazed.cli", "eval", "estimator", "--data", str(data), "--filter", "all"]
+    if on_terminal:
+        return on_a_pty([*argv, *extra])
+    done = subprocess.run(
+        [*argv, *extra], env=child_env(), capture_output=True, text=True, timeout=120
+    )
+    assert done.returncode == 0, done.stderr
+    return done.stdout, done.stderr
+
+
 @pytest.mark.e2e
 def test_eval_estimator_shows_its_progress_on_a_terminal_only(tmp_path: Path) -> None:
     out, shown = run_estimator(tmp_path, on_terminal=True)
@@ -147,3 +150,13 @@ def test_eval_estimator_shows_its_progress_on_a_terminal_only(tmp_path: Path) ->
     assert "(1/8)" not in piped and "%|" not in piped
     _, as_json = run_estimator(tmp_path, "--json", on_terminal=True)
     assert "(1/8)" not in as_json and "%|" not in as_json
+
+
+@pytest.mark.e2e
+def test_eval_loop_shows_the_rigs_start_then_its_recording_on_a_terminal() -> None:
+    rig = str(REPO / "configs" / "sim.toml")
+    argv = [PYTHON, "-m", "gazed.cli", "eval", "loop", "--rig", rig, "--scenario", "oval"]
+    out, shown = on_a_pty([*argv, "--seconds", "3", "--control", "pid"])
+    assert "oval pid (1/1): starting the rig" in shown
+    assert "oval pid (1/1): recording 3 s" in shown and "/1 [" in shown
+    assert "scenario oval, 3 s" in out and "%|" not in out
