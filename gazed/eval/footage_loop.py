@@ -82,25 +82,27 @@ def footage_command(args: argparse.Namespace) -> int:
         return 2
     modes = MODES if args.compare else (args.filter,)
     results = []
-    with EvalProgress(len(modes), args.json) as progress:
-        for mode in modes:
-            try:
-                results.append(
-                    run_footage(
-                        args.rig,
-                        people,
-                        mode,
-                        seconds=args.seconds,
-                        frame_delay_ms=args.latency_ms,
-                        start_frame=args.start_frame,
-                        select_id=args.select_id,
-                        control=args.control,
-                        progress=progress,
-                    )
+    progress = EvalProgress(len(modes), args.json)
+    for mode in modes:
+        try:
+            results.append(
+                run_footage(
+                    args.rig,
+                    people,
+                    mode,
+                    seconds=args.seconds,
+                    frame_delay_ms=args.latency_ms,
+                    start_frame=args.start_frame,
+                    select_id=args.select_id,
+                    control=args.control,
+                    progress=progress,
                 )
-            except (RuntimeError, RigError) as exc:
-                print(f"gazed eval loop: {exc}", file=sys.stderr)
-                return 1
+            )
+        except (RuntimeError, RigError) as exc:
+            progress.close()
+            print(f"gazed eval loop: {exc}", file=sys.stderr)
+            return 1
+    progress.close()
     print_results(results, args.json, table)
     return 0
 

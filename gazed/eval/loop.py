@@ -127,27 +127,27 @@ def loop_command(args: argparse.Namespace) -> int:
         return 2
     runs = COMPARED if args.compare else ((args.filter, args.control),)
     results = []
-    with EvalProgress(len(runs), args.json) as progress:
-        for mode, control in runs:
-            try:
-                results.append(
-                    run_loop(
-                        args.rig,
-                        args.scenario,
-                        args.seconds if args.seconds is not None else DEFAULT_SECONDS,
-                        mode,
-                        args.latency_ms,
-                        args.seed,
-                        control,
-                        args.plot / f"{mode}-{control}"
-                        if args.plot and args.compare
-                        else args.plot,
-                        progress,
-                    )
+    progress = EvalProgress(len(runs), args.json)
+    for mode, control in runs:
+        try:
+            results.append(
+                run_loop(
+                    args.rig,
+                    args.scenario,
+                    args.seconds if args.seconds is not None else DEFAULT_SECONDS,
+                    mode,
+                    args.latency_ms,
+                    args.seed,
+                    control,
+                    args.plot / f"{mode}-{control}" if args.plot and args.compare else args.plot,
+                    progress,
                 )
-            except (RuntimeError, RigError) as exc:
-                print(f"gazed eval loop: {exc}", file=sys.stderr)
-                return 1
+            )
+        except (RuntimeError, RigError) as exc:
+            progress.close()
+            print(f"gazed eval loop: {exc}", file=sys.stderr)
+            return 1
+    progress.close()
     print_results(results, args.json, _table)
     return 0
 

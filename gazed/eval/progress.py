@@ -32,8 +32,8 @@ def no_progress(_name: str, count: int) -> Iterable[int]:
 
 
 class EvalProgress:
-    """The bar over `parts` parts; use it as a context manager, which closes it. `clock` times
-    the recordings."""
+    """The bar over `parts` parts, cleared by `close` (or on leaving it as a context manager).
+    `clock` times the recordings."""
 
     def __init__(
         self, parts: int, quiet: bool, clock: Callable[[], float] = time.monotonic
@@ -58,6 +58,9 @@ class EvalProgress:
         error: BaseException | None,
         traceback: TracebackType | None,
     ) -> None:
+        self.close()
+
+    def close(self) -> None:
         self.bar.close()
 
     def begin(self, name: str, doing: str) -> None:
