@@ -105,7 +105,7 @@ function showState(state) {
   $("gaze-state").textContent = state.gaze ? state.gaze.state : "—";
   $("gaze-reason").textContent = state.gaze && state.gaze.reason ? `(${state.gaze.reason})` : "";
   $("target-id").textContent = state.target_id === null ? "—" : String(state.target_id);
-  // park and hold stay on until resume: their buttons show it
+  // the button of the state the head is in is lit (park and hold stay on until resume)
   const now = state.gaze ? state.gaze.state : null;
   for (const button of document.querySelectorAll("button[data-command]")) {
     button.setAttribute("aria-pressed", String(button.dataset.command === now));
