@@ -381,11 +381,20 @@ class FakeSubscription:
         return items[-1] if items else None
 
 
+class FakePublisher:
+    def __init__(self, sent: list[Any]) -> None:
+        self.sent = sent
+
+    def put(self, message: Any) -> None:
+        self.sent.append(message)
+
+
 class FakeBus:
     """What the view's link uses of its bus."""
 
     def __init__(self) -> None:
         self.subscriptions: list[FakeSubscription] = []
+        self.published: dict[str, list[Any]] = {}  # by topic suffix
 
     def open(self) -> None:
         pass
@@ -397,8 +406,8 @@ class FakeBus:
         self.subscriptions.append(FakeSubscription(topic))
         return self.subscriptions[-1]
 
-    def publisher(self, topic: Any) -> Any:
-        return None
+    def publisher(self, topic: Any) -> FakePublisher:
+        return FakePublisher(self.published.setdefault(topic.suffix, []))
 
     def declare_alive(self) -> None:
         pass
@@ -424,5 +433,23 @@ def test_the_view_takes_frames_and_streams_off_the_bus_only_while_a_page_is_open
         frames.items.append(frame(5))
         link.watch(False)
         assert bus.open_suffixes() == ["gaze/state"] and frames.items == []  # let go
+
+    asyncio.run(scenario())
+
+
+def test_the_view_publishes_selections_and_commands_on_their_topics_once_on_the_bus() -> None:
+    async def scenario() -> None:
+        state, feed = LiveState(projection()), FrameFeed(80)
+        link = ViewLink(parse_rig('[rig]\nname = "t"\n'), state, feed, asyncio.get_running_loop())
+        command = GazeCommand(t_capture_ns=T0, command="hold", request_id="view-1")
+        with pytest.raises(BusError, match="not on the bus yet"):
+            link.publish_command(command)
+        bus = FakeBus()
+        link.bus = bus  # type: ignore[assignment]
+        await link.connect()
+        link.publish_command(command)
+        link.publish_select(GazeSelect(t_capture_ns=T0, track_id=2))
+        assert bus.published["gaze/command"] == [command]
+        assert [s.track_id for s in bus.published["gaze/select"]] == [2]
 
     asyncio.run(scenario())
