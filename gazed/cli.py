@@ -48,6 +48,9 @@ COMMANDS: dict[str, Command | Group] = {
         "gazed.bustools.select",
         "choose the person the running rig follows: a track id, a ground point or a pixel",
     ),
+    "operate": Command(
+        "gazed.bustools.operate", "park the running rig's head, search, hold it still, or resume"
+    ),
     "record": Command(
         "gazed.record.record_cli", "write the bus's messages into an MCAP file (Foxglove opens it)"
     ),

@@ -247,15 +247,15 @@ class GazeDemand(Message):
     )
 
 
-GazeStateName = Literal["park", "search", "saccade", "pursuit", "lost", "trace"]
+GazeStateName = Literal["park", "search", "saccade", "pursuit", "lost", "trace", "hold"]
 
 
 class GazeState(Message):
     """A transition of the gaze controller, or a change of its chosen target, with its reason.
-    Version 2 adds `target_id`."""
+    Version 2 adds `target_id`, version 3 the state `hold` (an operator's)."""
 
     SCHEMA: ClassVar[str] = "gazed.GazeState"
-    VERSION: ClassVar[int] = 2
+    VERSION: ClassVar[int] = 3
     state: GazeStateName
     previous: GazeStateName | None = None
     reason: str = ""

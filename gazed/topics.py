@@ -71,7 +71,11 @@ GAZE_STATE = Topic(
     "gaze/state", GazeState, "each state transition or change of target, with its reason"
 )
 GAZE_SELECT = Topic("gaze/select", GazeSelect, "an operator's choice of target")
-GAZE_COMMAND = Topic("gaze/command", GazeCommand, "requests to the controller (trace a line)")
+GAZE_COMMAND = Topic(
+    "gaze/command",
+    GazeCommand,
+    "requests to the controller: trace a line; park, search, hold, resume",
+)
 GAZE_TRACE = Topic("gaze/trace", TraceResult, "the samples of a traced ground line")
 SERVO_ODOMETRY = Topic("servo/odometry", Odometry, "the head's angles and rates when read")
 SERVO_STATUS = Topic("servo/status", ServoStatus, "link state, holding, errors, response lag")
@@ -193,7 +197,13 @@ TOOLS: tuple[Process, ...] = (
             GAZE_STATE,
             SERVO_COMMAND,
         ),
-        publishes=(GAZE_SELECT,),
+        publishes=(GAZE_SELECT, GAZE_COMMAND),
+    ),
+    Process(
+        "gazed operate",
+        "an operator's park, search, hold or resume",
+        reads=(GAZE_STATE,),
+        publishes=(GAZE_COMMAND,),
     ),
     Process(
         "gazed select",

@@ -2,7 +2,8 @@
 
 Inputs: `estimator/prediction` (the chosen track's are used), `estimator/state` (every track,
 for the choice of target), `vision/detection`, `vision/candidates`, `servo/odometry`,
-`gaze/command` (trace requests from `gazed calibrate trace`), `vision/edge` (while tracing),
+`gaze/command` (trace requests from `gazed calibrate trace`; an operator's park, search,
+hold and resume from the live view or `gazed operate`), `vision/edge` (while tracing),
 `gaze/select` (an operator's choice of target, from `gazed select`).
 Outputs: `gaze/demand` (joint angles and feed-forward rates, limited) at `[gaze] rate_hz` and at
 once after each new prediction; `gaze/state` on every transition and every change of target,

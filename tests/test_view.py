@@ -1,6 +1,7 @@
 """The live view without a rig: `[view]` and its password, what is drawn over a frame, the page's
 state, and the server's WebSocket (frames only after the page acknowledges the last one, clicks
-as `GazeSelect` with the frame's head pose, basic auth when the rig has a password)."""
+as `GazeSelect` with the frame's head pose, the buttons as `GazeCommand`, basic auth when the
+rig has a password)."""
 
 from __future__ import annotations
 
@@ -18,7 +19,7 @@ import pytest
 from aiohttp import WSMsgType, web
 from aiohttp.test_utils import TestClient, TestServer
 
-from gazed.bus import Frame
+from gazed.bus import BusError, Frame
 from gazed.config import parse_rig
 from gazed.config.view import ViewError, ViewSection
 from gazed.geometry.camera import CameraModel
@@ -27,6 +28,7 @@ from gazed.messages import (
     Detection,
     EstimatorState,
     FrameHeader,
+    GazeCommand,
     GazeDemand,
     GazeSelect,
     GazeState,
@@ -208,6 +210,7 @@ def serve(password: str | None = None) -> tuple[ViewServer, LiveState, FrameFeed
         state,
         feed,
         published.append,
+        COMMANDS.append,
         password=password,
         state_period_s=0.05,
         on_clients=lambda n: PAGES.append(n),
@@ -216,6 +219,64 @@ def serve(password: str | None = None) -> tuple[ViewServer, LiveState, FrameFeed
 
 
 PAGES: list[int] = []  # the open pages as the server reported them
+COMMANDS: list[GazeCommand] = []  # what the page's buttons published
+
+
+def test_the_buttons_publish_the_operators_commands_and_nothing_else() -> None:
+    async def answer(ws: Any, body: dict[str, Any]) -> dict[str, Any]:
+        await ws.send_json(body)
+        while (reply := json.loads(await next_of(ws, WSMsgType.TEXT)))["type"] != "commanded":
+            pass
+        return reply
+
+    async def scenario() -> None:
+        server, *_ = serve()
+        async with TestClient(TestServer(server.app())) as client:
+            ws = await client.ws_connect("/ws")
+            for name in ("park", "resume", "hold", "search"):
+                reply = await answer(ws, {"type": "command", "command": name})
+                assert reply == {
+                    "type": "commanded",
+                    "ok": True,
+                    "command": name,
+                    "message": f"{name} sent",
+                }
+            for bad in ("trace", "stop", None, ["park"]):  # a trace is `gazed calibrate trace`'s
+                reply = await answer(ws, {"type": "command", "command": bad})
+                assert (
+                    reply["ok"] is False
+                    and "not one of park, search, hold, resume" in (reply["message"])
+                )
+            await ws.close()
+        assert server.commands == 4
+
+    COMMANDS.clear()
+    asyncio.run(scenario())
+    assert [c.command for c in COMMANDS] == ["park", "resume", "hold", "search"]
+    assert len({c.request_id for c in COMMANDS}) == 4
+
+
+def test_a_view_not_yet_on_the_bus_says_so_instead_of_closing_the_page() -> None:
+    def refuse(_message: Any) -> None:
+        raise BusError("the view is not on the bus yet")
+
+    async def scenario() -> None:
+        server = ViewServer(LiveState(projection()), FrameFeed(80), refuse, refuse)
+        async with TestClient(TestServer(server.app())) as client:
+            ws = await client.ws_connect("/ws")
+            await ws.send_json({"type": "command", "command": "park"})
+            await ws.send_json({"type": "select"})
+            replies = {}
+            while len(replies) < 2:
+                reply = json.loads(await next_of(ws, WSMsgType.TEXT))
+                if reply["type"] != "state":
+                    replies[reply["type"]] = reply
+            for reply in replies.values():
+                assert reply["ok"] is False and reply["message"] == "the view is not on the bus yet"
+            assert not ws.closed
+            await ws.close()
+
+    asyncio.run(scenario())
 
 
 def test_frames_go_out_one_at_a_time_after_each_acknowledgement() -> None:
@@ -320,11 +381,20 @@ class FakeSubscription:
         return items[-1] if items else None
 
 
+class FakePublisher:
+    def __init__(self, sent: list[Any]) -> None:
+        self.sent = sent
+
+    def put(self, message: Any) -> None:
+        self.sent.append(message)
+
+
 class FakeBus:
     """What the view's link uses of its bus."""
 
     def __init__(self) -> None:
         self.subscriptions: list[FakeSubscription] = []
+        self.published: dict[str, list[Any]] = {}  # by topic suffix
 
     def open(self) -> None:
         pass
@@ -336,8 +406,8 @@ class FakeBus:
         self.subscriptions.append(FakeSubscription(topic))
         return self.subscriptions[-1]
 
-    def publisher(self, topic: Any) -> Any:
-        return None
+    def publisher(self, topic: Any) -> FakePublisher:
+        return FakePublisher(self.published.setdefault(topic.suffix, []))
 
     def declare_alive(self) -> None:
         pass
@@ -363,5 +433,23 @@ def test_the_view_takes_frames_and_streams_off_the_bus_only_while_a_page_is_open
         frames.items.append(frame(5))
         link.watch(False)
         assert bus.open_suffixes() == ["gaze/state"] and frames.items == []  # let go
+
+    asyncio.run(scenario())
+
+
+def test_the_view_publishes_selections_and_commands_on_their_topics_once_on_the_bus() -> None:
+    async def scenario() -> None:
+        state, feed = LiveState(projection()), FrameFeed(80)
+        link = ViewLink(parse_rig('[rig]\nname = "t"\n'), state, feed, asyncio.get_running_loop())
+        command = GazeCommand(t_capture_ns=T0, command="hold", request_id="view-1")
+        with pytest.raises(BusError, match="not on the bus yet"):
+            link.publish_command(command)
+        bus = FakeBus()
+        link.bus = bus  # type: ignore[assignment]
+        await link.connect()
+        link.publish_command(command)
+        link.publish_select(GazeSelect(t_capture_ns=T0, track_id=2))
+        assert bus.published["gaze/command"] == [command]
+        assert [s.track_id for s in bus.published["gaze/select"]] == [2]
 
     asyncio.run(scenario())

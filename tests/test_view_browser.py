@@ -1,7 +1,8 @@
 """The live view in a real browser: the system's headless Chromium, driven by Selenium, against
 the running sim rig with a `[view]`. Frames arrive and overlays are drawn, a click on the target
-reaches `gaze/select` with the head pose of the frame clicked, and the page reconnects by itself
-when the view's process restarts."""
+reaches `gaze/select` with the head pose of the frame clicked, the park button parks the head
+(`gaze/command` to the gaze, its state back on the page) until resume, and the page reconnects
+by itself when the view's process restarts."""
 
 from __future__ import annotations
 
@@ -15,8 +16,8 @@ import pytest
 from conftest import REPO, RunningSupervisor, free_tcp_port, poll_until
 
 from gazed.eval.loop import private_rig
-from gazed.messages import GazeSelect
-from gazed.topics import GAZE_SELECT
+from gazed.messages import GazeCommand, GazeSelect, GazeState
+from gazed.topics import GAZE_COMMAND, GAZE_SELECT, GAZE_STATE
 
 pytestmark = pytest.mark.e2e
 
@@ -48,6 +49,8 @@ def test_the_page_shows_frames_and_overlays_and_a_click_selects(tmp_path: Path) 
     try:
         supervisor.wait_ready(60.0)
         selections = supervisor.bus.subscribe(GAZE_SELECT)
+        commands = supervisor.bus.subscribe(GAZE_COMMAND)
+        states = supervisor.bus.subscribe(GAZE_STATE, capacity=256)
         driver = browser()
         driver.get(f"http://127.0.0.1:{port}/")
         view = lambda script: driver.execute_script(f"return window.gazedView.{script}")  # noqa: E731
@@ -63,6 +66,12 @@ def test_the_page_shows_frames_and_overlays_and_a_click_selects(tmp_path: Path) 
         )
         assert view("overlaysDrawn") >= 1
         assert overlay["fovea"]["side"] > 0
+        # the map: the tracks, where they are predicted to be, and their uncertainty
+        drawn = poll_until(
+            lambda: (d := view("mapDrawn"))["tracks"] and d["predictions"] and d, 30.0, 0.1
+        )
+        assert drawn["ellipses"] >= 1
+        assert driver.find_element("id", "gaze-reason").text.startswith("(")  # the state's reason
         assert driver.find_element("id", "gaze-state").text in (
             "saccade",
             "pursuit",
@@ -95,6 +104,31 @@ def test_the_page_shows_frames_and_overlays_and_a_click_selects(tmp_path: Path) 
         screenshot = tmp_path / "view.png"
         assert driver.save_screenshot(str(screenshot))
         assert screenshot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+        # park: the gaze parks the head and says so, with the operator as the reason
+        text = lambda element_id: driver.find_element("id", element_id).text  # noqa: E731
+        driver.find_element("css selector", "button[data-command=park]").click()
+        sent: list[GazeCommand] = []
+        poll_until(lambda: sent.extend(commands.take()) or sent, 10.0, 0.05)
+        assert [c.command for c in sent] == ["park"]
+        poll_until(lambda: text("gaze-state") == "park", 10.0, 0.05)
+        assert text("gaze-reason") == "(operator: park)"
+        assert text("commanded") == "park sent"
+        park = driver.find_element("css selector", "button[data-command=park]")
+        assert park.get_attribute("aria-pressed") == "true"
+        seen: list[GazeState] = []
+        parked = poll_until(
+            lambda: seen.extend(states.take()) or [s for s in seen if s.state == "park"], 10.0
+        )
+        assert parked[0].reason == "operator: park"
+        # resume: following again, from a search
+        driver.find_element("css selector", "button[data-command=resume]").click()
+        resumed = poll_until(
+            lambda: seen.extend(states.take()) or [s for s in seen if "resume" in s.reason], 10.0
+        )
+        assert (resumed[0].previous, resumed[0].state) == ("park", "search")
+        poll_until(lambda: text("gaze-state") != "park", 10.0, 0.05)
+        assert park.get_attribute("aria-pressed") == "false"
 
         # the view's process dies; the supervisor restarts it and the page reconnects by itself
         shown = view("framesShown")

@@ -3,7 +3,7 @@
 - `--scenario rounded-square` (seed 000 §4.2, Table 1) and `--scenario kelly` (seed 003 §III,
   Table 3): seeded simulations scored against the papers' tables (`scenario_reports`).
 - `--data FILE`: every track of a pedestrian file filtered causally; the prediction errors at
-  each horizon (`track_prediction`).
+  each horizon (`track_prediction`), with its progress on a terminal (`progress`).
 """
 
 from __future__ import annotations
@@ -17,8 +17,9 @@ from typing import Any
 
 from gazed.config import EstimatorSection, RigError, load_rig
 from gazed.eval.pedestrians import TrackFileError
+from gazed.eval.progress import EvalProgress
 from gazed.eval.scenario_reports import kelly_report, rounded_square_report
-from gazed.eval.track_prediction import DATA_FILTERS, data_report
+from gazed.eval.track_prediction import BASELINES, DATA_FILTERS, data_report
 
 
 def estimator_arguments(parser: argparse.ArgumentParser) -> None:
@@ -101,10 +102,13 @@ def estimator_command(args: argparse.Namespace) -> int:
                 file=sys.stderr,
             )
             return 2
+        filters = len(DATA_FILTERS) if args.filter == "all" else 1
         try:
-            report = data_report(
-                section, args.data, args.filter, horizons, args.noise_m or 0.0, args.seed
-            )
+            with EvalProgress(len(BASELINES) + filters, args.json) as progress:
+                noise_m = args.noise_m or 0.0
+                report = data_report(
+                    section, args.data, args.filter, horizons, noise_m, args.seed, progress.steps
+                )
         except TrackFileError as exc:
             print(f"gazed eval estimator: {exc}", file=sys.stderr)
             return 2

@@ -39,6 +39,7 @@ from gazed.eval.person_score import (
     reach_scores,
     score_person,
 )
+from gazed.eval.progress import EvalProgress
 from gazed.eval.truth import Person, TruthFileError, read_truth
 from gazed.eval.view_people import ViewPeople
 from gazed.geometry.camera import CameraModel
@@ -81,6 +82,7 @@ def footage_command(args: argparse.Namespace) -> int:
         return 2
     modes = MODES if args.compare else (args.filter,)
     results = []
+    progress = EvalProgress(len(modes), args.json)
     for mode in modes:
         try:
             results.append(
@@ -93,11 +95,14 @@ def footage_command(args: argparse.Namespace) -> int:
                     start_frame=args.start_frame,
                     select_id=args.select_id,
                     control=args.control,
+                    progress=progress,
                 )
             )
         except (RuntimeError, RigError) as exc:
+            progress.close()
             print(f"gazed eval loop: {exc}", file=sys.stderr)
             return 1
+    progress.close()
     print_results(results, args.json, table)
     return 0
 
@@ -129,8 +134,10 @@ def run_footage(
     start_frame: int | None = None,
     select_id: int | None = None,
     control: str | None = None,
+    progress: EvalProgress | None = None,
 ) -> dict[str, Any]:
-    """Run the rig over its footage on a private bus and score it against `people`."""
+    """Run the rig over its footage on a private bus and score it against `people`; with
+    `progress`, show it there."""
     with tempfile.TemporaryDirectory(prefix="gazed-eval-") as directory:
         document = private_document(rig_path, Path(directory), filter_mode, control)
         wide = document["wide"]
@@ -143,8 +150,11 @@ def run_footage(
         if seconds is None:
             chosen = select_id is not None
             seconds = selection.longest_s(load_rig(private)) if chosen else DEFAULT_SECONDS
+        watch = selection.watch
+        if progress is not None:
+            watch = progress.recording(seconds, "footage", filter_mode, control, then=watch)
         with running(private) as (rig, supervisor, log_path):
-            recording = record_run(rig, supervisor, log_path, TOPICS, seconds, selection.watch)
+            recording = record_run(rig, supervisor, log_path, TOPICS, seconds, watch)
     messages = recording.messages
     frames = view_frames(messages[VISION_DETECTION.suffix], messages[GAZE_STATE.suffix])
     result: dict[str, Any] = {

@@ -7,7 +7,7 @@ it (the real entry points); once the supervisor reports them all up, what the bu
 same window. `--compare` runs `imm`, `image-cv` and `none` (the IMM without prediction over the
 latency) and the peers' control laws `pid` and `move-wait-move` on the same seed, one after the
 other. With `--truth`, a digital head's rig runs over its footage instead and is scored against
-the annotated people (`footage_loop`).
+the annotated people (`footage_loop`). A terminal shows the runs' progress (`progress`).
 """
 
 from __future__ import annotations
@@ -33,6 +33,7 @@ from gazed.bus import Bus, BusError
 from gazed.config import Rig, RigError, load_rig
 from gazed.eval.loop_metrics import LoopRecord, score
 from gazed.eval.loop_record import Recording, Watch, record
+from gazed.eval.progress import EvalProgress
 from gazed.geometry.pose import CameraPose
 from gazed.messages import ServoStatus
 from gazed.sim.reach import FieldOfRegard
@@ -126,6 +127,7 @@ def loop_command(args: argparse.Namespace) -> int:
         return 2
     runs = COMPARED if args.compare else ((args.filter, args.control),)
     results = []
+    progress = EvalProgress(len(runs), args.json)
     for mode, control in runs:
         try:
             results.append(
@@ -138,11 +140,14 @@ def loop_command(args: argparse.Namespace) -> int:
                     args.seed,
                     control,
                     args.plot / f"{mode}-{control}" if args.plot and args.compare else args.plot,
+                    progress,
                 )
             )
         except (RuntimeError, RigError) as exc:
+            progress.close()
             print(f"gazed eval loop: {exc}", file=sys.stderr)
             return 1
+    progress.close()
     print_results(results, args.json, _table)
     return 0
 
@@ -166,15 +171,17 @@ def run_loop(
     seed: int | None = None,
     control: str | None = None,
     plot_dir: Path | None = None,
+    progress: EvalProgress | None = None,
 ) -> dict[str, Any]:
     """Run the rig's processes on a private bus for `seconds` after they are all up; score;
-    with `plot_dir`, draw the run's figures there."""
+    with `plot_dir`, draw the run's figures there; with `progress`, show it there."""
     with tempfile.TemporaryDirectory(prefix="gazed-eval-") as directory:
         private = private_rig(
             rig_path, Path(directory), scenario, filter_mode, latency_ms, seed, control
         )
         with running(private) as (rig, supervisor, log_path):
-            recording = record_run(rig, supervisor, log_path, SIM_TOPICS, seconds)
+            watch = progress and progress.recording(seconds, scenario, filter_mode, control)
+            recording = record_run(rig, supervisor, log_path, SIM_TOPICS, seconds, watch)
         messages = recording.messages
         record = LoopRecord(
             messages[SIM_TRUTH.suffix],

@@ -6,6 +6,7 @@ step the prediction to each horizon is compared with the recorded position then.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Protocol
@@ -23,6 +24,7 @@ from gazed.eval.baselines import (
 )
 from gazed.eval.metrics import error_summary
 from gazed.eval.pedestrians import Track, read_tracks
+from gazed.eval.progress import Steps, no_progress
 
 DATA_FILTERS = ("imm", "cv", "ca", "alphabeta", "innovation")
 BASELINES = ("constant-position", "two-point", "cv-ml")
@@ -87,13 +89,17 @@ def _align(tracks: list[Track], noise_m: float, seed: int) -> _Aligned:
 
 
 def _prediction_errors(
-    predictor: Predictor, data: _Aligned, horizons_s: list[float]
+    predictor: Predictor,
+    data: _Aligned,
+    horizons_s: list[float],
+    steps: Iterable[int] | None = None,
 ) -> dict[str, Any]:
-    """Each track stepped causally; from its second measurement on, its forecast to every
-    horizon the track still covers against the recorded position then."""
+    """Each track stepped causally (`steps`: the step indices, 0 to the longest track's
+    length, by default a plain range); from its second measurement on, its forecast to every horizon the track still
+    covers against the recorded position then."""
     t, xy, length = data.t, data.xy, data.length
     errors: dict[float, list[np.ndarray]] = {h: [] for h in horizons_s}
-    for k in range(t.shape[1]):
+    for k in range(t.shape[1]) if steps is None else steps:
         present = k < length
         predictor.step(t[:, k], np.nan_to_num(data.z[:, k]), present)
         if k == 0:
@@ -123,6 +129,7 @@ def track_errors(
     horizons_s: list[float],
     noise_m: float,
     seed: int,
+    steps: Steps = no_progress,
 ) -> dict[str, Any]:
     """All tracks filtered at once (one batch row per track, aligned by their step index)."""
     data = _align(tracks, noise_m, seed)
@@ -131,11 +138,17 @@ def track_errors(
     adapts = mode == "imm" and section.adapt_noise
     assumed_m2 = known_m2 if adapts else section.position_noise_m**2 + noise_m**2
     R = np.broadcast_to(np.eye(2) * assumed_m2, (n, 2, 2))
-    return {"filter": mode, **_prediction_errors(_Estimator(section, n, mode, R), data, horizons_s)}
+    estimator = _Estimator(section, n, mode, R)
+    count = data.t.shape[1]
+    return {"filter": mode, **_prediction_errors(estimator, data, horizons_s, steps(mode, count))}
 
 
 def baseline_errors(
-    tracks: list[Track], horizons_s: list[float], noise_m: float, seed: int
+    tracks: list[Track],
+    horizons_s: list[float],
+    noise_m: float,
+    seed: int,
+    steps: Steps = no_progress,
 ) -> dict[str, dict[str, Any]]:
     """The baselines on the same measurements, horizons and errors as the filters; `cv-ml`
     carries the q (m²/s³) and r (m²) fitted to the file."""
@@ -147,7 +160,11 @@ def baseline_errors(
         "two-point": TwoPoint(n),
         "cv-ml": ConstantVelocity(n, q, r),
     }
-    results = {name: _prediction_errors(p, data, horizons_s) for name, p in predictors.items()}
+    count = data.t.shape[1]
+    results = {
+        name: _prediction_errors(p, data, horizons_s, steps(name, count))
+        for name, p in predictors.items()
+    }
     results["cv-ml"].update(q=q, r=r)
     return results
 
@@ -177,15 +194,15 @@ def data_report(
     horizons_s: list[float],
     noise_m: float,
     seed: int,
+    steps: Steps = no_progress,
 ) -> dict[str, Any]:
     """The filter (or all of them, under "filters") scored on a file, with the baselines beside
-    them under "baselines"."""
+    them under "baselines"; `steps` counts each predictor's steps (`progress`)."""
     tracks = read_tracks(path)
     head = {"data": str(path), "noise_m": noise_m}
-    baselines = {"baselines": baseline_errors(tracks, horizons_s, noise_m, seed)}
+    baselines = {"baselines": baseline_errors(tracks, horizons_s, noise_m, seed, steps)}
+    modes = DATA_FILTERS if mode == "all" else (mode,)
+    results = {m: track_errors(section, tracks, m, horizons_s, noise_m, seed, steps) for m in modes}
     if mode == "all":
-        results = {
-            m: track_errors(section, tracks, m, horizons_s, noise_m, seed) for m in DATA_FILTERS
-        }
         return {**head, "tracks": len(tracks), "filters": results, **baselines}
-    return {**head, **track_errors(section, tracks, mode, horizons_s, noise_m, seed), **baselines}
+    return {**head, **results[mode], **baselines}

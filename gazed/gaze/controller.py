@@ -13,6 +13,7 @@ States and transitions (each published with its reason):
     lost    --reacquire_detections in a row (one per frame)-------> pursuit
             --lost for search_after_ms, or the region too wide--> search
     any     --a `trace` command (`gazed calibrate trace`)---------> trace
+            --an operator's park, search or hold (`operator`)---> park, search, hold
     trace   --corner, lost edge, enough samples, joint limit, stop--> search
 
 - park and search take up a target in view (`sightings`); search holds the head and watches
@@ -50,6 +51,7 @@ from gazed.gaze.focus import focus
 from gazed.gaze.look_and_move import LookAndMove
 from gazed.gaze.lost_search import LostSearch
 from gazed.gaze.move import Move, Settling, at_goal
+from gazed.gaze.operator import OperatorControl
 from gazed.gaze.pixel_pid import PixelPid, pixel_error
 from gazed.gaze.pursuit import Pursuit
 from gazed.gaze.sightings import Sightings
@@ -114,6 +116,7 @@ class GazeController:
         )
         self.tracer = LineTracer(gaze, camera, kinematics, limits_rad)
         self.choice = TargetChoice(gaze, camera, kinematics)
+        self.operator = OperatorControl(self)  # park, search, hold, resume
         # the state machine
         self.state: GazeStateName = "park"
         self.entered_s = mono_s
@@ -189,13 +192,15 @@ class GazeController:
         self.tracer.on_edge(edge)
 
     def on_command(self, command: GazeCommand, wall_ns: int, mono_s: float) -> None:
-        """`trace`: follow a ground line's edge from a start gaze; `stop`: end a trace."""
+        """`trace` a ground line's edge from a start gaze, `stop` it, or an operator's command."""
         if command.command == "stop":
             if self.tracer.job is not None:
                 self._finish_trace("stopped by request", wall_ns, mono_s)
             return
         if self.tracer.job is not None:
             self._finish_trace("replaced by a new request", wall_ns, mono_s)
+        if self.operator.on_command(command.command, wall_ns, mono_s):
+            return
         self.tracer.begin(command)
         self.enter("trace", f"tracing a line ({command.request_id})", wall_ns, mono_s)
 
@@ -204,15 +209,15 @@ class GazeController:
     def tick(self, wall_ns: int, mono_s: float) -> Decision:
         dt_s = max(mono_s - self.last_tick_s, 1e-3)
         self.last_tick_s = mono_s
-        handler = {
+        handlers = {
             "park": self._park,
             "search": self._search,
             "saccade": self._saccade,
             "pursuit": self._pursuit,
             "lost": self._lost,
             "trace": self._trace,
-        }[self.state]
-        demand = handler(wall_ns, mono_s)
+        }
+        demand = (self.operator.handler or handlers[self.state])(wall_ns, mono_s)
         if demand is None or demand.kind != "hold":
             self.hold.release()
         if demand is not None:

@@ -1,4 +1,5 @@
-"""The view's session on the rig's bus: what it reads into the page's state, and `gaze/select`.
+"""The view's session on the rig's bus: what it reads into the page's state, and what it publishes
+(`gaze/select`, `gaze/command`).
 
 The view is a bus client like `gazed tail` (DESIGN §11): it never sits inside the loop. What a
 page shows is subscribed only while a page is open (frames newest-only); every sample is
@@ -17,8 +18,8 @@ from typing import Any
 from gazed.backoff import Backoff
 from gazed.bus import Bus, BusError, Subscription
 from gazed.config import Rig
-from gazed.messages import GazeSelect
-from gazed.topics import GAZE_STATE, TOOLS
+from gazed.messages import GazeCommand, GazeSelect
+from gazed.topics import GAZE_COMMAND, GAZE_SELECT, GAZE_STATE, TOOLS
 from gazed.view.frame_feed import FrameFeed
 from gazed.view.live_state import LiveState
 
@@ -46,6 +47,7 @@ class ViewLink:
         self._kept: list[Subscription[Any]] = []
         self._watched: list[Subscription[Any]] = []
         self._select: Any = None
+        self._command: Any = None
         self._scheduled = False
         self._watching = False
 
@@ -67,8 +69,8 @@ class ViewLink:
         self.bus.on_arrival(self._arrived)
         # kept always: the gaze's transitions are rare, and a page that opens shows the last
         self._kept = [self.bus.subscribe(topic) for topic in CONTRACT.reads if topic in KEPT]
-        (select,) = CONTRACT.publishes
-        self._select = self.bus.publisher(select)
+        self._select = self.bus.publisher(GAZE_SELECT)
+        self._command = self.bus.publisher(GAZE_COMMAND)
         self.bus.declare_alive()
         self.connected = True
         self.watch(self._watching)
@@ -93,6 +95,11 @@ class ViewLink:
         if self._select is None:
             raise BusError("the view is not on the bus yet")
         self._select.put(selection)
+
+    def publish_command(self, command: GazeCommand) -> None:
+        if self._command is None:
+            raise BusError("the view is not on the bus yet")
+        self._command.put(command)
 
     def close(self) -> None:
         self.bus.close()

@@ -10,7 +10,9 @@
     to a click (`{"type": "selected", ...}`).
   The page sends `{"type": "select", "seq": N, "u": U, "v": V}` (a click on frame N) or
   `{"type": "select"}` (back to the rig's own rule); the server answers with what it published
-  on `gaze/select`.
+  on `gaze/select`. The page's buttons send `{"type": "command", "command": C}` for C one of
+  park, search, hold and resume; the server publishes it on `gaze/command` and answers
+  `{"type": "commanded", ...}`; the gaze's new state comes with the next state message.
 - With a password, every request needs HTTP basic auth with it (any user name).
 """
 
@@ -29,7 +31,9 @@ from typing import Any
 
 from aiohttp import WSMsgType, web
 
-from gazed.messages import GazeSelect, HeadPose
+from gazed.bus import BusError
+from gazed.gaze.operator import OPERATOR_COMMANDS
+from gazed.messages import GazeCommand, GazeSelect, HeadPose
 from gazed.view.frame_feed import FrameFeed
 from gazed.view.live_state import LiveState
 
@@ -47,6 +51,7 @@ class ViewServer:
         state: LiveState,
         feed: FrameFeed,
         publish_select: Callable[[GazeSelect], None],
+        publish_command: Callable[[GazeCommand], None],
         *,
         password: str | None = None,
         state_period_s: float = 0.1,
@@ -55,12 +60,14 @@ class ViewServer:
         self.state = state
         self.feed = feed
         self.publish_select = publish_select
+        self.publish_command = publish_command
         self.password = password
         self.state_period_s = state_period_s
         self.on_clients = on_clients  # told the number of open pages when it changes
         self.clients = 0
         self.frames_sent = 0
         self.selects = 0
+        self.commands = 0
 
     def app(self) -> web.Application:
         middlewares = [self._auth] if self.password is not None else []
@@ -114,6 +121,8 @@ class ViewServer:
                     acked.set()
                 elif request_body.get("type") == "select":
                     await ws.send_json(self._select(request_body, poses))
+                elif request_body.get("type") == "command":
+                    await ws.send_json(self._command(request_body.get("command")))
         finally:
             self.clients -= 1
             self.on_clients(self.clients)
@@ -174,7 +183,10 @@ class ViewServer:
                 selection = GazeSelect(t_capture_ns=now_ns, pixel_px=pixel, head=head)
             except (KeyError, TypeError, ValueError) as exc:
                 return {"type": "selected", "ok": False, "message": f"bad click: {exc}"}
-        self.publish_select(selection)
+        try:
+            self.publish_select(selection)
+        except BusError as exc:
+            return {"type": "selected", "ok": False, "message": str(exc)}
         self.selects += 1
         return {
             "type": "selected",
@@ -182,3 +194,18 @@ class ViewServer:
             "pixel_px": selection.pixel_px,
             "message": "selected" if selection.pixel_px else "back to the rig's rule",
         }
+
+    def _command(self, name: object) -> dict[str, Any]:
+        """An operator's button (park, search, hold, resume) as a `GazeCommand`, published."""
+        if name not in OPERATOR_COMMANDS:
+            allowed = ", ".join(OPERATOR_COMMANDS)
+            return {"type": "commanded", "ok": False, "message": f"{name!r}: not one of {allowed}"}
+        command = GazeCommand(
+            t_capture_ns=time.time_ns(), command=name, request_id=f"view-{self.commands + 1}"
+        )
+        try:
+            self.publish_command(command)
+        except BusError as exc:
+            return {"type": "commanded", "ok": False, "command": name, "message": str(exc)}
+        self.commands += 1
+        return {"type": "commanded", "ok": True, "command": name, "message": f"{name} sent"}

@@ -79,6 +79,7 @@ async def serve(
         state,
         feed,
         link.publish_select,
+        link.publish_command,
         password=password,
         state_period_s=1.0 / view.state_rate_hz,
         on_clients=lambda pages: link.watch(pages > 0),

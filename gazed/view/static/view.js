@@ -13,9 +13,11 @@ const view = {
   framesShown: 0,
   overlaysDrawn: 0,
   selected: null, // the server's answer to the last click
+  commanded: null, // the server's answer to the last button (park, search, hold, resume)
   models: [], // [{t, values: {name: p}}]
   latency: [], // [{t, values: {stage: ms}}]
   trails: new Map(), // track id -> [[x, y], ...]
+  mapDrawn: { tracks: 0, predictions: 0, ellipses: 0 }, // what the last map showed
   retryMs: 250,
 };
 window.gazedView = view; // read by the browser test
@@ -76,6 +78,9 @@ function onText(message) {
   } else if (message.type === "selected") {
     view.selected = message;
     $("selected").textContent = message.ok ? message.message : `not selected: ${message.message}`;
+  } else if (message.type === "commanded") {
+    view.commanded = message;
+    $("commanded").textContent = message.ok ? message.message : `not sent: ${message.message}`;
   }
 }
 
@@ -100,6 +105,11 @@ function showState(state) {
   $("gaze-state").textContent = state.gaze ? state.gaze.state : "—";
   $("gaze-reason").textContent = state.gaze && state.gaze.reason ? `(${state.gaze.reason})` : "";
   $("target-id").textContent = state.target_id === null ? "—" : String(state.target_id);
+  // the button of the state the head is in is lit (park and hold stay on until resume)
+  const now = state.gaze ? state.gaze.state : null;
+  for (const button of document.querySelectorAll("button[data-command]")) {
+    button.setAttribute("aria-pressed", String(button.dataset.command === now));
+  }
 }
 
 // -- the camera frame and its overlays -------------------------------------------------------
@@ -189,21 +199,36 @@ $("frame").addEventListener("click", (event) => {
   view.socket.send(JSON.stringify({ type: "select", seq: view.frame.meta.seq, u, v }));
 });
 
-$("rule").addEventListener("click", () => {
-  if (view.socket && view.socket.readyState === WebSocket.OPEN) {
-    view.socket.send(JSON.stringify({ type: "select" }));
-  }
-});
+$("rule").addEventListener("click", () => send({ type: "select" }));
+
+for (const button of document.querySelectorAll("button[data-command]")) {
+  button.addEventListener("click", () => send({ type: "command", command: button.dataset.command }));
+}
+
+function send(message) {
+  if (view.socket && view.socket.readyState === WebSocket.OPEN) view.socket.send(JSON.stringify(message));
+  else $("commanded").textContent = "not connected";
+}
 
 // -- the ground map -----------------------------------------------------------------------
+
+// Where a track is predicted to be over the chosen target's prediction horizon (1 s without
+// one), at its present velocity.
+function predicted(track, state) {
+  if (!track.velocity) return null;
+  const horizon = state.prediction ? Math.max(state.prediction.horizon_s, 0) : 1.0;
+  return [track.xy[0] + track.velocity[0] * horizon, track.xy[1] + track.velocity[1] * horizon];
+}
 
 function drawMap(state) {
   const canvas = $("map");
   const g = canvas.getContext("2d");
   g.fillStyle = "#000";
   g.fillRect(0, 0, canvas.width, canvas.height);
+  const drawn = { tracks: 0, predictions: 0, ellipses: 0 };
+  view.mapDrawn = drawn;
   const points = [];
-  for (const trail of view.trails.values()) points.push(...trail);
+  for (const trail of view.trails.values()) points.push(...trail); // the predictions may run off
   if (state.prediction) points.push(state.prediction.xy);
   if (!points.length) return;
   const xs = points.map((p) => p[0]);
@@ -228,18 +253,33 @@ function drawMap(state) {
     trail.forEach((p, i) => (i ? g.lineTo(...px(p)) : g.moveTo(...px(p))));
     g.stroke();
     g.globalAlpha = 1;
-    if (track.cov) ellipse(g, px, track.xy, track.cov, scale, colour);
+    if (track.cov) {
+      ellipse(g, px, track.xy, track.cov, scale, colour);
+      drawn.ellipses += 1;
+    }
+    const ahead = predicted(track, state);
+    if (ahead) {
+      g.setLineDash([3, 3]);
+      line(g, px(track.xy), px(ahead));
+      g.setLineDash([]);
+      drawn.predictions += 1;
+    }
     const [u, v] = px(track.xy);
     g.fillStyle = colour;
     g.beginPath();
     g.arc(u, v, 4, 0, 2 * Math.PI);
     g.fill();
     g.fillText(String(track.id), u + 6, v - 6);
+    drawn.tracks += 1;
   }
   if (state.prediction) {
     const [u, v] = px(state.prediction.xy);
     cross(g, u, v, 6, "#f4f", true);
-    if (state.prediction.cov) ellipse(g, px, state.prediction.xy, state.prediction.cov, scale, "#f4f");
+    drawn.predictions += 1;
+    if (state.prediction.cov) {
+      ellipse(g, px, state.prediction.xy, state.prediction.cov, scale, "#f4f");
+      drawn.ellipses += 1;
+    }
   }
 }
 

@@ -1,0 +1,82 @@
+"""`gazed operate --rig RIG {park,search,hold,resume}`: an operator's command to the running rig's
+gaze, as the live view's buttons send it.
+
+Publishes one `GazeCommand` on `gaze/command` and waits for the gaze's answer on `gaze/state`
+(the reason `operator: <command>`): park sends the head to its park pose and keeps it there,
+search starts the search for a target now, hold keeps the head still where it is, resume goes
+back to following (`gazed.gaze.operator`). Exit 0 when the gaze answered, 1 when no gaze
+process is there or it did not answer in time, 2 for a bad rig.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+import uuid
+from pathlib import Path
+
+from gazed.bus import Bus, BusError, Subscription
+from gazed.config import load_rig_or_exit
+from gazed.gaze.operator import OPERATOR_COMMANDS
+from gazed.gaze.target_choice import OPERATOR
+from gazed.messages import GazeCommand, GazeState
+from gazed.topics import GAZE_COMMAND, GAZE_STATE
+from gazed.wakeup import Wakeup
+
+
+def operate_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--rig", type=Path, required=True, help="the running rig's file")
+    parser.add_argument(
+        "command",
+        choices=OPERATOR_COMMANDS,
+        help="park: to the park pose and stay; search: search now; hold: keep the head still; "
+        "resume: follow again",
+    )
+    parser.add_argument(
+        "--timeout-s", type=float, default=5.0, help="how long to wait for the gaze's answer"
+    )
+
+
+def operate_command(args: argparse.Namespace) -> int:
+    rig = load_rig_or_exit(args.rig)
+    request = GazeCommand(
+        t_capture_ns=time.time_ns(),
+        command=args.command,
+        request_id=f"operate-{uuid.uuid4().hex[:8]}",
+    )
+    try:
+        with Bus(rig, "operate") as bus, Wakeup() as wakeup:
+            bus.on_arrival(wakeup.notify)
+            answers = bus.subscribe(GAZE_STATE, capacity=64)
+            publisher = bus.publisher(GAZE_COMMAND)
+            deadline = time.monotonic() + args.timeout_s
+            while not publisher.matched():
+                if time.monotonic() > deadline:
+                    print(f"gazed operate: no gaze process of rig '{rig.name}'", file=sys.stderr)
+                    return 1
+                wakeup.wait(0.05)
+            publisher.put(request)
+            answer = _answer(answers, f"{OPERATOR}: {args.command}", wakeup, deadline)
+    except BusError as exc:
+        print(f"gazed operate: no bus answers: {exc} (is `gazed run` running?)", file=sys.stderr)
+        return 1
+    if answer is None:
+        print(
+            f"gazed operate: the gaze did not answer within {args.timeout_s:g} s", file=sys.stderr
+        )
+        return 1
+    print(f"{answer.previous} -> {answer.state}: {answer.reason}")
+    return 0
+
+
+def _answer(
+    answers: Subscription[GazeState], reason: str, wakeup: Wakeup, deadline: float
+) -> GazeState | None:
+    """The gaze's gaze/state with `reason`: it took the command."""
+    while time.monotonic() < deadline:
+        for state in answers.take():
+            if state.reason == reason:
+                return state
+        wakeup.wait(0.05)
+    return None
