@@ -128,6 +128,14 @@ class ViscaServo(ServoLink):
         le=3600,
         description="Pan rate of the highest speed byte (speeds map linearly).",
     )
+    zoom_max_units: int = Field(
+        0x4000,
+        ge=1,
+        le=0x7FFF,
+        description="CAM_Zoom position of the longest zoom the rig uses (0 is the widest): "
+        "16384 (0x4000) is the optical telephoto end of most Sony models; a camera with digital "
+        "zoom goes beyond it (see its manual's zoom table).",
+    )
     tilt_speed_max_deg_s: float = Field(
         90.0,
         gt=0,
