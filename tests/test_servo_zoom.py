@@ -101,3 +101,26 @@ def test_a_head_without_a_zoom_lens_reports_none_and_sends_no_zoom() -> None:
     readings = odometry(link.run(0.3, keep_demanding=zoom_in))
     assert readings and all(r.zoom is None for r in readings)
     assert not any(frame[1:4] == bytes.fromhex("010447") for frame in link.line.written)
+
+
+def test_the_digital_head_zooms_its_view_and_reports_the_zoom() -> None:
+    from gazed.config import DigitalServo
+    from gazed.servo.digital_head import DigitalHead
+    from gazed.servo.zoom_drive import ZoomDrive
+
+    clock = [0.0]
+    head = DigitalHead(
+        HeadSection(zoom_rate_max_s=1.0),
+        DigitalServo(protocol="digital", latency_ms=0.0),
+        mono_s=lambda: clock[0],
+        wall_ns=lambda: round(clock[0] * 1e9),
+    )
+    head.connect()
+    drive = ZoomDrive(head, rate_max_s=0.5)
+    drive.reset(head.query_zoom())
+    drive.demand(0.4)
+    for _ in range(200):  # 2 s of the link's steps
+        clock[0] += 0.01
+        drive.write(clock[0])
+    assert drive.read() == pytest.approx(0.4, abs=1e-6)
+    assert drive.writes <= 2.0 / 0.1 + 1

@@ -126,6 +126,8 @@ class HeadLink:
         self.zoom: ZoomDrive | None = None
         if isinstance(rig.servo, DigitalServo):  # a model in this process, no serial port
             self.driver = DigitalHead(rig.head, rig.servo, mono_s=mono_s, wall_ns=wall_ns)
+            if rig.camera.zoom_focal_px:
+                self.zoom = ZoomDrive(self.driver, rig.head.zoom_rate_max_s)
         elif isinstance(rig.servo, OnvifServo):  # an IP camera over HTTP/SOAP
             self.driver = onvif_driver(rig, mono_s=mono_s, wall_ns=wall_ns)
         else:

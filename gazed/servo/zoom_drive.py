@@ -10,16 +10,25 @@ limit, so the lens never receives a jump it would take faster than the rig allow
 
 from __future__ import annotations
 
-from gazed.servo.driver import ServoDriver
+from typing import Protocol
 
 ZOOM_COMMAND_PERIOD_S = 0.1
 ZOOM_STEP = 1.0 / 1024  # below any lens's repeatability, above a VISCA unit at 0x4000
 
 
-class ZoomDrive:
-    """One head's zoom lens behind `driver` (a codec whose `zooms` is true)."""
+class ZoomDevice(Protocol):
+    """A head that drives and reads a zoom (`ServoDriver` on a codec that zooms, the digital
+    head)."""
 
-    def __init__(self, driver: ServoDriver, rate_max_s: float) -> None:
+    def set_zoom(self, zoom: float) -> int: ...
+
+    def query_zoom(self) -> float: ...
+
+
+class ZoomDrive:
+    """One head's zoom lens behind `driver`."""
+
+    def __init__(self, driver: ZoomDevice, rate_max_s: float) -> None:
         self.driver = driver
         self.rate_max_s = rate_max_s
         self.target: float | None = None
