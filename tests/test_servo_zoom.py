@@ -124,3 +124,27 @@ def test_the_digital_head_zooms_its_view_and_reports_the_zoom() -> None:
         drive.write(clock[0])
     assert drive.read() == pytest.approx(0.4, abs=1e-6)
     assert drive.writes <= 2.0 / 0.1 + 1
+
+
+def test_pelco_d_zoom_frames_follow_the_extended_command_table() -> None:
+    from gazed.servo.pelco_d import PelcoDCodec
+
+    # FF addr 00 4F MSB LSB ck (PROTOCOLS.md §1, C466M-E §5.2.4); ck = sum of bytes 2-6 mod 256
+    codec = PelcoDCodec()
+    assert codec.zooms
+    assert codec.encode_set_zoom(0.5) == [bytes.fromhex("FF01004F8000D0")]
+    assert codec.encode_query_zoom() == [bytes.fromhex("FF010055000056")]
+    assert codec.replies_expected(codec.encode_query_zoom()[0]) == 1
+    (reply,) = codec.feed(bytes.fromhex("00FF01005D4000 9E".replace(" ", "")))
+    assert reply.kind == "zoom" and reply.value == pytest.approx(0x4000 / 0xFFFF)
+    assert not PelcoDCodec(position_feedback=False).zooms
+
+
+@pytest.mark.parametrize("protocol", ["visca", "pelco-d"])
+def test_the_link_zooms_each_protocol_on_its_emulated_head(protocol: str) -> None:
+    link = Link(baud=115200, protocol=protocol, sections=ZOOM_LENS)
+    link.step()
+    zoom_in = demand(0.0, 0.0).model_copy(update={"zoom": 0.3})
+    readings = odometry(link.run(1.5, keep_demanding=zoom_in))
+    assert readings[-1].zoom == pytest.approx(0.3, abs=2e-3)
+    assert link.link.counters()["errors"] == 0

@@ -98,6 +98,13 @@ class PelcoDServo(ServoLink):
     tilt_speed_max_deg_s: float = Field(
         90.0, gt=0, le=3600, description="Tilt rate of drive speed 0x3F (speeds map linearly)."
     )
+    zoom_max_units: int = Field(
+        65535,
+        ge=1,
+        le=65535,
+        description="Zoom position (0x4F/0x5D) of the longest zoom: 65535 on units that scale "
+        "the position to their zoom limit; others count lens steps (see the camera's manual).",
+    )
 
 
 class ViscaServo(ServoLink):
