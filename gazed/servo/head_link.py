@@ -40,6 +40,7 @@ from gazed.servo.driver import DeviceError, ServoDriver, ServoTimeout
 from gazed.servo.line_load import LineLoadMeter
 from gazed.servo.odometry import JointReading, OdometryDating
 from gazed.servo.onvif_driver import onvif_driver
+from gazed.servo.onvif_head import OnvifHead
 from gazed.servo.park import park
 from gazed.servo.response_lag import ResponseLag
 from gazed.servo.setpoint_writer import SetpointWriter
@@ -130,6 +131,8 @@ class HeadLink:
                 self.zoom = ZoomDrive(self.driver, rig.head.zoom_rate_max_s)
         elif isinstance(rig.servo, OnvifServo):  # an IP camera over HTTP/SOAP
             self.driver = onvif_driver(rig, mono_s=mono_s, wall_ns=wall_ns)
+            if rig.camera.zoom_focal_px and isinstance(self.driver.device, OnvifHead):
+                self.zoom = ZoomDrive(self.driver.device, rig.head.zoom_rate_max_s)
         else:
             timeout_s = rig.servo.timeout_ms / 1000.0
             self.driver = ServoDriver(
