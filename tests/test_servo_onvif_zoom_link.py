@@ -1,7 +1,8 @@
 """ONVIF zoom on a head link, against the emulated ONVIF camera on loopback on a virtual clock:
 the link zooms at the rig's rate in position and in speed mode (the zoom's AbsoluteMove leaves
 the pan/tilt moves alone), its odometry follows the lens, closing it parks the lens at its
-widest view; a rig without a zoom lens reports no zoom and sends none."""
+widest view; a rig without a zoom lens reports no zoom and sends none. A zoom during a
+ContinuousMove sends the move again, as some cameras (ipycam) end it on any AbsoluteMove."""
 
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ from pathlib import Path
 import pytest
 from onvif_support import Clock, onvif_rig
 from servo_link_support import demand
-from test_servo_onvif_head import SLOW_POLLS, link_on, run
+from test_servo_onvif_head import SLOW_POLLS, head_on, link_on, run
 
 from gazed.config import Rig, load_rig
 from gazed.sim.head_onvif import OnvifEmulator
@@ -79,3 +80,25 @@ def test_a_rig_without_a_zoom_lens_reports_no_zoom(tmp_path: Path) -> None:
         assert camera.pose_at(clock.mono_s).zoom is None
         link.close()
         assert camera.mechanics.zoom.target_rad == 0.0  # the demand's zoom never went out
+
+
+def test_a_zoom_during_a_continuous_move_sends_the_move_again_for_what_remains(
+    tmp_path: Path,
+) -> None:
+    rig, clock = zoom_rig(tmp_path), Clock()
+    with OnvifEmulator(rig, clock=clock.now) as camera, head_on(rig, clock) as head:
+        requests = camera.device.requests
+        head.set_speed(0.5, 0.0, 1.0)
+        clock.sleep(0.4)
+        head.set_zoom(0.3)
+        assert (requests["AbsoluteMove"], requests["ContinuousMove"]) == (1, 2)
+        assert camera.device.continuous_until_s == pytest.approx(clock.mono_s + 0.6, abs=1e-3)
+        head.stop()
+        head.set_zoom(0.5)  # nothing running: nothing sent again
+        head.set_speed(0.0, -0.5, 0.3)
+        clock.sleep(0.4)
+        head.set_zoom(0.1)  # its timeout has run out: the camera has stopped it itself
+        head.set_speed(0.5, 0.0, 1.0)
+        head.set_position(0.0, 0.0)
+        head.set_zoom(0.2)  # an AbsoluteMove of pan and tilt has ended it
+        assert (requests["AbsoluteMove"], requests["ContinuousMove"]) == (5, 4)
