@@ -135,6 +135,7 @@ class OnvifHead:
         self.zoom_space: tuple[float, float] | None = None  # the absolute zoom space's ends
         self.last_status = "UNKNOWN"
         self._last_zoom: float | None = None
+        self._continuous: tuple[float, float, int] | None = None  # fractions, end (ns)
 
     def __enter__(self) -> OnvifHead:
         self.connect()
@@ -268,8 +269,11 @@ class OnvifHead:
             raise DeviceError(f"{self.servo.port}: {type(exc).__name__}: {exc}") from exc
 
     def _send(self, operation: str, body: str) -> tuple[str, int]:
-        """One PTZ request; its reply and the time halfway through the exchange (ns)."""
+        """One PTZ request; its reply and the time halfway through the exchange (ns). Any move
+        but a ContinuousMove ends the one running."""
         client = self._connected()
+        if operation not in ("ContinuousMove", "GetStatus"):
+            self._continuous = None
         sent_ns = self._wall_ns()
         reply = self._guarded(
             lambda: client.call(service="ptz", operation=operation, body_inner=body)
@@ -316,6 +320,9 @@ class OnvifHead:
         )
         started_ns = self._wall_ns()
         self._send("ContinuousMove", body)
+        moving = pan_fraction != 0.0 or tilt_fraction != 0.0
+        end_ns = started_ns + round(timeout_s * 1e9)
+        self._continuous = (pan_fraction, tilt_fraction, end_ns) if moving else None
         return started_ns
 
     def stop(self) -> int:
@@ -330,14 +337,19 @@ class OnvifHead:
 
     def set_zoom(self, zoom: float) -> int:
         """AbsoluteMove of the zoom to position `zoom` (0 widest, 1 longest: the ends of the
-        absolute zoom space); the time the request went out (ns)."""
+        absolute zoom space), then the ContinuousMove running, if any, again for what remains
+        of its timeout; the time the request went out (ns)."""
         self._spaces()
         if self.zoom_space is None:
             raise DeviceError(f"{self.servo.port}: the PTZ node has no absolute zoom")
         low, high = self.zoom_space
         body = onvif_ptz.absolute_zoom(self.profile, low + min(max(zoom, 0.0), 1.0) * (high - low))
-        started_ns = self._wall_ns()
+        started_ns, continuous = self._wall_ns(), self._continuous
         self._send("AbsoluteMove", body)
+        if continuous is not None:  # some cameras (ipycam) end a ContinuousMove on any move
+            pan_fraction, tilt_fraction, end_ns = continuous
+            if end_ns > self._wall_ns():
+                self.set_speed(pan_fraction, tilt_fraction, (end_ns - self._wall_ns()) / 1e9)
         return started_ns
 
     def query_zoom(self) -> float:
