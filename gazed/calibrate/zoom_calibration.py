@@ -39,6 +39,7 @@ from gazed.vision.frames import CapturedFrame, FrameError, gray_frame
 
 ZOOM_TOLERANCE = 0.002  # of the zoom range: within this of the demand, the zoom has arrived
 SETTLED_S = 0.3  # the reported zoom steady (within the tolerance) this long: settled
+STILL_RAD = math.radians(0.02)  # and pan and tilt within this of each other meanwhile
 
 
 class ZoomRecorder:
@@ -82,15 +83,19 @@ class ZoomRecorder:
         self.latest = frame
 
     def _settle(self, demand: GazeDemand, zoom: float) -> float:
-        """Drive to the demand until the odometry shows the zoom steady at `zoom`; the zoom
-        it reports."""
+        """Drive to the demand until the odometry shows the zoom steady at `zoom` and the head
+        still; the zoom it reports."""
         odometry = self.session.odometry
 
         def settled() -> bool:
             recent = _since(odometry, odometry[-1].t_capture_ns - round(SETTLED_S * 1e9))
             spans = recent[-1].t_capture_ns - recent[0].t_capture_ns >= SETTLED_S * 1e9 * 0.9
-            return spans and all(
-                o.zoom is not None and abs(o.zoom - zoom) <= ZOOM_TOLERANCE for o in recent
+            pans, tilts = [o.pan_rad for o in recent], [o.tilt_rad for o in recent]
+            still = max(np.ptp(pans), np.ptp(tilts)) <= STILL_RAD
+            return (
+                spans
+                and still
+                and all(o.zoom is not None and abs(o.zoom - zoom) <= ZOOM_TOLERANCE for o in recent)
             )
 
         if not self.session.pump(self.settle_timeout_s, demand, self._frame, settled):
