@@ -221,6 +221,21 @@ class CameraDelayEstimator:
         while self._shifts[0][1] < t1_s - self.window_s:
             self._shifts.popleft()
 
+    def still_before(self, arrival_s: float, tolerance_rad: float) -> bool:
+        """Whether the head stood still (pan and tilt within `tolerance_rad`) over every
+        exposure time the lag grid allows for a frame that arrived at `arrival_s`: then the
+        frame's pose is known whatever the delay."""
+        if not self._odometry:
+            return False
+        odometry = np.array(self._odometry)
+        t0_s, t1_s = arrival_s - self.lags_s[-1], arrival_s - self.lags_s[0]
+        if odometry[0, 0] > t0_s:
+            return False  # the odometry does not reach back that far
+        inside = odometry[(odometry[:, 0] >= t0_s) & (odometry[:, 0] <= t1_s), 1:]
+        ends = [np.interp(t, odometry[:, 0], odometry[:, j]) for t in (t0_s, t1_s) for j in (1, 2)]
+        angles = np.vstack([inside, np.reshape(ends, (2, 2))])
+        return bool(np.all(np.ptp(angles, axis=0) <= tolerance_rad))
+
     def fit_due(self, now_s: float) -> bool:
         """Whether `update(now_s)` would fit the window: it spans the lag grid (a shorter one
         lets the fitted gain trade against the lag: a short stretch of motion looks alike at

@@ -15,6 +15,7 @@ import time
 import numpy as np
 
 from gazed.config import CameraSection
+from gazed.geometry.camera import CameraModel
 from gazed.latency import LatencyWindow
 from gazed.messages import Odometry
 from gazed.vision.camera_delay import CameraDelayEstimator, ImageShift
@@ -31,6 +32,9 @@ class CaptureStampCorrection:
         self.shift_time = LatencyWindow(default_s=0.0, size=TIMING_WINDOW)
         self.fit_time = LatencyWindow(default_s=0.0, size=TIMING_WINDOW)
         self._last_arrival_s: float | None = None
+        # a pixel's angle: a pose known to within it is as good as exact for the detectors
+        self.pixel_rad = 1.0 / CameraModel.from_section(camera).focal_px
+        self.pose_known = True
 
     def add_odometry(self, odometry: Odometry) -> None:
         if self.online:
@@ -39,7 +43,10 @@ class CaptureStampCorrection:
             )
 
     def frame(self, frame: CapturedFrame, gray: np.ndarray) -> CapturedFrame:
-        """The frame stamped at its exposure; `gray` (its grey pixels) feeds the estimate."""
+        """The frame stamped at its exposure; `gray` (its grey pixels) feeds the estimate.
+        `pose_known` then says whether the head's pose at that exposure is known: not while the
+        online estimate has no fit yet and the head moved over the exposure times it allows."""
+        self.pose_known = True
         if frame.head is not None:
             return frame
         arrival_s = frame.t_capture_ns * 1e-9
@@ -54,6 +61,9 @@ class CaptureStampCorrection:
             if self.estimator.fit_due(arrival_s):
                 self.estimator.update(arrival_s)
                 self.fit_time.add(time.perf_counter() - fitting)
+            self.pose_known = bool(self.estimator.fits) or self.estimator.still_before(
+                arrival_s, self.pixel_rad
+            )
         delay_ns = round(self.estimator.delay_s * 1e9)
         return dataclasses.replace(frame, t_capture_ns=frame.t_capture_ns - delay_ns)
 

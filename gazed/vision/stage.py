@@ -123,6 +123,8 @@ class VisionStage:
             return VisionOutput()
         frame = self.capture_stamp.frame(frame, gray)  # stamped at exposure, not arrival
         head = frame.head if frame.head is not None else self.history.pose_at(frame.t_capture_ns)
+        if not self.capture_stamp.pose_known:  # the delay not estimated yet, the head moving
+            head = None
         if self.gaze_state == "trace":  # line calibration: the edge under the fovea, nothing else
             return VisionOutput(edge=self._edge(frame, head, self.edges.observe(gray)))
         wanted = self.gaze_state not in CANDIDATES_UNUSED
