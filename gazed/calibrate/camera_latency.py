@@ -5,8 +5,8 @@ With the rig running and its gaze process off (`head_session`), the command step
 pan back and forth and watches two things: the odometry and the camera's frames. The image's
 global shift between consecutive frames (phase correlation) is matched against the odometry's
 rotation, per step, by `camera_delay.fit_lag`: the lag between the two is the delay from the
-exposure to the frame's arrival stamp. The delays of the steps give the median and the spread. A digital head
-renders its views at a known pose: there is no delay to measure.
+exposure to the frame's arrival stamp. The delays of the steps give the median and the
+spread. A digital head renders its views at a known pose: there is no delay to measure.
 """
 
 from __future__ import annotations
