@@ -7,19 +7,21 @@ rotation, whatever the scene's depth.
 
 It is measured by direct image alignment, in two stages:
 
-1. **Coarse: phase correlation over a scale search.** Small grey copies of both views (160
-   pixels wide): the wider one is zoomed about its centre by each scale of a geometric grid,
-   and phase-correlated with the longer one (`cv2.phaseCorrelate`). The scale with the highest
-   correlation peak, and the peak's shift, start the fine stage.
+1. **Coarse: a scale search by normalised cross-correlation.** Small grey copies of both views
+   (160 pixels wide), their shading taken off (a wide blur subtracted): for each scale of a
+   geometric grid the longer view, shrunk by it, is looked for in the wider one
+   (`cv2.matchTemplate`). The best scale and where it matched start the fine stage.
 2. **Fine: ECC.** `cv2.findTransformECC` (an affine motion) maximises the enhanced correlation
    coefficient between the longer view and the wider one warped, at full resolution. The scale
    is the square root of the affine's determinant.
 
 Direct alignment rather than feature matches: a zoomed-in view of a smooth texture (gravel,
 grass, a wall) has few corners, and ORB finds too few to match there, while intensity alignment
-uses every pixel. A search over scale rather than log-polar phase correlation of the spectra:
-the Hanning window's own spectrum pins that correlation at scale 1, and its log-polar grid
-limits its precision; the ECC stage gives the precision instead. ECC's correlation coefficient
+uses every pixel. Cross-correlation rather than phase correlation for the search:
+phase correlation whitens the spectrum, and on a smooth texture the sensor noise then outweighs
+the texture. A scale search rather than log-polar phase correlation of the spectra: the Hanning
+window's own spectrum pins that correlation at scale 1, and its log-polar grid limits its
+precision; the ECC stage gives the precision instead. ECC's correlation coefficient
 (1 for views that agree perfectly) says whether the views matched at all, and the affine's
 two principal scales whether what matched is a zoom: they differ where something other than
 the zoom changed the view (the scene moved, or haze hides at one zoom what the other shows),
