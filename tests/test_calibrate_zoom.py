@@ -48,7 +48,8 @@ class ScriptedHead:
     rates, the odometry reports them every tick, and each frame shows the texture through the
     lens at the zoom of its exposure, shifted by the tilt's distance from TILT_HELD_RAD."""
 
-    def __init__(self, zoom: float | None = 0.3, moves: bool = True) -> None:
+    def __init__(self, zoom: float | None = 0.3, moves: bool = True, lag_ticks: int = 0) -> None:
+        self.lag_ticks = lag_ticks  # the head acts on each demand this many ticks late
         self.t_ns = 10**18
         self.zoom = zoom
         self.moves = moves
@@ -74,6 +75,8 @@ class ScriptedHead:
         self.ticks += 1
         if demand is not None:
             self.demands.append(demand)
+        if len(self.demands) > self.lag_ticks and demand is not None:
+            demand = self.demands[-1 - self.lag_ticks]
             self.pan_rad = demand.pan_rad
             step = TILT_RATE_RAD_S * TICK_NS * 1e-9
             self.tilt_rad += float(np.clip(demand.tilt_rad - self.tilt_rad, -step, step))
@@ -121,13 +124,26 @@ def test_the_table_is_the_lens_s_and_each_view_waits_for_the_head(rig) -> None:
     assert head.zoom == pytest.approx(0.3, abs=0.002)
 
 
+def test_a_head_that_answers_late_is_waited_for(rig) -> None:
+    """At the widest already, the head still and slow to start for the new pose: the first
+    view waits until it has got there."""
+    head = ScriptedHead(zoom=0.0, lag_ticks=25)
+    reached, views = ZoomRecorder(rig, head, 10.0).record([0.0, 0.5], None, TILT_HELD_RAD)
+    rows = zoom_table(reached, views, FX_WIDE, CENTRE)
+    assert rows[1].fx_px == pytest.approx(lens(0.5)[0], rel=0.003)
+    assert (rows[1].cx_px, rows[1].cy_px) == pytest.approx(lens(0.5)[1:], abs=0.5)
+
+
 def test_a_head_without_zoom_is_refused(rig) -> None:
     with pytest.raises(CalibrationError, match="no zoom position"):
         ZoomRecorder(rig, ScriptedHead(zoom=None), 10.0).record([0.0, 1.0], None, None)
 
 
 def test_a_zoom_that_does_not_settle_is_reported(rig) -> None:
-    with pytest.raises(CalibrationError, match=r"did not settle at 0\.000 within 2 s"):
+    with pytest.raises(
+        CalibrationError,
+        match=r"did not settle at zoom 0\.000, pan 5\.73, tilt -11\.46 deg within 2 s",
+    ):
         ZoomRecorder(rig, ScriptedHead(moves=False), 2.0).record([0.0, 1.0], None, None)
 
 

@@ -39,7 +39,8 @@ from gazed.vision.frames import CapturedFrame, FrameError, gray_frame
 
 ZOOM_TOLERANCE = 0.002  # of the zoom range: within this of the demand, the zoom has arrived
 SETTLED_S = 0.3  # the reported zoom steady (within the tolerance) this long: settled
-STILL_RAD = math.radians(0.02)  # and pan and tilt within this of each other meanwhile
+STILL_RAD = math.radians(0.02)  # and pan and tilt within this of each other meanwhile,
+ARRIVED_RAD = math.radians(0.5)  # and this near the demand (a head's steps are coarser)
 
 
 class ZoomRecorder:
@@ -84,7 +85,7 @@ class ZoomRecorder:
 
     def _settle(self, demand: GazeDemand, zoom: float) -> float:
         """Drive to the demand until the odometry shows the zoom steady at `zoom` and the head
-        still; the zoom it reports."""
+        still at the demand's pan and tilt; the zoom it reports."""
         odometry = self.session.odometry
 
         def settled() -> bool:
@@ -92,16 +93,23 @@ class ZoomRecorder:
             spans = recent[-1].t_capture_ns - recent[0].t_capture_ns >= SETTLED_S * 1e9 * 0.9
             pans, tilts = [o.pan_rad for o in recent], [o.tilt_rad for o in recent]
             still = max(np.ptp(pans), np.ptp(tilts)) <= STILL_RAD
+            there = (
+                max(abs(pans[-1] - demand.pan_rad), abs(tilts[-1] - demand.tilt_rad)) <= ARRIVED_RAD
+            )
             return (
                 spans
                 and still
+                and there
                 and all(o.zoom is not None and abs(o.zoom - zoom) <= ZOOM_TOLERANCE for o in recent)
             )
 
         if not self.session.pump(self.settle_timeout_s, demand, self._frame, settled):
+            last = odometry[-1]
             raise CalibrationError(
-                f"the zoom did not settle at {zoom:.3f} within {self.settle_timeout_s:g} s "
-                f"(the head reports {odometry[-1].zoom})"
+                f"the head did not settle at zoom {zoom:.3f}, pan "
+                f"{math.degrees(demand.pan_rad):.2f}, tilt {math.degrees(demand.tilt_rad):.2f} deg "
+                f"within {self.settle_timeout_s:g} s (it reports zoom {last.zoom}, pan "
+                f"{math.degrees(last.pan_rad):.2f}, tilt {math.degrees(last.tilt_rad):.2f} deg)"
             )
         recent = _since(odometry, odometry[-1].t_capture_ns - round(SETTLED_S * 1e9))
         return round(float(np.mean([o.zoom for o in recent])), 4)
