@@ -34,7 +34,7 @@ the one nearest its prediction (`focus`), and every change of target is publishe
 gaze/state, with the state unchanged, and its reason.
 
 Every demand is clamped to the joint and rate limits (counted); the feed-forward rates also
-change by at most the acceleration limit per tick (`demand`).
+change by at most the acceleration limit per tick (`demand`); its zoom is `zoom`'s.
 """
 
 from __future__ import annotations
@@ -55,6 +55,7 @@ from gazed.gaze.pursuit import Pursuit
 from gazed.gaze.sightings import Sightings
 from gazed.gaze.target_choice import ChoiceChange, TargetChoice
 from gazed.gaze.trace import LineTracer
+from gazed.gaze.zoom import ZoomControl
 from gazed.geometry.kinematics import HeadKinematics
 from gazed.geometry.zoom import ZoomLens
 from gazed.messages import (
@@ -108,12 +109,12 @@ class GazeController:
             limits_rad,
             PID_STALE_FRAMES * frame_period_s,
         )
-        camera_xyz_m = rig.calibration.camera_xyz_m
         self.lost_search = LostSearch(
-            gaze, self.fovea_rad, camera_xyz_m, move_limits, frame_period_s
+            gaze, self.fovea_rad, rig.calibration.camera_xyz_m, move_limits, frame_period_s
         )
         self.tracer = LineTracer(gaze, lens, kinematics, limits_rad)
         self.choice = TargetChoice(gaze, lens, kinematics)
+        self.zoom = ZoomControl(gaze, lens, self.sightings)
         # the state machine
         self.state: GazeStateName = "park"
         self.entered_s = mono_s
@@ -219,6 +220,7 @@ class GazeController:
             demand = self.shaper.shape(demand, dt_s)
             if demand is None:  # a non-finite number reached the demand: hold instead
                 demand = self._hold(wall_ns)
+        demand = self.zoom.apply(demand, self.state, self.odometry, wall_ns, mono_s)
         transitions, self.pending = tuple(self.pending), []
         trace, self.finished_trace = self.finished_trace, None
         return Decision(demand, transitions, trace)
