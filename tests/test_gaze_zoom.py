@@ -112,6 +112,14 @@ def test_a_target_taller_than_the_deadband_is_zoomed_out_at_once() -> None:
     assert run(zc, "pursuit", 1.0, zoom_now=0.25) == pytest.approx(0.19444, abs=1e-4)
 
 
+def test_the_box_margin_is_taken_off_the_detected_box() -> None:
+    zc = control(zoom_target_height=0.25, zoom_box_margin_px=9.0, zoom_deadband=0.02)
+    zc.sightings.found = seen(0.0, 0.25 * H + 9.0, zoom=0.5)
+    assert run(zc, "pursuit", 0.0, zoom_now=0.5) == 0.5
+    zc.sightings.found = seen(0.1, 0.25 * H + 9.0, zoom=0.5)
+    assert run(zc, "pursuit", 0.2, zoom_now=0.5) == 0.5  # on the setpoint: stays
+
+
 @pytest.mark.parametrize(
     ("uv", "velocity_px_s"),
     [((20.0, 240.0), (0.0, 0.0)), ((320.0, 460.0), (0.0, 0.0)), ((320.0, 240.0), (600.0, 0.0))],

@@ -155,6 +155,13 @@ class GazeSection(Section):
         le=1,
         description="zoom_control: the target's height to hold, as a fraction of the frame's.",
     )
+    zoom_box_margin_px: float = Field(
+        0.0,
+        ge=0,
+        le=100,
+        description="zoom_control: how much taller than the target its detected box is (the "
+        "detector's smoothing reaches past its edges: about 9 px for `flow`); taken off the box.",
+    )
     zoom_deadband: float = Field(
         0.1,
         ge=0,

@@ -2,7 +2,8 @@
 
 It reads the gaze's latest detection (`Sightings.found`: the chosen track's mover) while it
 pursues. The target's height is that of its box in the frame, the mover at the detection's
-pixel (`Detection.movers`, `Mover.box_height_px`), as a fraction h of the frame's height. The
+pixel (`Detection.movers`, `Mover.box_height_px`) less `zoom_box_margin_px` (the detector's
+box reaches past the body by its smoothing), as a fraction h of the frame's height. The
 focal length that would show it at the setpoint h* is f_capture · h* / h, with f_capture the
 lens's focal length at the frame's own zoom (the pose it was captured at): a goal that does not
 depend on how far the zoom has moved since, so the loop's latency does not make it overshoot.
@@ -86,7 +87,7 @@ class ZoomControl:
         height_px = target_height_px(detection)
         self.seen = ZoomSighting(
             detection.t_capture_ns,
-            None if height_px is None else height_px / h,
+            None if height_px is None else max(height_px - self.gaze.zoom_box_margin_px, 1.0) / h,
             self.lens.focal_px(detection.head.zoom),
             escaping,
         )
