@@ -14,10 +14,11 @@ from gazed.estimation.target_tracker import TargetTracker
 from gazed.geometry.kinematics import HeadKinematics
 from gazed.geometry.pose import CameraPose
 from gazed.geometry.zoom import ZoomLens
-from gazed.messages import Detection, HeadPose
+from gazed.messages import Detection, HeadPose, Odometry
 from gazed.sim.renderer import Body, Renderer
 from gazed.vision.ego_motion import EgoMotion
 from gazed.vision.normal_flow import NormalFlowDetector
+from gazed.vision.odometry_history import OdometryHistory
 
 SIM = Path(__file__).resolve().parents[1] / "configs" / "sim.toml"
 TABLE = [[0.0, 554.0], [0.5, 1800.0], [1.0, 6000.0]]
@@ -142,3 +143,15 @@ def test_the_flow_detectors_fovea_spans_its_angle_at_each_frames_focal_length() 
     assert detector._offsets_px.shape == (detector.side, detector.side, 2)
     detector._size_fovea(lens.camera_at(1.0).K)
     assert detector.side == 480 - 12  # no wider than the frame, less its margins
+
+
+def test_a_frames_pose_carries_the_zoom_interpolated_at_its_capture() -> None:
+    history = OdometryHistory(span_s=1.0, max_gap_s=0.1)
+    for t_ns, zoom in ((0, 0.2), (20_000_000, 0.3)):
+        history.add(Odometry(t_capture_ns=t_ns, pan_rad=0.0, tilt_rad=0.0, zoom=zoom))
+    assert history.pose_at(5_000_000).zoom == pytest.approx(0.225)
+    assert history.pose_at(30_000_000).zoom == pytest.approx(0.3)  # held past the newest
+    fixed = OdometryHistory(span_s=1.0, max_gap_s=0.1)
+    for t_ns in (0, 20_000_000):
+        fixed.add(Odometry(t_capture_ns=t_ns, pan_rad=0.0, tilt_rad=0.0))
+    assert fixed.pose_at(5_000_000).zoom is None
