@@ -104,12 +104,16 @@ def test_a_target_taller_than_the_deadband_is_zoomed_out_at_once() -> None:
     assert run(zc, "pursuit", 0.0, zoom_now=0.5) == 0.5  # on the setpoint: stays
     zc.sightings.found = seen(0.05, 0.26 * H, zoom=0.5)
     assert run(zc, "pursuit", 0.1, zoom_now=0.5) == 0.5  # within the deadband: stays
-    # twice the setpoint at zoom 0.5 (f = 2750): the goal is f = 1375, zoom 0.19444
+    # twice the setpoint at zoom 0.5 (f = 2750): the goal is f = 1375, zoom 0.19444; once
+    # it is the median of the sightings' sizes (one frame's box does not move the zoom)
     zc.sightings.found = seen(0.12, 0.5 * H, zoom=0.5)
-    assert run(zc, "pursuit", 0.2, zoom_now=0.5) == pytest.approx(0.45)  # 0.1 s at 0.5 /s
-    assert run(zc, "pursuit", 0.6, zoom_now=0.45) == pytest.approx(0.25)
+    assert run(zc, "pursuit", 0.15, zoom_now=0.5) == 0.5
+    zc.on_detection(seen(0.13, 0.5 * H, zoom=0.5))
+    zc.sightings.found = seen(0.14, 0.5 * H, zoom=0.5)
+    assert run(zc, "pursuit", 0.2, zoom_now=0.5) == pytest.approx(0.475)  # 0.05 s at 0.5 /s
+    assert run(zc, "pursuit", 0.6, zoom_now=0.475) == pytest.approx(0.275)
     zc.sightings.found = seen(0.9, 0.5 * H, zoom=0.5)  # the frames still lag the zoom
-    assert run(zc, "pursuit", 1.0, zoom_now=0.25) == pytest.approx(0.19444, abs=1e-4)
+    assert run(zc, "pursuit", 1.0, zoom_now=0.275) == pytest.approx(0.19444, abs=1e-4)
 
 
 def test_the_box_margin_is_taken_off_the_detected_box() -> None:
@@ -129,13 +133,15 @@ def test_an_escaping_target_is_zoomed_out_and_zoom_in_waits_until_it_is_steady(
     uv: tuple[float, float], velocity_px_s: tuple[float, float]
 ) -> None:
     zc = control(zoom_out_edge=0.1, zoom_out_speed=1.0, zoom_out_rate_s=0.5, zoom_min=0.1)
-    zc.sightings.found = seen(0.0, 0.25 * H, zoom=0.8)
+    # the target's size is that of 0.1 of the frame's height at zoom 0.1 throughout
+    size = {"height_px": 0.1 * H * 4100 / 950, "zoom": 0.8}
+    zc.sightings.found = seen(0.0, **size)
     assert run(zc, "pursuit", 0.0, zoom_now=0.8) == 0.8
-    zc.sightings.found = seen(0.1, 0.25 * H, zoom=0.8, uv=uv, velocity_px_s=velocity_px_s)
+    zc.sightings.found = seen(0.1, **size, uv=uv, velocity_px_s=velocity_px_s)
     assert run(zc, "pursuit", 0.4, zoom_now=0.8) == pytest.approx(0.6)
     for k in range(1, 37):  # escaping all along: out to zoom_min
         t_s = 0.4 + 0.1 * k
-        zc.sightings.found = seen(t_s, 0.25 * H, uv=uv, velocity_px_s=velocity_px_s)
+        zc.sightings.found = seen(t_s, 0.1 * H, zoom=0.1, uv=uv, velocity_px_s=velocity_px_s)
         zoom = run(zc, "pursuit", t_s, zoom_now=0.5)
     assert zoom == pytest.approx(0.1)
     # back in the middle, small: zoom in only once steady for zoom_in_steady_ms (0.5 s)

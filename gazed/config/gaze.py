@@ -160,7 +160,7 @@ class GazeSection(Section):
         ge=0,
         le=100,
         description="zoom_control: how much taller than the target its detected box is (the "
-        "detector's smoothing reaches past its edges: about 9 px for `flow`); taken off the box.",
+        "detector's smoothing reaches past its edges: about 6 px for `flow`); taken off the box.",
     )
     zoom_deadband: float = Field(
         0.1,

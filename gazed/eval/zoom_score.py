@@ -1,8 +1,10 @@
 """Scores of the zoom control in a closed-loop run (`[gaze] zoom_control`).
 
-- the target's height in the frame: per truth frame, the rows of its top and its foot seen
-  through the lens at the head's true zoom then (`SimTruth.head`), as a fraction of the frame's
-  height; from acquisition on, the share of frames within ±`TOLERANCE` of
+- the target's height in the frame: per truth frame, the height of the box around its body as
+  the renderer draws it (an upright rectangle facing the camera, `[sim] target_width_m` wide),
+  seen through the lens at the head's true zoom then (`SimTruth.head`), as a fraction of the
+  frame's height (a head panned far from its base's axis sees the body rolled, and its box is
+  taller than the body); from acquisition on, the share of frames within ±`TOLERANCE` of
   `zoom_target_height`, and the median and the 5th and 95th percentiles of the fraction;
 - losses: entries into `lost` from pursuit after acquisition, and those while the zoom moved
   (by more than `MOVING_ZOOM` over the `MOVING_WINDOW_S` before the loss).
@@ -29,7 +31,8 @@ def zoom_scoring(rig: Rig) -> ZoomScoring | None:
     if not rig.gaze.zoom_control:
         return None
     lens = ZoomLens.from_section(rig.camera)
-    return ZoomScoring(lens, CameraPose.from_rig(rig), rig.gaze.zoom_target_height)
+    pose = CameraPose.from_rig(rig)
+    return ZoomScoring(lens, pose, rig.gaze.zoom_target_height, rig.sim.target_width_m)
 
 
 @dataclass(frozen=True)
@@ -39,21 +42,31 @@ class ZoomScoring:
     lens: ZoomLens
     pose: CameraPose
     setpoint: float
+    width_m: float
 
     def heights(self, truth: list[SimTruth]) -> np.ndarray:
         """Per truth frame: the target's height in the frame, as a fraction of its height."""
         fractions = []
         for t in truth:
             camera = self.lens.at_pose(t.head)
-            x, y = t.target_xy_m
-            ends = np.array([[x, y, t.target_height_m], [x, y, 0.0]])
-            directions = self.pose.camera_directions(ends, t.head.pan_rad, t.head.tilt_rad)
+            directions = self.pose.camera_directions(
+                self._corners_m(t), t.head.pan_rad, t.head.tilt_rad
+            )
             if np.any(directions[:, 2] <= 0):
                 fractions.append(np.nan)  # behind the camera
                 continue
-            (_, v_top), (_, v_foot) = camera.pixel(directions)
-            fractions.append(abs(v_foot - v_top) / camera.height_px)
+            rows = camera.pixel(directions)[:, 1]
+            fractions.append(float(rows.max() - rows.min()) / camera.height_px)
         return np.asarray(fractions)
+
+    def _corners_m(self, t: SimTruth) -> np.ndarray:
+        """The body's four corners (4, 3), facing the camera as the renderer draws it."""
+        x, y = t.target_xy_m
+        dx, dy = x - self.pose.centre_m[0], y - self.pose.centre_m[1]
+        norm = max(float(np.hypot(dx, dy)), 1e-9)
+        right = np.array([dy, -dx, 0.0]) / norm * self.width_m / 2.0
+        foot, top = np.array([x, y, 0.0]), np.array([x, y, t.target_height_m])
+        return np.array([top - right, top + right, foot + right, foot - right])
 
     def score(
         self, truth: list[SimTruth], states: list[GazeState], start: int | None

@@ -3,10 +3,13 @@
 It reads the gaze's latest detection (`Sightings.found`: the chosen track's mover) while it
 pursues. The target's height is that of its box in the frame, the mover at the detection's
 pixel (`Detection.movers`, `Mover.box_height_px`) less `zoom_box_margin_px` (the detector's
-box reaches past the body by its smoothing), as a fraction h of the frame's height. The
-focal length that would show it at the setpoint h* is f_capture · h* / h, with f_capture the
-lens's focal length at the frame's own zoom (the pose it was captured at): a goal that does not
-depend on how far the zoom has moved since, so the loop's latency does not make it overshoot.
+box reaches past the body by its smoothing), as a fraction h of the frame's height. Divided
+by the lens's focal length at the frame's own zoom (the pose it was captured at), f_capture,
+it is the target's size a = h / f_capture, which the zoom does not change; the median of the
+last `SIZE_SAMPLES` sizes (a box the detector merged for a few frames with an edge behind the
+target does not move the zoom) gives the focal length that shows the target at the setpoint
+h*, h* / a: a goal that does not depend on how far the zoom has moved since the frames were
+taken, so the loop's latency does not make it overshoot.
 
 Each tick, the zoom demand moves towards a goal, at most `zoom_in_rate_s` or `zoom_out_rate_s`
 (of the zoom range per second) from the last demand, within `zoom_min`..`zoom_max`:
@@ -25,6 +28,8 @@ Off (`zoom_control = false`, or a fixed lens) every demand goes out unchanged: n
 from __future__ import annotations
 
 import math
+import statistics
+from collections import deque
 from dataclasses import dataclass
 
 from gazed.config import GazeSection
@@ -34,15 +39,15 @@ from gazed.messages import Detection, GazeDemand, GazeStateName, Odometry
 
 LEAVE_ALONE: tuple[GazeStateName, ...] = ("trace",)  # states that never move the zoom
 TICK_MAX_S = 0.5  # a longer gap between ticks ramps the zoom by this much time at most
+SIZE_SAMPLES = 15  # the target's size is the median of this many sightings' (about 0.6 s)
 
 
 @dataclass(frozen=True)
 class ZoomSighting:
-    """What one detection says for the zoom: the target's height as a fraction of the frame's
-    (None: no box), the focal length it was seen at, and whether it is escaping the frame."""
+    """What one detection says for the zoom: when it was taken, the focal length it was seen
+    at, and whether the target is escaping the frame."""
 
     t_capture_ns: int
-    height: float | None
     focal_px: float
     escaping: bool
 
@@ -68,6 +73,7 @@ class ZoomControl:
         self.stale_ns = round(gaze.lost_after_ms * 1e6)
         self.steady_ns = round(gaze.zoom_in_steady_ms * 1e6)
         self.seen: ZoomSighting | None = None
+        self.sizes: deque[float] = deque(maxlen=SIZE_SAMPLES)  # h / f_capture (1/px)
         self.unsteady_ns: int | None = None  # the last time the target was not steady
         self.demanded: float | None = None
         self.last_s: float | None = None
@@ -84,13 +90,12 @@ class ZoomControl:
         edge = min(u / w, (w - 1 - u) / w, v / h, (h - 1 - v) / h)
         speed = math.hypot(detection.du_px_s, detection.dv_px_s) / h
         escaping = edge < self.gaze.zoom_out_edge or speed > self.gaze.zoom_out_speed
+        focal_px = self.lens.focal_px(detection.head.zoom)
+        self.seen = ZoomSighting(detection.t_capture_ns, focal_px, escaping)
         height_px = target_height_px(detection)
-        self.seen = ZoomSighting(
-            detection.t_capture_ns,
-            None if height_px is None else max(height_px - self.gaze.zoom_box_margin_px, 1.0) / h,
-            self.lens.focal_px(detection.head.zoom),
-            escaping,
-        )
+        if height_px is not None:
+            height = max(height_px - self.gaze.zoom_box_margin_px, 1.0) / h
+            self.sizes.append(height / focal_px)
         if escaping:
             self.unsteady_ns = detection.t_capture_ns
 
@@ -119,6 +124,7 @@ class ZoomControl:
             return None
         if state != "pursuit":
             self.unsteady_ns = wall_ns  # steady again only after a while in pursuit
+            self.sizes.clear()  # and sized afresh
         elif self.sightings.found is not None:
             self.on_detection(self.sightings.found)
         if self.demanded is None:
@@ -145,12 +151,13 @@ class ZoomControl:
             return None, 0.0
         if seen.escaping:
             return widest
-        if seen.height is None:
+        if not self.sizes:
             return None, 0.0
-        ratio = seen.height / gaze.zoom_target_height
+        size = statistics.median(self.sizes)
+        ratio = size * seen.focal_px / gaze.zoom_target_height  # the height it has now
         if abs(ratio - 1.0) <= gaze.zoom_deadband:
             return None, 0.0
-        goal = self.lens.zoom_for_focal(seen.focal_px / ratio)
+        goal = self.lens.zoom_for_focal(gaze.zoom_target_height / size)
         if ratio > 1.0:
             return goal, gaze.zoom_out_rate_s
         steady = self.unsteady_ns is None or seen.t_capture_ns - self.unsteady_ns >= self.steady_ns
