@@ -66,6 +66,7 @@ class ServoService:
                 pan_rate_rad_s=reading.pan_rate_rad_s,
                 tilt_rate_rad_s=reading.tilt_rate_rad_s,
                 dead_reckoned=reading.dead_reckoned,
+                zoom=reading.zoom,
             )
         )
 

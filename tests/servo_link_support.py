@@ -26,10 +26,14 @@ park_tilt_deg = -5
 
 
 def link_rig(
-    port: str = "unused", protocol: str = "pelco-d", baud: int = 9600, **servo: object
+    port: str = "unused",
+    protocol: str = "pelco-d",
+    baud: int = 9600,
+    sections: str = "",
+    **servo: object,
 ) -> Rig:
     """The `HEAD_SECTION` head on `protocol` at `baud`, answering 1 ms after a request and
-    acting on it at once."""
+    acting on it at once; `sections` adds rig sections (a [camera] with a zoom lens)."""
     keys = "\n".join(
         f"{k} = {str(v).lower() if isinstance(v, bool) else v}" for k, v in servo.items()
     )
@@ -45,7 +49,8 @@ timeout_ms = 50
 command_timeout_ms = 300
 reconnect_max_s = 2
 {keys}
-{HEAD_SECTION}[sim]
+{HEAD_SECTION}{sections}
+[sim]
 head_latency_ms = 0
 head_reply_delay_ms = 1
 """

@@ -53,7 +53,7 @@ class Link:
     """A head link on a `PluggableLine`, stepped on the line's clock."""
 
     def __init__(self, baud: int = 9600, demands: Demands | None = None, **servo: object) -> None:
-        self.rig = link_rig(baud=baud, **servo)
+        self.rig = link_rig(baud=baud, **servo)  # type: ignore[arg-type]
         self.line = PluggableLine(self.rig)
         self.demands = demands or Demands()
         self.commands: list[tuple[GazeDemand, int]] = []

@@ -70,12 +70,12 @@ def test_a_non_finite_move_is_refused_before_it_is_written(bad: float) -> None:
 
 
 def test_get_status_of_the_schema_is_read() -> None:
-    assert parse_status(STATUS) == onvif_ptz.PtzStatus(0.25, -0.5, "MOVING")
+    assert parse_status(STATUS) == onvif_ptz.PtzStatus(0.25, -0.5, "MOVING", zoom=0.1)
     assert parse_status(STATUS.replace("MOVING", "IDLE")).move_status == "IDLE"
 
 
 def test_ipycams_undeclared_prefix_is_declared_and_its_placeholder_status_is_unknown() -> None:
-    assert parse_status(IPYCAM_STATUS) == onvif_ptz.PtzStatus(0.2, -0.1, "UNKNOWN")
+    assert parse_status(IPYCAM_STATUS) == onvif_ptz.PtzStatus(0.2, -0.1, "UNKNOWN", zoom=0.5)
 
 
 @pytest.mark.parametrize(

@@ -92,3 +92,18 @@ def test_a_view_past_the_frame_is_black(views: dict[str, DigitalView]) -> None:
     assert view.render(frame, math.radians(170.0), 0.0).max() == 0  # looking backwards
     half = view.render(frame, math.radians(45.0), 0.0)
     assert half[:, :40].min() == 200 and half[:, -40:].max() == 0  # the frame's right edge
+
+
+@pytest.mark.parametrize(("zoom", "pan", "tilt"), [(0.5, 0.2, -0.1), (1.0, -0.35, 0.15)])
+def test_a_zoomed_view_agrees_with_opencvs_projection_through_the_zoomed_lens(
+    zoom: float, pan: float, tilt: float
+) -> None:
+    from gazed.geometry.zoom import ZoomLens
+
+    lens = ZoomLens(VIEW, [[0.0, VIEW.K[0, 0]], [1.0, 4.0 * VIEW.K[0, 0], 150.0, 125.0]])
+    view = DigitalView(WIDE, VIEW, HeadKinematics(), lens)
+    camera = lens.camera_at(zoom)
+    u, v, expected, seen = projected(camera, WIDE, pan, tilt, HeadKinematics())
+    assert seen.sum() > 500
+    got = view.source_pixels(pan, tilt, zoom)[v, u]
+    assert np.abs(got[seen] - expected[seen]).max() < 0.1

@@ -98,6 +98,13 @@ class PelcoDServo(ServoLink):
     tilt_speed_max_deg_s: float = Field(
         90.0, gt=0, le=3600, description="Tilt rate of drive speed 0x3F (speeds map linearly)."
     )
+    zoom_max_units: int = Field(
+        65535,
+        ge=1,
+        le=65535,
+        description="Zoom position (0x4F/0x5D) of the longest zoom: 65535 on units that scale "
+        "the position to their zoom limit; others count lens steps (see the camera's manual).",
+    )
 
 
 class ViscaServo(ServoLink):
@@ -127,6 +134,14 @@ class ViscaServo(ServoLink):
         gt=0,
         le=3600,
         description="Pan rate of the highest speed byte (speeds map linearly).",
+    )
+    zoom_max_units: int = Field(
+        0x4000,
+        ge=1,
+        le=0x7FFF,
+        description="CAM_Zoom position of the longest zoom the rig uses (0 is the widest): "
+        "16384 (0x4000) is the optical telephoto end of most Sony models; a camera with digital "
+        "zoom goes beyond it (see its manual's zoom table).",
     )
     tilt_speed_max_deg_s: float = Field(
         90.0,

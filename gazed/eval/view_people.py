@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from gazed.geometry.camera import CameraModel
 from gazed.geometry.kinematics import FLIP_Y
 from gazed.sim.reach import FieldOfRegard
 from gazed.vision.digital_view import DigitalView
@@ -48,8 +49,11 @@ class ViewPeople:
         self.view = view
         self.reach = reach
 
-    def at_pose(self, boxes_px: np.ndarray, pan_rad: float, tilt_rad: float) -> PeopleInView:
-        """`boxes_px` (N, 4): centre u, centre v, width, height in the wide frame's pixels."""
+    def at_pose(
+        self, boxes_px: np.ndarray, pan_rad: float, tilt_rad: float, zoom: float | None = None
+    ) -> PeopleInView:
+        """`boxes_px` (N, 4): centre u, centre v, width, height in the wide frame's pixels; the
+        view at zoom position `zoom` (None: the rig's view)."""
         boxes = np.asarray(boxes_px, dtype=float).reshape(-1, 4)
         if not len(boxes):
             nobody = np.zeros(0, bool)
@@ -57,11 +61,12 @@ class ViewPeople:
         wide = self.view.wide
         u, v = boxes[:, 0], boxes[:, 1]
         in_wide = (u >= 0) & (u <= wide.width_px - 1) & (v >= 0) & (v <= wide.height_px - 1)
-        H = self.view.homography(pan_rad, tilt_rad)  # view pixel -> the wide's ideal pixel
+        camera = self.view.lens.camera_at(zoom)
+        H = self.view.homography(pan_rad, tilt_rad, zoom)  # view pixel -> the wide's ideal pixel
         ideal = np.stack([*wide.undistort(u, v), np.ones_like(u)])
-        ray = self.view.view.K_inv @ np.linalg.solve(H, ideal)  # the view's frame, z its axis
+        ray = camera.K_inv @ np.linalg.solve(H, ideal)  # the view's frame, z its axis
         error = np.arctan2(np.hypot(ray[0], ray[1]), ray[2])
-        centre_u, centre_v = self._centre_in_wide(H)
+        centre_u, centre_v = self._centre_in_wide(H, camera)
         held = (np.abs(centre_u - u) <= boxes[:, 2] / 2) & (np.abs(centre_v - v) <= boxes[:, 3] / 2)
         reachable = np.ones(len(boxes), bool)
         if self.reach is not None:
@@ -71,9 +76,8 @@ class ViewPeople:
             )
         return PeopleInView(in_wide, error, held, reachable)
 
-    def _centre_in_wide(self, H: np.ndarray) -> tuple[float, float]:
+    def _centre_in_wide(self, H: np.ndarray, camera: CameraModel) -> tuple[float, float]:
         """The wide frame's pixel (through its lens) that the view's principal point sees."""
-        camera = self.view.view
         ideal = H @ np.array([camera.K[0, 2], camera.K[1, 2], 1.0])
         wide = self.view.wide
         pixel = wide.pixel(wide.K_inv @ (ideal / ideal[2]))

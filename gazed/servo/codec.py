@@ -24,7 +24,7 @@ from gazed.servo.resync import Split
 
 T = TypeVar("T")
 
-ReplyKind = Literal["position", "ack", "completion", "error", "limit", "ok"]
+ReplyKind = Literal["position", "zoom", "ack", "completion", "error", "limit", "ok"]
 
 # A receive buffer that grows past this without yielding a frame is garbage: it is dropped.
 MAX_BUFFER_BYTES = 4096
@@ -43,7 +43,7 @@ class Reply:
     """One decoded reply from the device.
 
     `pan_rad` / `tilt_rad` are device angles, None where the reply carries only one axis (or
-    none). `reason` is the device's own words for errors and notices; `value` a number the reply
+    none). A `zoom` reply's `value` is the zoom position, 0 widest to 1 longest. `reason` is the device's own words for errors and notices; `value` a number the reply
     carries that is not an angle (a PTU resolution, a Dynamixel register); `socket` the VISCA
     command socket; `device_id` the Dynamixel ID. `asynchronous` replies (completions, limit
     notices) do not answer the request in flight.
@@ -135,6 +135,19 @@ class Codec(ABC):
     @property
     def can_report_position(self) -> bool:
         return True
+
+    @property
+    def zooms(self) -> bool:
+        """True when the protocol drives and reads a zoom lens (`encode_set_zoom`)."""
+        return False
+
+    def encode_set_zoom(self, zoom: float) -> list[bytes]:
+        """Frames that send the zoom to position `zoom` (0 widest, 1 longest)."""
+        raise CodecError(f"{self.protocol} has no zoom command")
+
+    def encode_query_zoom(self) -> list[bytes]:
+        """Frames that ask for the zoom's present position."""
+        raise CodecError(f"{self.protocol} has no zoom inquiry")
 
     @property
     def stop_needs_position(self) -> bool:

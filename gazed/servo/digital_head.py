@@ -34,6 +34,7 @@ class DigitalTraits:
     resolution_rad: tuple[float, float] = (0.0, 0.0)
     replies_identify_themselves: bool = False
     stop_needs_position: bool = False
+    zooms: bool = True
     discarded_bytes: int = 0
     bad_frames: int = 0
 
@@ -110,6 +111,19 @@ class DigitalHead:
         model.advance(now_s)
         model.schedule(now_s, lambda m: (m.pan.hold(), m.tilt.hold()))
         return self._wall_ns()
+
+    def set_zoom(self, zoom: float) -> int:
+        """The view's zoom towards position `zoom`, `latency_ms` from now (at `[head]
+        zoom_rate_max_s`); the time it was told (ns)."""
+        model = self._model()
+        now_s = self._mono_s()
+        model.advance(now_s)
+        model.schedule(now_s, lambda m: m.zoom.move_to(zoom))
+        return self._wall_ns()
+
+    def query_zoom(self) -> float:
+        """The model's exact zoom now."""
+        return self._model().pose_at(self._mono_s()).zoom
 
     def query_position(self, between: Callable[[], None] | None = None) -> DevicePosition:
         """The model's exact pose now (device angles); `between` is unused (one reply)."""

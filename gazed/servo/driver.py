@@ -135,6 +135,23 @@ class ServoDriver:
             self.query_position()
         return self.command(self.codec.encode_stop())
 
+    def set_zoom(self, zoom: float) -> int:
+        """Send the zoom to position `zoom` (0 widest, 1 longest); the time it was written."""
+        return self.command(self.codec.encode_set_zoom(zoom))
+
+    def query_zoom(self) -> float:
+        """The zoom's present position, 0 widest to 1 longest (raises `ServoTimeout`,
+        `DeviceError`)."""
+        _, replies = self.send(self.codec.encode_query_zoom())
+        for reply, _ in replies:
+            if reply.kind == "error":
+                self.counters["device_errors"] += 1
+                self.last_error = reply.reason or "error"
+                raise DeviceError(self.last_error)
+            if reply.kind == "zoom" and reply.value is not None:
+                return reply.value
+        raise DeviceError(f"zoom reply missing: {[reply.describe() for reply, _ in replies]}")
+
     def query_position(self, between: Callable[[], None] | None = None) -> DevicePosition:
         """Both axes' present device angles (raises `ServoTimeout`, `DeviceError`). Where the
         query takes several frames and the protocol's replies say what they answer,

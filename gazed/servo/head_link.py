@@ -21,6 +21,7 @@ moment its bytes are written, a poll's end not awaited.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import time
 from collections.abc import Callable, Iterable
@@ -39,12 +40,14 @@ from gazed.servo.driver import DeviceError, ServoDriver, ServoTimeout
 from gazed.servo.line_load import LineLoadMeter
 from gazed.servo.odometry import JointReading, OdometryDating
 from gazed.servo.onvif_driver import onvif_driver
+from gazed.servo.onvif_head import OnvifHead
 from gazed.servo.park import park
 from gazed.servo.response_lag import ResponseLag
 from gazed.servo.setpoint_writer import SetpointWriter
 from gazed.servo.speed_mode import SpeedHead, speed_head
 from gazed.servo.transport import LinkError, Transport
 from gazed.servo.visca_ip_transport import open_transport
+from gazed.servo.zoom_drive import ZoomDrive
 
 BACKOFF_INITIAL_S = 0.25
 STATUS_PERIOD_S = 1.0
@@ -121,10 +124,15 @@ class HeadLink:
         self._wall_ns = wall_ns
         self._sleep = sleep
         self.driver: ServoDriver | DigitalHead | SpeedHead
+        self.zoom: ZoomDrive | None = None
         if isinstance(rig.servo, DigitalServo):  # a model in this process, no serial port
             self.driver = DigitalHead(rig.head, rig.servo, mono_s=mono_s, wall_ns=wall_ns)
+            if rig.camera.zoom_focal_px:
+                self.zoom = ZoomDrive(self.driver, rig.head.zoom_rate_max_s)
         elif isinstance(rig.servo, OnvifServo):  # an IP camera over HTTP/SOAP
             self.driver = onvif_driver(rig, mono_s=mono_s, wall_ns=wall_ns)
+            if rig.camera.zoom_focal_px and isinstance(self.driver.device, OnvifHead):
+                self.zoom = ZoomDrive(self.driver.device, rig.head.zoom_rate_max_s)
         else:
             timeout_s = rig.servo.timeout_ms / 1000.0
             self.driver = ServoDriver(
@@ -132,14 +140,19 @@ class HeadLink:
                 transport or open_transport(rig.servo.port, rig.servo.baud, timeout_s),
                 timeout_s,
             )
+            if rig.camera.zoom_focal_px and self.driver.codec.zooms:
+                self.zoom = ZoomDrive(self.driver, rig.head.zoom_rate_max_s)
             if rig.servo.mode == "speed":  # drive commands (VISCA, Pelco-D)
                 drives = DriveSpeeds(self.driver, drive_rates_rad_s(rig.servo))
                 self.driver = speed_head(rig, drives, mono_s=mono_s, wall_ns=wall_ns)
         self.codec = self.driver.codec
+        if rig.camera.zoom_focal_px and self.zoom is None:
+            log.warning("[camera] zoom_focal_px: %s does not drive a zoom here", rig.servo.protocol)
+        self._demands = demands
         self.writer = SetpointWriter(
             rig.head,
             self.driver,
-            demands,
+            self._zoom_demands,
             on_command,
             command_period_s=1.0 / rig.servo.command_rate_hz,
             command_timeout_s=rig.servo.command_timeout_ms / 1000.0,
@@ -167,6 +180,14 @@ class HeadLink:
     def holding(self) -> bool:
         return self.writer.holding
 
+    def _zoom_demands(self) -> list[GazeDemand]:
+        """The fresh demands, their zoom taken by the zoom drive on the way."""
+        fresh = list(self._demands())
+        if self.zoom is not None:
+            for demand in fresh:
+                self.zoom.demand(demand.zoom)
+        return fresh
+
     # --- the loop --------------------------------------------------------------------------
 
     def step(self, now: Instant) -> LinkStep:
@@ -181,6 +202,8 @@ class HeadLink:
                 self.writer.check_hold(now.mono_s)
                 self.writer.write(now.mono_s)
                 if not now.immediate:
+                    if self.zoom is not None:
+                        self.zoom.write(now.mono_s)
                     odometry = self._poll(now)
                 self.line.measure(now.mono_s, self.driver.transport)
         except LinkError as exc:
@@ -209,6 +232,8 @@ class HeadLink:
                 log.warning("could not go to the park preset %s: %s", preset, exc)
         elif self.driver.is_connected:
             try:
+                if self.zoom is not None:
+                    self.zoom.driver.set_zoom(0.0)  # parked at the widest view
                 park(
                     self.driver,
                     self.setpoints,
@@ -229,6 +254,8 @@ class HeadLink:
         self.link = "connecting"
         try:
             self.driver.connect()
+            if self.zoom is not None:
+                self.zoom.reset(self.zoom.read())
             if self.codec.can_report_position:
                 pan, tilt = self.dating.joint(self.driver.query_position())
             else:
@@ -277,6 +304,7 @@ class HeadLink:
         try:
             position = self.driver.query_position(between=self._between_poll_frames)
             answered_s, answered_ns = self._mono_s(), self._wall_ns()  # the reply was just read
+            zoom = self.zoom.read() if self.zoom is not None else None
         except ServoTimeout as exc:
             self.counts["timeouts"] += 1
             self._poll_failures += 1
@@ -286,7 +314,7 @@ class HeadLink:
             return None
         self._poll_ms = (time.perf_counter() - started) * 1000.0
         self._poll_failures = 0
-        reading = self.dating.reading(position)
+        reading = dataclasses.replace(self.dating.reading(position), zoom=zoom)
         setpoint = self.setpoints.advance(answered_s - (answered_ns - reading.t_ns) / 1e9)
         self.response_lag.observe(
             setpoint, self.setpoints.rates_rad_s, (reading.pan_rad, reading.tilt_rad)

@@ -32,7 +32,8 @@ def rate_rad_s(change_rad: float, dt_ns: int) -> float:
 @dataclass(frozen=True)
 class JointReading:
     """The head's joint angles and rates at `t_ns` (wall clock). `dead_reckoned`: taken from the
-    set-points, the head cannot report its position."""
+    set-points, the head cannot report its position. `zoom`: the zoom lens's position read with
+    it (0 widest, 1 longest); None for a fixed lens."""
 
     t_ns: int
     pan_rad: float
@@ -40,6 +41,7 @@ class JointReading:
     pan_rate_rad_s: float
     tilt_rate_rad_s: float
     dead_reckoned: bool = False
+    zoom: float | None = None
 
 
 class OdometryDating:

@@ -132,7 +132,9 @@ class OnvifHead:
         self.pan_space: AxisSpace | None = None
         self.tilt_space: AxisSpace | None = None
         self.capabilities: Capabilities | None = None
+        self.zoom_space: tuple[float, float] | None = None  # the absolute zoom space's ends
         self.last_status = "UNKNOWN"
+        self._last_zoom: float | None = None
 
     def __enter__(self) -> OnvifHead:
         self.connect()
@@ -226,6 +228,8 @@ class OnvifHead:
             continuous=continuous is not None,
             velocity_max=(_ends(continuous, "x", 0.0)[1], _ends(continuous, "y", 0.0)[1]),
         )
+        zoom = ranges.get("absolute_zoom")
+        self.zoom_space = _ends(zoom, "x", 0.0) if zoom is not None else None
 
     def disconnect(self) -> None:
         if self._client is not None:
@@ -324,6 +328,28 @@ class OnvifHead:
         self._send("GotoPreset", onvif_ptz.goto_preset(self.profile, preset))
         return started_ns
 
+    def set_zoom(self, zoom: float) -> int:
+        """AbsoluteMove of the zoom to position `zoom` (0 widest, 1 longest: the ends of the
+        absolute zoom space); the time the request went out (ns)."""
+        self._spaces()
+        if self.zoom_space is None:
+            raise DeviceError(f"{self.servo.port}: the PTZ node has no absolute zoom")
+        low, high = self.zoom_space
+        body = onvif_ptz.absolute_zoom(self.profile, low + min(max(zoom, 0.0), 1.0) * (high - low))
+        started_ns = self._wall_ns()
+        self._send("AbsoluteMove", body)
+        return started_ns
+
+    def query_zoom(self) -> float:
+        """The zoom position (0..1) of the latest GetStatus: the head link reads it right after
+        the position, so one request answers both; a GetStatus of its own before any."""
+        if self._last_zoom is None:
+            self.query_position()
+        if self._last_zoom is None or self.zoom_space is None:
+            raise DeviceError(f"{self.servo.port}: GetStatus reports no zoom")
+        low, high = self.zoom_space
+        return min(max((self._last_zoom - low) / (high - low), 0.0), 1.0)
+
     def query_position(self, between: Callable[[], None] | None = None) -> DevicePosition:
         """GetStatus as device angles, dated halfway through the exchange; `between` is unused
         (one reply)."""
@@ -335,6 +361,7 @@ class OnvifHead:
             self.codec.bad_frames += 1
             raise
         self.last_status = status.move_status
+        self._last_zoom = status.zoom
         return DevicePosition(
             pan_space.to_rad(status.pan), tilt_space.to_rad(status.tilt), t_ns, t_ns
         )

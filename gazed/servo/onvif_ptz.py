@@ -67,11 +67,13 @@ class AxisSpace:
 
 @dataclass(frozen=True)
 class PtzStatus:
-    """GetStatus: the pan/tilt position in the camera's units and its move status."""
+    """GetStatus: the pan/tilt position in the camera's units and its move status, and the zoom
+    position where the camera reports one."""
 
     pan: float
     tilt: float
     move_status: str  # IDLE, MOVING or UNKNOWN
+    zoom: float | None = None
 
 
 def _finite(*values: float) -> None:
@@ -82,6 +84,12 @@ def _finite(*values: float) -> None:
 def absolute_move(profile: str, pan: float, tilt: float) -> str:
     _finite(pan, tilt)
     return envelopes.ptz_absolute_move(profile_token=profile, pan=pan, tilt=tilt, zoom=None)
+
+
+def absolute_zoom(profile: str, zoom: float) -> str:
+    """AbsoluteMove of the zoom alone (a Position with no PanTilt leaves pan and tilt be)."""
+    _finite(zoom)
+    return envelopes.ptz_absolute_move(profile_token=profile, pan=None, tilt=None, zoom=zoom)
 
 
 def relative_move(profile: str, pan: float, tilt: float) -> str:
@@ -146,7 +154,16 @@ def parse_status(xml: str) -> PtzStatus:
     if not (math.isfinite(pan) and math.isfinite(tilt)):
         raise CodecError(f"GetStatus pan/tilt not finite: {pan}, {tilt}")
     status = root.findtext(".//tptz:PTZStatus/tt:MoveStatus/tt:PanTilt", "", NS).strip()
-    return PtzStatus(pan, tilt, status if status in MOVE_STATUSES else "UNKNOWN")
+    zoom_element = root.find(".//tptz:PTZStatus/tt:Position/tt:Zoom", NS)
+    zoom = None
+    if zoom_element is not None:
+        try:
+            zoom = float(zoom_element.attrib["x"])
+        except (KeyError, ValueError) as exc:
+            raise CodecError(f"GetStatus zoom unreadable: {zoom_element.attrib}") from exc
+        if not math.isfinite(zoom):
+            raise CodecError(f"GetStatus zoom not finite: {zoom}")
+    return PtzStatus(pan, tilt, status if status in MOVE_STATUSES else "UNKNOWN", zoom)
 
 
 def duration_s(text: str) -> float:

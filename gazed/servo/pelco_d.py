@@ -10,7 +10,9 @@ Tilt raw 0 is the horizon and grows downwards: `raw = round(-tilt_up_deg*100) mo
 10° up is 35000 and 30° down is 3000.
 
 Set position is the pan frame (0x4B) then the tilt frame (0x4D); query is 0x51 then 0x53,
-answered by 0x59 (pan) and 0x5B (tilt) extended responses. Motion commands get no reply; a bad
+answered by 0x59 (pan) and 0x5B (tilt) extended responses. The zoom goes to a position with
+0x4F and is read with 0x55, answered by 0x5D; its units are the device's, 0 the widest (the
+rig's `zoom_max_units` is the longest zoom, 65535 on units that scale it to their zoom limit). Motion commands get no reply; a bad
 checksum or an unsupported command is silently ignored by the device. The 4-byte general
 response `FF addr alarm cksum` of C466M-E is not produced by the units this targets; its bytes
 are skipped as garbage.
@@ -136,10 +138,14 @@ class PelcoDCodec(Codec):
         position_feedback: bool = True,
         pan_speed_max_deg_s: float = 120.0,
         tilt_speed_max_deg_s: float = 90.0,
+        zoom_max_units: int = 0xFFFF,
     ) -> None:
         super().__init__()
         if not 1 <= address <= 255:
             raise CodecError(f"address {address} outside 1..255")
+        if not 1 <= zoom_max_units <= 0xFFFF:
+            raise CodecError(f"zoom max {zoom_max_units} outside 1..65535")
+        self.zoom_max_units = zoom_max_units
         self.address = address
         self.position_feedback = position_feedback
         self.pan_speed_max_deg_s = pan_speed_max_deg_s
@@ -161,6 +167,20 @@ class PelcoDCodec(Codec):
                 self.address, EXTENDED["set_tilt"], tilt_raw_from_deg(math.degrees(tilt_rad))
             ),
         ]
+
+    @property
+    def zooms(self) -> bool:
+        """Units with the extended commands (the position queries) take and report a zoom."""
+        return self.position_feedback
+
+    def encode_set_zoom(self, zoom: float) -> list[bytes]:
+        if not math.isfinite(zoom):
+            raise CodecError(f"zoom {zoom} is not finite")
+        units = nearest(min(max(zoom, 0.0), 1.0) * self.zoom_max_units)
+        return [word_frame(self.address, EXTENDED["set_zoom"], units)]
+
+    def encode_query_zoom(self) -> list[bytes]:
+        return [frame(self.address, 0, EXTENDED["query_zoom"])]
 
     def encode_set_velocity(self, pan_rad_s: float, tilt_rad_s: float) -> list[bytes]:
         pan_speed = self._speed(pan_rad_s, self.pan_speed_max_deg_s)
@@ -207,5 +227,6 @@ class PelcoDCodec(Codec):
                 tilt = math.radians(tilt_deg_from_raw(f.word))
                 replies.append(Reply("position", tilt_rad=tilt, raw=raw))
             else:
-                replies.append(Reply("ok", value=f.word, reason="zoom position", raw=raw))
+                zoom = min(f.word / self.zoom_max_units, 1.0)
+                replies.append(Reply("zoom", value=zoom, raw=raw))
         return replies

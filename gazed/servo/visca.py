@@ -9,12 +9,16 @@ byte: -1 -> 0F 0F 0F 0F, +2267 -> 00 08 0D 0B (Sony EVI-D70 technical manual p.4
                                                            TT 01 up 02 down 03 stop
     AbsolutePosition  8x 01 06 02 VV WW 0Y 0Y 0Y 0Y 0Z 0Z 0Z 0Z FF
     Pan-tiltPosInq    8x 09 06 12 FF  ->  y0 50 0w 0w 0w 0w 0z 0z 0z 0z FF
+    CAM_Zoom Direct   8x 01 04 47 0p 0q 0r 0s FF           pqrs: zoom position, 0 widest
+    CAM_ZoomPosInq    8x 09 04 47 FF  ->  y0 50 0p 0q 0r 0s FF
     IF_Clear          8x 01 00 01 FF  ->  y0 50 FF (no ACK)
 
 Every command is answered by an ACK `z0 4y FF` (accepted into socket y) or an error
 `z0 6y ee FF`, and later by a completion `z0 5y FF` when it has been executed; inquiries get
 their answer directly (Sony SRG-300H technical manual p.28). Pan is positive to the right and
-tilt positive up; units per degree depend on the model (the rig's `pan_deg_per_unit`).
+tilt positive up; units per degree depend on the model (the rig's `pan_deg_per_unit`). The
+zoom's position runs from 0 (widest) to the model's telephoto end (0x4000 on most Sony models'
+optical zoom; the rig's `zoom_max_units`), which gazed calls zoom 1.
 """
 
 from __future__ import annotations
@@ -32,9 +36,11 @@ TERMINATOR = 0xFF
 MAX_PACKET = 16
 BROADCAST = 0x88
 
-CATEGORY = {"command": 0x01, "inquiry": 0x09, "interface": 0x00, "pan_tilt": 0x06}
+CATEGORY = {"command": 0x01, "inquiry": 0x09, "interface": 0x00, "camera": 0x04, "pan_tilt": 0x06}
 PAN_TILT = {"drive": 0x01, "absolute": 0x02, "relative": 0x03, "home": 0x04, "reset": 0x05}
 PAN_TILT_POSITION_INQUIRY = 0x12
+ZOOM_DIRECT = 0x47  # CAM_Zoom Direct, and with the inquiry category CAM_ZoomPosInq
+ZOOM_UNITS_MAX = 0x7FFF  # the nibbles carry a signed 16-bit word here; zoom is never negative
 IF_CLEAR = (0x01, 0x00, 0x01)
 CANCEL = 0x20  # 8x 2y FF cancels the command in socket y
 PAN_DIRECTION = {"left": 0x01, "right": 0x02, "stop": 0x03}
@@ -125,6 +131,7 @@ class ViscaCodec(Codec):
         tilt_speed_max_deg_s: float = 90.0,
         pan_speed_max_code: int = PAN_SPEED_MAX,
         tilt_speed_max_code: int = TILT_SPEED_MAX,
+        zoom_max_units: int = 0x4000,
     ) -> None:
         super().__init__()
         if not 1 <= address <= 7:
@@ -137,6 +144,9 @@ class ViscaCodec(Codec):
                 f"speeds {pan_speed}, {tilt_speed} outside 1..{pan_speed_max_code}, "
                 f"1..{tilt_speed_max_code}"
             )
+        if not 1 <= zoom_max_units <= ZOOM_UNITS_MAX:
+            raise CodecError(f"zoom max {zoom_max_units:#x} outside 0x0001..{ZOOM_UNITS_MAX:#x}")
+        self.zoom_max_units = zoom_max_units
         self.pan_speed_max_code = pan_speed_max_code
         self.tilt_speed_max_code = tilt_speed_max_code
         self.address = address
@@ -206,6 +216,21 @@ class ViscaCodec(Codec):
     def encode_query_position(self) -> list[bytes]:
         return [self._packet(CATEGORY["inquiry"], CATEGORY["pan_tilt"], PAN_TILT_POSITION_INQUIRY)]
 
+    @property
+    def zooms(self) -> bool:
+        return True
+
+    def encode_set_zoom(self, zoom: float) -> list[bytes]:
+        if not math.isfinite(zoom):
+            raise CodecError(f"zoom {zoom} is not finite")
+        units = nearest(min(max(zoom, 0.0), 1.0) * self.zoom_max_units)
+        return [
+            self._packet(CATEGORY["command"], CATEGORY["camera"], ZOOM_DIRECT, *to_nibbles(units))
+        ]
+
+    def encode_query_zoom(self) -> list[bytes]:
+        return [self._packet(CATEGORY["inquiry"], CATEGORY["camera"], ZOOM_DIRECT)]
+
     def encode_if_clear(self) -> list[bytes]:
         """IF_Clear: empties the camera's command buffers; answered `z0 50 FF`."""
         return [self._packet(*IF_CLEAR)]
@@ -234,6 +259,9 @@ class ViscaCodec(Codec):
             return Reply("ok", reason="network change", asynchronous=True, raw=p)
         if len(p) == 4 and kind == REPLY["error"] and p[2] in ERRORS:
             return Reply("error", socket=socket, reason=ERRORS[p[2]], raw=p)
+        if len(p) == 7 and p[1] == REPLY["completion"] and all(b <= 0x0F for b in p[2:6]):
+            units = from_nibbles(p[2:6]) & 0xFFFF  # a zoom position is unsigned
+            return Reply("zoom", value=min(units / self.zoom_max_units, 1.0), raw=p)
         if len(p) == 11 and p[1] == REPLY["completion"] and all(b <= 0x0F for b in p[2:10]):
             pan = math.radians(from_nibbles(p[2:6]) * self.pan_deg_per_unit)
             tilt = math.radians(from_nibbles(p[6:10]) * self.tilt_deg_per_unit)

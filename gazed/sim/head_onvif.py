@@ -147,7 +147,9 @@ class OnvifEmulator:
 
     def pose_at(self, t_s: float) -> HeadPose:
         """The camera's true joint angles and rates at monotonic `t_s` (for the renderer)."""
-        return joint_pose(self.rig.head, self.device_pose_at(t_s))
+        return joint_pose(
+            self.rig.head, self.device_pose_at(t_s), zoom_lens=bool(self.rig.camera.zoom_focal_px)
+        )
 
     @property
     def settled(self) -> bool:

@@ -4,7 +4,8 @@ Answers as a PTZ unit with the extended commands does: set pan (0x4B) / set tilt
 absolute move and are not answered; the standard drive command (cmd2 direction bits, data1/data2
 speeds 0..0x3F, 0x40 turbo) drives continuously until the stop command (all bits clear); queries
 0x51 / 0x53 are answered with 0x59 / 0x5B extended responses carrying the encoder reading in
-hundredths of a degree (tilt in Pelco's downward-positive convention). Frames with a bad
+hundredths of a degree (tilt in Pelco's downward-positive convention); set zoom (0x4F) moves
+the lens and the zoom query (0x55) is answered with 0x5D, in `zoom_max_units` of the rig. Frames with a bad
 checksum, another address or an unsupported command are ignored in silence, as the protocol
 says. With `position_feedback = false` the unit does not answer queries either.
 """
@@ -38,6 +39,7 @@ class PelcoDDevice:
         self.position_feedback = servo.position_feedback
         self.pan_speed_max_rad_s = math.radians(servo.pan_speed_max_deg_s)
         self.tilt_speed_max_rad_s = math.radians(servo.tilt_speed_max_deg_s)
+        self.zoom_max_units = servo.zoom_max_units
         self.mechanics = mechanics
         # pan is a circle: decode set-points to the turn that holds the middle of the pan range
         self._pan_center_deg = math.degrees((mechanics.pan.lower_rad + mechanics.pan.upper_rad) / 2)
@@ -67,6 +69,13 @@ class PelcoDDevice:
         elif f.cmd2 == EXTENDED["set_tilt"]:
             tilt = math.radians(tilt_deg_from_raw(f.word))
             m.schedule(t_s, lambda m: m.tilt.move_to(tilt))
+        elif f.cmd2 == EXTENDED["set_zoom"] and self.position_feedback:
+            zoom = min(f.word / self.zoom_max_units, 1.0)
+            m.schedule(t_s, lambda m: m.zoom.move_to(zoom))
+        elif f.cmd2 == EXTENDED["query_zoom"] and self.position_feedback:
+            m.advance(t_s)
+            units = round(m.zoom.position_rad * self.zoom_max_units)
+            return word_frame(self.address, EXTENDED["zoom_response"], units)
         elif f.cmd2 in (EXTENDED["query_pan"], EXTENDED["query_tilt"]):
             if not self.position_feedback:
                 return b""

@@ -8,7 +8,9 @@ Reset when the head has settled on the target. With both sockets busy the answer
 the axes; the superseded move is reported complete at that moment (the emulator's reading of
 "executed": its motion has ended). Cancel `8x 2y FF` answers `z0 6y 04 FF` (no completion
 follows) or `z0 6y 05 FF`. Inquiries are answered directly; IF_Clear empties the sockets and
-answers `z0 50 FF`. Anything else, or a parameter out of range, is a syntax error
+answers `z0 50 FF`. CAM_Zoom Direct moves the mechanism's zoom axis (position 0 .. the rig's
+`zoom_max_units`, the lens's zoom 0 .. 1) and completes on arrival, like a drive; the zoom
+position inquiry reads it. Anything else, or a parameter out of range, is a syntax error
 `z0 60 02 FF`. Packets for another address are not for this camera and get nothing.
 """
 
@@ -30,6 +32,7 @@ from gazed.servo.visca import (
     REPLY,
     TERMINATOR,
     TILT_DIRECTION,
+    ZOOM_DIRECT,
     from_nibbles,
     reply_header,
     split_packets,
@@ -66,6 +69,7 @@ class ViscaDevice:
         self.tilt_speed_max_code = servo.tilt_speed_max_code
         self.pan_speed_max_rad_s = math.radians(servo.pan_speed_max_deg_s)
         self.tilt_speed_max_rad_s = math.radians(servo.tilt_speed_max_deg_s)
+        self.zoom_max_units = servo.zoom_max_units
         self.mechanics = mechanics
         self._z = reply_header(self.address)
         self._buffer = bytearray()
@@ -115,6 +119,12 @@ class ViscaDevice:
             pan_units = nearest(math.degrees(pan) / self.pan_deg_per_unit)
             tilt_units = nearest(math.degrees(tilt) / self.tilt_deg_per_unit)
             return self._reply(REPLY["completion"], *to_nibbles(pan_units), *to_nibbles(tilt_units))
+        if tuple(payload) == (CATEGORY["inquiry"], CATEGORY["camera"], ZOOM_DIRECT):
+            self.mechanics.advance(t_s)
+            zoom_units = nearest(self.mechanics.zoom.position_rad * self.zoom_max_units)
+            return self._reply(REPLY["completion"], *to_nibbles(zoom_units))
+        if tuple(payload[:3]) == (CATEGORY["command"], CATEGORY["camera"], ZOOM_DIRECT):
+            return self._zoom(payload[3:], t_s)
         if (
             len(payload) >= 3
             and payload[0] == CATEGORY["command"]
@@ -123,15 +133,29 @@ class ViscaDevice:
             return self._pan_tilt(payload[2], payload[3:], t_s)
         return self._error(0, "syntax")
 
+    def _zoom(self, args: bytes, t_s: float) -> bytes:
+        """CAM_Zoom Direct: four nibbles, at most the telephoto end."""
+        if len(args) != 4 or any(b > 0x0F for b in args):
+            return self._error(0, "syntax")
+        units = from_nibbles(args) & 0xFFFF
+        if units > self.zoom_max_units:
+            return self._error(0, "syntax")
+        zoom = units / self.zoom_max_units
+        return self._accept((lambda m: m.zoom.move_to(zoom)), False, t_s, supersedes=False)
+
     def _pan_tilt(self, kind: int, args: bytes, t_s: float) -> bytes:
         action = self._decode(kind, args)
         if action is None:
             return self._error(0, "syntax")
-        run, moves = action
+        return self._accept(*action, t_s)
+
+    def _accept(self, run: Action, moves: bool, t_s: float, supersedes: bool = True) -> bytes:
+        """Into a free socket; a pan-tilt command (`supersedes`) takes over from the move
+        executing. `moves`: it completes when the axes settle, not on arrival."""
         free = [s for s in SOCKETS if s not in self._sockets]
         if not free:
             return self._error(0, "buffer_full")
-        superseded = sorted(s for s, job in self._sockets.items() if job.moves)
+        superseded = sorted(s for s, job in self._sockets.items() if job.moves and supersedes)
         for old in superseded:
             del self._sockets[old]
         self.mechanics.schedule(t_s, run)

@@ -11,7 +11,8 @@ fault, a body that is not XML a 400.
 
 Its generic spaces run -1..1 and map linearly onto the rig's `pan_range_deg`/`tilt_range_deg`
 (device angles); velocity 1 is `pan_speed_max_deg_s`/`tilt_speed_max_deg_s`. ContinuousMove
-runs until Stop, another move, or its Timeout.
+runs until Stop, another move, or its Timeout. Its absolute zoom space runs 0..1, the lens's
+zoom position: AbsoluteMove with a Zoom moves it, GetStatus reports it.
 """
 
 from __future__ import annotations
@@ -39,6 +40,7 @@ PRESETS = {"home": (0.0, 0.0)}  # token -> generic pan, tilt
 WSSE = "http://docs.oasis-open.org/wss/2004/01/oasis-200401-wss-wssecurity-secext-1.0.xsd"
 WSU = "http://docs.oasis-open.org/wss/2004/01/oasis-200401-wss-wssecurity-utility-1.0.xsd"
 SPACE = "http://www.onvif.org/ver10/tptz/PanTiltSpaces/"
+ZOOM_SPACE = "http://www.onvif.org/ver10/tptz/ZoomSpaces/"
 
 
 def password_digest(nonce_b64: str, created: str, password: str) -> str:
@@ -80,6 +82,7 @@ SPACES = (
     _range("AbsolutePanTiltPositionSpace", SPACE + "PositionGenericSpace")
     + _range("RelativePanTiltTranslationSpace", SPACE + "TranslationGenericSpace")
     + _range("ContinuousPanTiltVelocitySpace", SPACE + "VelocityGenericSpace")
+    + _range("AbsoluteZoomPositionSpace", ZOOM_SPACE + "PositionGenericSpace", 0.0, 1.0, y=False)
 )
 
 
@@ -216,6 +219,8 @@ class OnvifDevice:
             "<tptz:GetStatusResponse><tptz:PTZStatus><tt:Position>"
             f'<tt:PanTilt x="{self.pan.to_space(pan_rad)!r}" '
             f'y="{self.tilt.to_space(tilt_rad)!r}" space="{SPACE}PositionGenericSpace"/>'
+            f'<tt:Zoom x="{self.mechanics.zoom.position_rad!r}" '
+            f'space="{ZOOM_SPACE}PositionGenericSpace"/>'
             f"</tt:Position><tt:MoveStatus><tt:PanTilt>{moving}</tt:PanTilt></tt:MoveStatus>"
             f"<tt:UtcTime>{utc}</tt:UtcTime></tptz:PTZStatus></tptz:GetStatusResponse>"
         )
@@ -236,6 +241,16 @@ class OnvifDevice:
         self.mechanics.schedule(now_s, lambda m: (m.pan.move_to(pan_rad), m.tilt.move_to(tilt_rad)))
 
     def _op_AbsoluteMove(self, request: Element, now_s: float) -> str:
+        position = _child(request, "Position")
+        zoom = _child(position, "Zoom") if position is not None else None
+        if zoom is not None:
+            z = float(zoom.attrib["x"])
+            if not math.isfinite(z):
+                raise ValueError(f"zoom not finite: {z}")
+            self.mechanics.advance(now_s)
+            self.mechanics.schedule(now_s, lambda m: m.zoom.move_to(max(0.0, min(1.0, z))))
+            if position is not None and _child(position, "PanTilt") is None:
+                return "<tptz:AbsoluteMoveResponse/>"  # the zoom alone
         x, y = self._pan_tilt(request, "Position")
         self._go(
             now_s, self.pan.to_rad(max(-1.0, min(1.0, x))), self.tilt.to_rad(max(-1.0, min(1.0, y)))

@@ -33,6 +33,7 @@ import numpy as np
 from gazed.config import Rig, WideSection
 from gazed.geometry.camera import CameraModel
 from gazed.geometry.kinematics import HeadKinematics
+from gazed.geometry.zoom import ZoomLens
 from gazed.messages import HeadPose
 from gazed.vision.digital_view import DigitalView
 from gazed.vision.frames import CapturedFrame
@@ -121,7 +122,7 @@ class DigitalCamera(FrameSource):
         if pose is None:
             self.counters["wide_frames_without_pose"] += 1
             return None
-        pixels = self.view.render(frame.pixels, pose.pan_rad, pose.tilt_rad)
+        pixels = self.view.render(frame.pixels, pose.pan_rad, pose.tilt_rad, pose.zoom)
         if self.on_view is not None:
             self.on_view(pixels)
         self.counters["views_rendered"] += 1
@@ -209,6 +210,7 @@ def open_digital_camera(
         wide_camera(wide),
         CameraModel.from_section(rig.camera),
         HeadKinematics.from_section(rig.head),
+        ZoomLens.from_section(rig.camera),
     )
     return DigitalCamera(
         source,

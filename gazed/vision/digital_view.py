@@ -12,6 +12,9 @@ ideal image of the whole frame. Each render computes H and the table on a coarse
 pixels, interpolates that source map to every pixel (`resize`) and samples the frame there
 (`remap`).
 
+A digital zoom narrows the view: at zoom z the view's K is the `ZoomLens`'s camera at z (the
+rig's `[camera] zoom_focal_px`), so the same view pixels span a smaller angle of the wide frame.
+
 At rest (pan = tilt = 0) the view looks along the wide camera's optical axis, so the head's
 joint angles are the wide camera's own pan and tilt, and a ground homography for the wide
 camera (`gazed.geometry.tsai`) is the head's.
@@ -24,6 +27,7 @@ import numpy as np
 
 from gazed.geometry.camera import CameraModel
 from gazed.geometry.kinematics import FLIP_Y, HeadKinematics
+from gazed.geometry.zoom import ZoomLens
 
 FAR_PX = -1e6  # the source of a ray past the lens table: remap draws black there
 MAP_STEP_PX = 8  # the source map is exact every this many view pixels, bilinear between
@@ -32,13 +36,19 @@ TABLE_MARGIN_CELLS = 2  # the lens table reaches this many coarse cells past the
 
 
 class DigitalView:
-    """Renders the view of `view` (its size and K) at a pose from frames of `wide`."""
+    """Renders the view of `view` (its size and K, at each zoom of `lens` where given) at a pose
+    from frames of `wide`."""
 
     def __init__(
-        self, wide: CameraModel, view: CameraModel, kinematics: HeadKinematics | None = None
+        self,
+        wide: CameraModel,
+        view: CameraModel,
+        kinematics: HeadKinematics | None = None,
+        lens: ZoomLens | None = None,
     ) -> None:
         self.wide = wide
         self.view = view
+        self.lens = lens or ZoomLens(view, [])
         self.kinematics = kinematics or HeadKinematics()
         self._lens_table: np.ndarray | None = None
         self._table_origin = np.zeros(2, np.float32)
@@ -58,16 +68,18 @@ class DigitalView:
         )
         self._grid = np.stack([u.ravel(), v.ravel(), np.ones(u.size)], axis=1)
 
-    def homography(self, pan_rad: float, tilt_rad: float) -> np.ndarray:
-        """View pixel -> the wide camera's ideal pixel, 3x3."""
+    def homography(self, pan_rad: float, tilt_rad: float, zoom: float | None = None) -> np.ndarray:
+        """View pixel -> the wide camera's ideal pixel, 3x3, at zoom position `zoom`."""
         R = self.kinematics.rotation(pan_rad, tilt_rad)
-        return self.wide.K @ FLIP_Y @ R @ FLIP_Y @ self.view.K_inv
+        return self.wide.K @ FLIP_Y @ R @ FLIP_Y @ self.lens.camera_at(zoom).K_inv
 
-    def source_pixels(self, pan_rad: float, tilt_rad: float) -> np.ndarray:
+    def source_pixels(
+        self, pan_rad: float, tilt_rad: float, zoom: float | None = None
+    ) -> np.ndarray:
         """For every view pixel, the wide frame's pixel it samples: (h, w, 2) float32, outside
         the frame where its ray misses it. Exact on a grid every MAP_STEP_PX pixels, bilinear
         between (the map is smooth: the interpolation adds hundredths of a pixel)."""
-        H = self.homography(pan_rad, tilt_rad) @ self._grid_to_view
+        H = self.homography(pan_rad, tilt_rad, zoom) @ self._grid_to_view
         ideal = self._grid @ H.T
         behind = ideal[:, 2] <= MIN_DEPTH  # a ray turned away from the wide camera
         ideal = ideal[:, :2] / np.where(behind, 1.0, ideal[:, 2])[:, None]
@@ -87,11 +99,14 @@ class DigitalView:
         fine = cv2.resize(coarse, size, interpolation=cv2.INTER_LINEAR)
         return fine[step : step + self.view.height_px, step : step + self.view.width_px]
 
-    def render(self, wide_frame: np.ndarray, pan_rad: float, tilt_rad: float) -> np.ndarray:
-        """The view at (pan, tilt) from one wide frame; black where it sees past the frame."""
+    def render(
+        self, wide_frame: np.ndarray, pan_rad: float, tilt_rad: float, zoom: float | None = None
+    ) -> np.ndarray:
+        """The view at (pan, tilt, zoom) from one wide frame; black where it sees past the
+        frame."""
         return cv2.remap(
             wide_frame,
-            self.source_pixels(pan_rad, tilt_rad),
+            self.source_pixels(pan_rad, tilt_rad, zoom),
             None,
             cv2.INTER_LINEAR,
             borderMode=cv2.BORDER_CONSTANT,

@@ -137,7 +137,7 @@ class WideMovers:
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Wide pixels (N, 2) -> view pixels u, v (N,) and whether each is in front of it."""
         ideal_u, ideal_v = self.view.wide.undistort(points[:, 0], points[:, 1])
-        to_view = np.linalg.inv(self.view.homography(pose.pan_rad, pose.tilt_rad))
+        to_view = np.linalg.inv(self.view.homography(pose.pan_rad, pose.tilt_rad, pose.zoom))
         rays = to_view @ np.stack([ideal_u, ideal_v, np.ones(len(points))])
         seen = rays[2] > MIN_DEPTH
         depth = np.where(seen, rays[2], 1.0)

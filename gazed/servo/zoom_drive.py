@@ -1,0 +1,73 @@
+"""The zoom lens as the `servo` process drives it: the latest demand's zoom position, moved no
+faster than `[head] zoom_rate_max_s`, written when it has changed, and read back with each
+odometry poll.
+
+A zoom is slow (seconds across its range) beside pan and tilt, and each write is a command the
+line has to carry, so the set-point is written at most every `ZOOM_COMMAND_PERIOD_S`, and only
+when it has moved by at least `ZOOM_STEP`. The set-point slews towards the demand at the rate
+limit, so the lens never receives a jump it would take faster than the rig allows.
+"""
+
+from __future__ import annotations
+
+from typing import Protocol
+
+ZOOM_COMMAND_PERIOD_S = 0.1
+ZOOM_STEP = 1.0 / 1024  # below any lens's repeatability, above a VISCA unit at 0x4000
+
+
+class ZoomDevice(Protocol):
+    """A head that drives and reads a zoom (`ServoDriver` on a codec that zooms, the digital
+    head)."""
+
+    def set_zoom(self, zoom: float) -> int: ...
+
+    def query_zoom(self) -> float: ...
+
+
+class ZoomDrive:
+    """One head's zoom lens behind `driver`."""
+
+    def __init__(self, driver: ZoomDevice, rate_max_s: float) -> None:
+        self.driver = driver
+        self.rate_max_s = rate_max_s
+        self.target: float | None = None
+        self.setpoint: float | None = None
+        self.position: float | None = None
+        self.writes = 0
+        self._written: float | None = None
+        self._t_s: float | None = None
+        self._next_write_s = 0.0
+
+    def demand(self, zoom: float | None) -> None:
+        """A demand's zoom (None leaves the zoom where it is going)."""
+        if zoom is not None:
+            self.target = min(max(zoom, 0.0), 1.0)
+
+    def reset(self, position: float) -> None:
+        """The link is (re)opened with the lens at `position`: the set-point starts there."""
+        self.position = self.setpoint = self._written = position
+        self._t_s = None
+
+    def write(self, mono_s: float) -> None:
+        """Slew the set-point towards the demand and write it when due (raises what the driver
+        raises)."""
+        if self.target is None or self.setpoint is None:
+            return
+        dt_s = 0.0 if self._t_s is None else mono_s - self._t_s
+        self._t_s = mono_s
+        step = self.rate_max_s * dt_s
+        self.setpoint += min(max(self.target - self.setpoint, -step), step)
+        moved = self._written is None or abs(self.setpoint - self._written) >= ZOOM_STEP
+        landing = self.setpoint == self.target and self.setpoint != self._written
+        if mono_s < self._next_write_s or not (moved or landing):
+            return
+        self.driver.set_zoom(self.setpoint)
+        self._written = self.setpoint
+        self.writes += 1
+        self._next_write_s = mono_s + ZOOM_COMMAND_PERIOD_S
+
+    def read(self) -> float:
+        """The lens's present position (raises what the driver raises)."""
+        self.position = self.driver.query_zoom()
+        return self.position
