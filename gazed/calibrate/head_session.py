@@ -88,7 +88,7 @@ class HeadSession:
 
     def start(self, on_frame: Callable[[CapturedFrame], None]) -> Odometry:
         """The head's pose once it reports one, after listening `QUIET_S` for anyone else
-        driving it and for frames."""
+        driving it, and once a frame has come (a rig just started may take a while)."""
         deadline = time.monotonic() + START_WAIT_S
         while not self.odometry:
             if time.monotonic() > deadline:
@@ -104,7 +104,9 @@ class HeadSession:
                 "another process drives the head (gaze/demand): turn the gaze process off "
                 "([services.gaze] enabled = false) and restart the rig"
             )
-        if not self.frames_seen:
+        if not self.frames_seen and not self.pump(
+            START_WAIT_S, None, on_frame, lambda: self.frames_seen > 0
+        ):
             raise CalibrationError(f"no frames from the camera ({self.rig.camera.source})")
         return self.odometry[-1]
 
