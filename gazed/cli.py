@@ -62,7 +62,7 @@ COMMANDS: dict[str, Command | Group] = {
     ),
     "plot": Command("gazed.plots.plot_cli", "the paper's figures (PNG) from an MCAP recording"),
     "calibrate": Group(
-        "calibrate with the rig: the ground homography, the camera's delay",
+        "calibrate with the rig: the ground homography, the camera's delay, the zoom table",
         {
             "points": Command(
                 "gazed.geometry.calibrate_cli",
@@ -88,6 +88,10 @@ COMMANDS: dict[str, Command | Group] = {
             "latency": Command(
                 "gazed.calibrate.camera_latency",
                 "step the running rig's head and time the image's motion: the camera's delay",
+            ),
+            "zoom": Command(
+                "gazed.calibrate.zoom_calibration",
+                "step the running rig's zoom on a still scene: the focal length at each position",
             ),
         },
     ),

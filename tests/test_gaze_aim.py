@@ -20,6 +20,7 @@ from gazed.gaze.aim import (
 )
 from gazed.geometry.camera import CameraModel
 from gazed.geometry.kinematics import HeadKinematics
+from gazed.geometry.zoom import ZoomLens
 from gazed.messages import HeadPose
 
 RIG = parse_rig('[rig]\nname = "a"\n')
@@ -66,7 +67,7 @@ def test_an_image_point_aims_by_its_offset_from_the_centre() -> None:
 def test_a_detection_aims_from_its_own_head_pose_at_its_capture() -> None:
     clock = Clock()
     seen = detection(clock, CX, CY, head_deg=(12.0, -6.0), du=50.0, age_s=0.04)
-    aim = detection_aim(CAMERA, KINEMATICS, seen)
+    aim = detection_aim(ZoomLens.fixed(CAMERA), KINEMATICS, seen)
     assert aim.t_ns == clock.wall_ns - 40_000_000
     assert (aim.pan_rad, aim.tilt_rad) == pytest.approx((12 * DEG, -6 * DEG), abs=1e-9)
     # at tilt t, an image step of du turns the pan axis by du / (F cos t)

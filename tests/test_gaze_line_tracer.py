@@ -12,6 +12,7 @@ from gazed.config import parse_rig
 from gazed.gaze.trace import LineTracer
 from gazed.geometry.camera import CameraModel
 from gazed.geometry.kinematics import HeadKinematics
+from gazed.geometry.zoom import ZoomLens
 from gazed.messages import GazeCommand, Odometry
 
 RIG = parse_rig('[rig]\nname = "t"\n[gaze]\nsettle_ms = 40\ntrace_misses = 2\n')
@@ -30,7 +31,7 @@ class Bench:
         self.wall_ns = 10**18
         self.mono_s = 20.0
         limits = ((-PAN_MAX_RAD, PAN_MAX_RAD), (-1.0, 0.5))
-        self.tracer = LineTracer(RIG.gaze, CAMERA, KINEMATICS, limits)
+        self.tracer = LineTracer(RIG.gaze, ZoomLens.fixed(CAMERA), KINEMATICS, limits)
         command = GazeCommand(
             t_capture_ns=self.wall_ns,
             command="trace",

@@ -10,6 +10,7 @@ from gazed.config import parse_rig
 from gazed.gaze.pixel_pid import PixelPid, pixel_error
 from gazed.geometry.camera import CameraModel
 from gazed.geometry.kinematics import HeadKinematics
+from gazed.geometry.zoom import ZoomLens
 from gazed.messages import Detection, HeadPose, Odometry
 
 RATE_MAX = (2.0, 1.0)  # rad/s
@@ -113,7 +114,7 @@ def test_pixel_error_is_the_angle_to_the_target_from_the_head_at_capture() -> No
         height_px=rig.camera.height_px,
         head=HeadPose(pan_rad=0.3, tilt_rad=0.1),
     )
-    error_rad, error_px = pixel_error(camera, kinematics, d)
+    error_rad, error_px = pixel_error(ZoomLens.fixed(camera), kinematics, d)
     assert error_px == pytest.approx(50.0)
     # right in the image is more pan, down is less tilt; each about its pixels' angle
     assert error_rad[0] == pytest.approx(math.atan(30.0 / f), rel=0.1)

@@ -12,6 +12,7 @@ from gazed.gaze.aim import Aim
 from gazed.gaze.pursuit import Pursuit, ResidualFeedback
 from gazed.geometry.camera import CameraModel
 from gazed.geometry.kinematics import HeadKinematics
+from gazed.geometry.zoom import ZoomLens
 from gazed.messages import Detection, HeadPose, Prediction
 
 RIG = parse_rig('[rig]\nname = "p"\n[gaze]\nresidual_gain = 0.5\nresidual_smoothing = 0.25\n')
@@ -55,7 +56,9 @@ def detection(t_ns: int, u_px: float, du_px_s: float = 0.0) -> Detection:
 
 def pursuit() -> Pursuit:
     fovea_rad = math.radians(RIG.gaze.fovea_half_angle_deg)
-    return Pursuit(RIG.gaze, fovea_rad, CAMERA, HeadKinematics.from_section(RIG.head))
+    return Pursuit(
+        RIG.gaze, fovea_rad, ZoomLens.fixed(CAMERA), HeadKinematics.from_section(RIG.head)
+    )
 
 
 def test_the_residual_is_smoothed_against_the_prediction_for_the_detections_instant() -> None:

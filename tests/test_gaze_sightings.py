@@ -12,6 +12,7 @@ from gazed.config import parse_rig
 from gazed.gaze.sightings import Sightings
 from gazed.geometry.camera import CameraModel
 from gazed.geometry.kinematics import HeadKinematics
+from gazed.geometry.zoom import ZoomLens
 from gazed.messages import Candidate, Candidates, Detection, HeadPose
 
 RIG = parse_rig(
@@ -25,7 +26,7 @@ MS = 1_000_000
 
 def sightings() -> Sightings:
     kinematics = HeadKinematics.from_section(RIG.head)
-    return Sightings(RIG.gaze, RIG.camera.frame_period_s, CAMERA, kinematics)
+    return Sightings(RIG.gaze, RIG.camera.frame_period_s, ZoomLens.fixed(CAMERA), kinematics)
 
 
 def seen(t_ns: int, u_px: float = 319.5) -> Detection:

@@ -17,9 +17,11 @@ from gazed.gaze.target_rule import GroundZone, rule_pick
 from gazed.geometry.camera import CameraModel
 from gazed.geometry.kinematics import HeadKinematics
 from gazed.geometry.target_angles import target_angles
+from gazed.geometry.zoom import ZoomLens
 from gazed.messages import EstimatorState, GazeSelect, HeadPose, Mover, Track
 
 CAMERA = CameraModel.from_section(RIG.camera)
+LENS = ZoomLens.fixed(CAMERA)
 KINEMATICS = HeadKinematics.from_section(RIG.head)
 
 
@@ -59,7 +61,7 @@ def state(*tracks: Track) -> EstimatorState:
 
 
 def choice(**gaze: object) -> TargetChoice:
-    return TargetChoice(GazeSection(**gaze), CAMERA, KINEMATICS)
+    return TargetChoice(GazeSection(**gaze), LENS, KINEMATICS)
 
 
 @pytest.mark.parametrize(
@@ -163,13 +165,13 @@ def test_the_gaze_sees_the_chosen_tracks_mover() -> None:
     clock = Clock()
     near, far = Mover(u_px=320.0, v_px=240.0), Mover(u_px=100.0, v_px=240.0, du_px_s=-40.0)
     seen = detection(clock, 320.0, 240.0).model_copy(update={"movers": (near, far)})
-    assert focus(seen, None, CAMERA, KINEMATICS) is seen  # no prediction: vision's target
+    assert focus(seen, None, LENS, KINEMATICS) is seen  # no prediction: vision's target
     # the chosen track is predicted where `far` is: the pixel's angles from the head at (0, 0)
     angles = target_angles(CAMERA, KINEMATICS, 0.0, 0.0, far.u_px, far.v_px)
     chosen = prediction(clock, math.degrees(angles.pan_rad), math.degrees(angles.tilt_rad))
-    focused = focus(seen, chosen, CAMERA, KINEMATICS)
+    focused = focus(seen, chosen, LENS, KINEMATICS)
     assert (focused.u_px, focused.v_px, focused.du_px_s) == (100.0, 240.0, -40.0)
     on_near = prediction(clock, 0.0, 0.0)
-    assert focus(seen, on_near, CAMERA, KINEMATICS) is seen
+    assert focus(seen, on_near, LENS, KINEMATICS) is seen
     unseen = seen.model_copy(update={"found": False})
-    assert focus(unseen, chosen, CAMERA, KINEMATICS) is unseen  # vision saw no target
+    assert focus(unseen, chosen, LENS, KINEMATICS) is unseen  # vision saw no target

@@ -1,7 +1,7 @@
 """The camera-delay estimator on synthetic signals: a known lag between the image's shifts and
 the odometry is recovered; a still head or one turning at a constant rate gives no update;
-wrong shifts among the good ones do not move the estimate; the stamp correction follows the
-estimate a step at a time. `ImageShift` measures a known translation of a textured image."""
+wrong shifts among the good ones do not move the estimate; the window is fitted on every frame
+until the first fit, then every `fit_every_s`. `ImageShift` measures a known translation of a textured image."""
 
 from __future__ import annotations
 
@@ -79,21 +79,29 @@ def test_wrong_shifts_do_not_move_the_estimate() -> None:
     assert fit.inliers <= len(shifts) - len(wrong)
 
 
-def test_the_estimator_converges_and_the_correction_follows_in_steps() -> None:
+def test_the_estimator_converges_fitting_each_frame_until_its_first_fit() -> None:
+    """The first fit as soon as the window spans the lag grid, right and applied at once."""
     shifts, odometry = synthetic(0.2, seconds=6.0)
     estimator = CameraDelayEstimator(0.0)
-    for t_s, pan, tilt in odometry:
-        estimator.add_odometry(t_s, pan, tilt)
-    assert estimator.next_correction_s() == 0.0  # nothing known yet: the stamp as it came
-    for a, b, du, dv in shifts:
+    assert estimator.delay_s == 0.0  # nothing known yet: the stamp as it came
+    grid_s = estimator.lags_s[-1] - estimator.lags_s[0]
+    first: float | None = None
+    read = 0
+    for a, b, du, dv in shifts:  # the odometry read up to each frame's arrival, as it comes
+        while read < len(odometry) and odometry[read, 0] <= b:
+            estimator.add_odometry(*odometry[read])
+            read += 1
         estimator.add_shift(a, b, du, dv)
-        estimator.update(b)
+        if first is None:  # no fit yet: every frame is tried once the window spans the grid
+            assert estimator.fit_due(b) == (b - shifts[0, 0] >= grid_s)
+        if estimator.update(b) and first is None:
+            first = b
+            assert estimator.delay_s == pytest.approx(0.2, abs=0.005)  # taken at once
+            assert not estimator.fit_due(b + PERIOD_S)  # then every fit_every_s
+            assert estimator.fit_due(b + estimator.fit_every_s)
+    assert first is not None and first - shifts[0, 0] < grid_s + PERIOD_S
     assert estimator.fits >= 5
     assert estimator.delay_s == pytest.approx(0.2, abs=0.005)
-    corrected = [10.0 + k * PERIOD_S - estimator.next_correction_s() for k in range(60)]
-    assert np.all(np.diff(corrected) > 0)  # frames keep their order while the stamps move
-    assert 10.0 - corrected[0] == pytest.approx(estimator.max_step_s)
-    assert 10.0 + 59 * PERIOD_S - corrected[-1] == pytest.approx(estimator.delay_s)
 
 
 def test_no_motion_leaves_the_estimate_where_it_was() -> None:

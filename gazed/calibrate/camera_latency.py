@@ -1,16 +1,12 @@
 """`gazed calibrate latency --rig RIG`: the camera's delay from exposure to arrival, measured by
 stepping the head and timing when the image moves.
 
-With the rig running and its gaze process off (`[services.gaze] enabled = false`: it would
-fight for the head), the command steps the head's pan back and forth (`gaze/demand` position
-demands to the servo process, repeated within its command timeout) and watches two things:
-the odometry (`servo/odometry`) and the camera's frames — the simulator's `sim/frame`, or the
-rig's `[camera] source` opened a second time (an RTSP stream takes a second client; a local
-device must be freed by stopping the vision process). The image's global shift between
-consecutive frames (phase correlation) is matched against the odometry's rotation, per step,
-by `camera_delay.fit_lag`: the lag between the two is the delay from the exposure to the
-frame's arrival stamp. The delays of the steps give the median and the spread. A digital head
-renders its views at a known pose: there is no delay to measure.
+With the rig running and its gaze process off (`head_session`), the command steps the head's
+pan back and forth and watches two things: the odometry and the camera's frames. The image's
+global shift between consecutive frames (phase correlation) is matched against the odometry's
+rotation, per step, by `camera_delay.fit_lag`: the lag between the two is the delay from the
+exposure to the frame's arrival stamp. The delays of the steps give the median and the
+spread. A digital head renders its views at a known pose: there is no delay to measure.
 """
 
 from __future__ import annotations
@@ -25,21 +21,16 @@ from pathlib import Path
 
 import numpy as np
 
-from gazed.bus import Bus, BusError
+from gazed.calibrate.head_session import (
+    CalibrationError,
+    HeadSession,
+    head_session,
+    position_demand,
+)
 from gazed.config import Rig, load_rig_or_exit
-from gazed.messages import GazeDemand, Odometry
-from gazed.topics import GAZE_DEMAND, SERVO_ODOMETRY
-from gazed.vision.bus_frames import BusFrameSource
 from gazed.vision.camera_delay import ImageShift, fit_lag
 from gazed.vision.frames import CapturedFrame, FrameError, gray_frame
-from gazed.vision.opencv_camera import OpenCvCamera, capture_target
-from gazed.vision.source import FrameSource
-from gazed.wakeup import Wakeup
 
-START_WAIT_S = 10.0  # for the first odometry
-QUIET_S = 1.0  # listened to before stepping: nobody else may drive the head
-DEMAND_PERIOD_S = 0.02  # well within the servo's command timeout
-POLL_S = 0.005  # between looks at the frames and odometry: well under a frame period
 RETURN_S = 0.5  # back at the start pose, the last frames arriving
 MIN_RESPONSE = 0.05  # phase correlation peak below which a shift is noise
 LAG_STEP_S = 0.002
@@ -48,7 +39,7 @@ MIN_RATE_STD_RAD_S = math.radians(2.0)
 MIN_EXPLAINED = 0.6
 
 
-class LatencyCalibrationError(RuntimeError):
+class LatencyCalibrationError(CalibrationError):
     """The measurement cannot be made; the message says why."""
 
 
@@ -101,74 +92,29 @@ def summary(delays_s: list[float | None]) -> dict[str, object]:
     }
 
 
-def open_frames(rig: Rig, bus: Bus) -> FrameSource:
+def record_steps(rig: Rig, steps: int, step_rad: float, hold_s: float) -> Recording:
+    """Step the running rig's head and record the image's shifts and the odometry."""
     if rig.servo.protocol == "digital":
         raise LatencyCalibrationError(
             "a digital head renders its views at a known pose: no camera delay to measure "
             "(measure the wide camera's with a pan-tilt head, or state [camera] delay_ms)"
         )
-    camera = rig.camera
-    if camera.source == "sim":
-        return BusFrameSource(bus, silence_s=camera.timeout_ms * 1e-3)
-    return OpenCvCamera(
-        capture_target(camera.source),
-        width_px=camera.width_px,
-        height_px=camera.height_px,
-        rate_hz=camera.rate_hz,
-        reopen_max_s=camera.reopen_max_s,
-        timeout_ms=camera.timeout_ms,
-        on_frame=bus.notify,
-    )
-
-
-def record_steps(rig: Rig, steps: int, step_rad: float, hold_s: float) -> Recording:
-    """Step the running rig's head and record the image's shifts and the odometry."""
-    try:
-        bus = Bus(rig, "calibrate")
-        bus.open()
-    except BusError as exc:
-        raise LatencyCalibrationError(
-            f"no bus answers for rig '{rig.name}': {exc} (is `gazed run` running?)"
-        ) from exc
-    try:
-        with Wakeup() as wakeup:
-            bus.on_arrival(wakeup.notify)
-            frames = open_frames(rig, bus)
-            frames.connect()
-            try:
-                return StepRecorder(rig, bus, wakeup, frames).record(steps, step_rad, hold_s)
-            finally:
-                frames.disconnect()
-    finally:
-        bus.close()
+    with head_session(rig) as session:
+        return StepRecorder(rig, session).record(steps, step_rad, hold_s)
 
 
 class StepRecorder:
-    """Sends the steps' demands and collects the odometry and the frames' shifts meanwhile."""
+    """Steps the head and keeps the frames' shifts meanwhile."""
 
-    def __init__(self, rig: Rig, bus: Bus, wakeup: Wakeup, frames: FrameSource) -> None:
+    def __init__(self, rig: Rig, session: HeadSession) -> None:
         self.rig = rig
-        self.wakeup = wakeup
-        self.frames = frames
-        self.odometry_sub = bus.subscribe(SERVO_ODOMETRY, capacity=10_000, immediate=True)
-        self.others = bus.subscribe(GAZE_DEMAND, capacity=100)
-        self.demands = bus.publisher(GAZE_DEMAND)
+        self.session = session
         self.shift = ImageShift(rig.camera.width_px, rig.camera.height_px)
-        self.odometry: list[Odometry] = []
         self.shifts: list[tuple[float, float, float, float]] = []
         self.last_arrival_s: float | None = None
 
     def record(self, steps: int, step_rad: float, hold_s: float) -> Recording:
-        start = self._first_odometry()
-        self.others.take()
-        self._pump(QUIET_S, None)
-        if self.others.take():
-            raise LatencyCalibrationError(
-                "another process drives the head (gaze/demand): turn the gaze process off "
-                "([services.gaze] enabled = false) and restart the rig"
-            )
-        if self.last_arrival_s is None:
-            raise LatencyCalibrationError(f"no frames from the camera ({self.rig.camera.source})")
+        start = self.session.start(self._frame)
         away = start.pan_rad + step_rad
         if away > math.radians(self.rig.head.pan_max_deg):
             away = start.pan_rad - step_rad
@@ -177,45 +123,15 @@ class StepRecorder:
             step_starts_s.append(time.time())
             pan = away if k % 2 == 0 else start.pan_rad
             print(f"step {k + 1}/{steps}: pan {math.degrees(pan):.1f} deg", file=sys.stderr)
-            self._pump(hold_s, (pan, start.tilt_rad))
-        self._pump(RETURN_S, (start.pan_rad, start.tilt_rad))
+            self.session.pump(hold_s, position_demand(pan, start.tilt_rad), self._frame)
+        self.session.pump(RETURN_S, position_demand(start.pan_rad, start.tilt_rad), self._frame)
+        odometry = self.session.odometry
         return Recording(
             np.array(self.shifts).reshape(-1, 4),
-            np.array([(o.t_capture_ns * 1e-9, o.pan_rad, o.tilt_rad) for o in self.odometry]),
+            np.array([(o.t_capture_ns * 1e-9, o.pan_rad, o.tilt_rad) for o in odometry]),
             step_starts_s,
             hold_s,
         )
-
-    def _first_odometry(self) -> Odometry:
-        deadline = time.monotonic() + START_WAIT_S
-        while not self.odometry:
-            if time.monotonic() > deadline:
-                raise LatencyCalibrationError(
-                    f"rig '{self.rig.name}': no {SERVO_ODOMETRY.suffix} (is the servo process up?)"
-                )
-            self.wakeup.wait(0.1)
-            self.odometry.extend(self.odometry_sub.take())
-        return self.odometry[-1]
-
-    def _pump(self, duration_s: float, demand: tuple[float, float] | None) -> None:
-        """For `duration_s`: the demand repeated, the odometry and every frame taken."""
-        end_s = time.monotonic() + duration_s
-        next_demand_s = 0.0
-        while (now_s := time.monotonic()) < end_s:
-            if demand is not None and now_s >= next_demand_s:
-                self.demands.put(
-                    GazeDemand(
-                        t_capture_ns=time.time_ns(),
-                        kind="position",
-                        pan_rad=demand[0],
-                        tilt_rad=demand[1],
-                    )
-                )
-                next_demand_s = now_s + DEMAND_PERIOD_S
-            self.odometry.extend(self.odometry_sub.take())
-            if (frame := self.frames.read()) is not None:
-                self._frame(frame)
-            self.wakeup.wait(POLL_S)
 
     def _frame(self, frame: CapturedFrame) -> None:
         camera = self.rig.camera
@@ -262,7 +178,7 @@ def latency_command(args: argparse.Namespace) -> int:
     try:
         recording = record_steps(rig, args.steps, math.radians(args.step_deg), args.hold_s)
         result = summary(step_delays_s(recording, args.max_delay_ms * 1e-3))
-    except LatencyCalibrationError as exc:
+    except CalibrationError as exc:
         print(f"gazed calibrate latency: {exc}", file=sys.stderr)
         return 1
     if args.json:

@@ -1,4 +1,5 @@
-"""`[gaze]`: the saccade/pursuit controller, lost search, line tracing and which track to follow."""
+"""`[gaze]`: the saccade/pursuit controller, lost search, line tracing, which track to follow and
+the zoom control."""
 
 from __future__ import annotations
 
@@ -142,6 +143,77 @@ class GazeSection(Section):
         description="The rule picks only tracks inside this ground polygon ([[x, y], ...] in "
         "metres, the rig's ground frame); none: anywhere.",
     )
+
+    zoom_control: bool = Field(
+        False,
+        description="Hold the target's height in the frame with the zoom (a rig with a zoom "
+        "lens: [camera] zoom_focal_px); off, the gaze never moves the zoom.",
+    )
+    zoom_target_height: float = Field(
+        0.25,
+        gt=0,
+        le=1,
+        description="zoom_control: the target's height to hold, as a fraction of the frame's.",
+    )
+    zoom_box_margin_px: float = Field(
+        0.0,
+        ge=0,
+        le=100,
+        description="zoom_control: how much taller than the target its detected box is (the "
+        "detector's smoothing reaches past its edges: about 6 px for `flow`); taken off the box.",
+    )
+    zoom_deadband: float = Field(
+        0.1,
+        ge=0,
+        lt=1,
+        description="zoom_control: a height within this fraction of zoom_target_height is left.",
+    )
+    zoom_min: float = Field(
+        0.0, ge=0, le=1, description="zoom_control: the widest zoom position it goes to."
+    )
+    zoom_max: float = Field(
+        1.0, ge=0, le=1, description="zoom_control: the longest zoom position it goes to."
+    )
+    zoom_in_rate_s: float = Field(
+        0.1,
+        gt=0,
+        le=100,
+        description="zoom_control: zooming in, the demand moves this fraction of the zoom range "
+        "per second at most.",
+    )
+    zoom_out_rate_s: float = Field(
+        0.5,
+        gt=0,
+        le=100,
+        description="zoom_control: zooming out (too big, escaping, or reacquiring), this fast.",
+    )
+    zoom_out_edge: float = Field(
+        0.15,
+        ge=0,
+        lt=0.5,
+        description="zoom_control: zoom out while the target's centre is within this fraction "
+        "of the frame's size of its edge.",
+    )
+    zoom_out_speed: float = Field(
+        1.0,
+        gt=0,
+        description="zoom_control: zoom out while the target moves faster than this many frame "
+        "heights per second in the image (its independent image velocity).",
+    )
+    zoom_in_steady_ms: float = Field(
+        1000.0,
+        ge=0,
+        description="zoom_control: zoom in only once the target has been neither near the edge "
+        "nor fast for this long in pursuit.",
+    )
+
+    @model_validator(mode="after")
+    def _zoom_range(self) -> Self:
+        if self.zoom_min >= self.zoom_max:
+            raise ValueError(
+                f"zoom_min ({self.zoom_min:g}) must be less than zoom_max ({self.zoom_max:g})"
+            )
+        return self
 
     @model_validator(mode="after")
     def _zone(self) -> Self:

@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from pydantic import Field, PrivateAttr
+from pydantic import Field, PrivateAttr, model_validator
 
 from gazed.config.bus import BusSection
 from gazed.config.calibration import CalibrationSection
@@ -48,6 +48,12 @@ class Rig(Section):
     view: ViewSection = Field(default_factory=ViewSection)
 
     _source_path: Path | None = PrivateAttr(None)
+
+    @model_validator(mode="after")
+    def _zoom_control_needs_a_zoom_lens(self) -> Rig:
+        if self.gaze.zoom_control and not self.camera.zoom_focal_px:
+            raise ValueError("gaze.zoom_control needs a zoom lens: [camera] zoom_focal_px")
+        return self
 
     @property
     def source_path(self) -> Path | None:

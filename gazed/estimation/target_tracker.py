@@ -38,10 +38,10 @@ from gazed.estimation.measurement import Measurement
 from gazed.estimation.observation import gaze_measurement, ground_measurement
 from gazed.estimation.results import PredictedState
 from gazed.estimation.tracks import PersonTrack, Sighting, TrackSet
-from gazed.geometry.camera import CameraModel
 from gazed.geometry.ground import GroundGeometry, MeasurementNoise
 from gazed.geometry.homography import HorizonError
 from gazed.geometry.kinematics import HeadKinematics
+from gazed.geometry.zoom import ZoomLens
 from gazed.messages import (
     Detection,
     EstimatorState,
@@ -86,7 +86,7 @@ class TargetTracker:
         self.predict_over_latency = section.predict_over_latency
         self.tracks = TrackSet(section)
         self.target_id: int | None = None  # the gaze's choice
-        self.camera = CameraModel.from_section(rig.camera)
+        self.lens = ZoomLens.from_section(rig.camera)
         self.kinematics = HeadKinematics.from_section(rig.head)
         # image-cv works on gaze angles alone; every other mode needs the ground homography
         self.geometry = GroundGeometry.from_rig(rig) if self.filter != "image-cv" else None
@@ -285,11 +285,13 @@ class TargetTracker:
         """The measurement of a detection's target; None above the horizon (counted)."""
         try:
             if self.geometry is None:
-                return gaze_measurement(detection, self.camera, self.kinematics, self.noise)
+                camera = self.lens.at_pose(detection.head)
+                return gaze_measurement(detection, camera, self.kinematics, self.noise)
             geometry = (
                 self.contact_geometry if detection.point == "ground-contact" else self.geometry
             )
             assert geometry is not None
+            geometry = geometry.with_camera(self.lens.at_pose(detection.head))
             return ground_measurement(detection, geometry, self.noise)
         except HorizonError:
             self.counts["above_horizon"] += 1

@@ -34,6 +34,7 @@ from gazed.config import Rig, RigError, load_rig
 from gazed.eval.loop_metrics import LoopRecord, score
 from gazed.eval.loop_record import Recording, Watch, record
 from gazed.eval.progress import EvalProgress
+from gazed.eval.zoom_score import zoom_scoring
 from gazed.geometry.pose import CameraPose
 from gazed.messages import ServoStatus
 from gazed.sim.reach import FieldOfRegard
@@ -196,7 +197,7 @@ def run_loop(
             "seconds": seconds,
         }
         pose, reach = CameraPose.from_rig(rig), FieldOfRegard.for_scoring(rig)
-        result.update(score(record, pose, rig.gaze.fovea_half_angle_deg, reach))
+        result.update(score(record, pose, rig.gaze.fovea_half_angle_deg, reach, zoom_scoring(rig)))
         if plot_dir is not None:
             from gazed.plots.plot_cli import plot_loop_run
 

@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from gazed.eval.zoom_score import ZoomScoring
 from gazed.geometry.pose import CameraPose
 from gazed.latency import processing_s
 from gazed.messages import ARRIVAL_STAGE, EstimatorState, GazeDemand, GazeState, SimTruth
@@ -81,8 +82,10 @@ def score(
     pose: CameraPose,
     fovea_half_angle_deg: float,
     reach: FieldOfRegard | None = None,
+    zoom: ZoomScoring | None = None,
 ) -> dict[str, object]:
-    """The run's scores (module docstring); the reach figures only with a `reach`."""
+    """The run's scores (module docstring); the reach figures only with a `reach`, the zoom's
+    (`zoom_score`) only with a `zoom`."""
     truth = sorted(record.truth, key=lambda t: t.t_capture_ns)
     if not truth:
         raise ValueError("no sim/truth was received: the simulator did not run")
@@ -124,6 +127,8 @@ def score(
         truth, [e for e in record.estimates if e.t_capture_ns >= scored_from_ns]
     )
     result["latency_ms"] = latencies_ms(record.commands)
+    if zoom is not None:
+        result["zoom"] = zoom.score(truth, record.states, start)
     return result
 
 

@@ -10,6 +10,7 @@ from dataclasses import dataclass
 from gazed.geometry.camera import CameraModel
 from gazed.geometry.kinematics import HeadKinematics
 from gazed.geometry.target_angles import target_angles
+from gazed.geometry.zoom import ZoomLens
 from gazed.messages import Detection, HeadPose, Prediction
 
 
@@ -49,11 +50,11 @@ def image_aim(
     return Aim(t_ns, target.pan_rad, target.tilt_rad, pan_rate, tilt_rate)
 
 
-def detection_aim(camera: CameraModel, kinematics: HeadKinematics, detection: Detection) -> Aim:
-    """Where a detection says the target is, at its capture."""
+def detection_aim(lens: ZoomLens, kinematics: HeadKinematics, detection: Detection) -> Aim:
+    """Where a detection says the target is, at its capture (through the lens at its zoom)."""
     assert detection.head is not None
     return image_aim(
-        camera,
+        lens.at_pose(detection.head),
         kinematics,
         detection.head,
         detection.t_capture_ns,

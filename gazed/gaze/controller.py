@@ -35,7 +35,7 @@ the one nearest its prediction (`focus`), and every change of target is publishe
 gaze/state, with the state unchanged, and its reason.
 
 Every demand is clamped to the joint and rate limits (counted); the feed-forward rates also
-change by at most the acceleration limit per tick (`demand`).
+change by at most the acceleration limit per tick (`demand`); its zoom is `zoom`'s.
 """
 
 from __future__ import annotations
@@ -57,8 +57,9 @@ from gazed.gaze.pursuit import Pursuit
 from gazed.gaze.sightings import Sightings
 from gazed.gaze.target_choice import ChoiceChange, TargetChoice
 from gazed.gaze.trace import LineTracer
-from gazed.geometry.camera import CameraModel
+from gazed.gaze.zoom import ZoomControl
 from gazed.geometry.kinematics import HeadKinematics
+from gazed.geometry.zoom import ZoomLens
 from gazed.messages import (
     Candidates,
     Detection,
@@ -86,7 +87,7 @@ class GazeController:
 
     def __init__(self, rig: Rig, mono_s: float) -> None:
         gaze = self.gaze = rig.gaze
-        self.camera = camera = CameraModel.from_section(rig.camera)
+        self.lens = lens = ZoomLens.from_section(rig.camera)
         self.kinematics = kinematics = HeadKinematics.from_section(rig.head)
         self.park = rig.head.park_rad
         self.fovea_rad = math.radians(gaze.fovea_half_angle_deg)
@@ -95,8 +96,8 @@ class GazeController:
         # the parts, each holding the state of its concern
         self.shaper = DemandShaper(rig.head)
         self.hold = Hold()
-        self.sightings = Sightings(gaze, frame_period_s, camera, kinematics)
-        self.pursuit = Pursuit(gaze, self.fovea_rad, camera, kinematics)
+        self.sightings = Sightings(gaze, frame_period_s, lens, kinematics)
+        self.pursuit = Pursuit(gaze, self.fovea_rad, lens, kinematics)
         settling = Settling(
             kinematics, math.radians(gaze.saccade_tolerance_deg), gaze.settle_ms / 1000.0
         )
@@ -110,12 +111,12 @@ class GazeController:
             limits_rad,
             PID_STALE_FRAMES * frame_period_s,
         )
-        camera_xyz_m = rig.calibration.camera_xyz_m
         self.lost_search = LostSearch(
-            gaze, self.fovea_rad, camera_xyz_m, move_limits, frame_period_s
+            gaze, self.fovea_rad, rig.calibration.camera_xyz_m, move_limits, frame_period_s
         )
-        self.tracer = LineTracer(gaze, camera, kinematics, limits_rad)
-        self.choice = TargetChoice(gaze, camera, kinematics)
+        self.tracer = LineTracer(gaze, lens, kinematics, limits_rad)
+        self.choice = TargetChoice(gaze, lens, kinematics)
+        self.zoom = ZoomControl(gaze, lens, self.sightings)
         self.operator = OperatorControl(self)  # park, search, hold, resume
         # the state machine
         self.state: GazeStateName = "park"
@@ -168,7 +169,7 @@ class GazeController:
         self._retarget(self.choice.on_select(select, self._head_rad()), wall_ns)
 
     def on_detection(self, detection: Detection) -> None:
-        detection = focus(detection, self.pursuit.prediction, self.camera, self.kinematics)
+        detection = focus(detection, self.pursuit.prediction, self.lens, self.kinematics)
         if not detection.found or detection.head is None:
             return
         if (
@@ -181,7 +182,7 @@ class GazeController:
         if self.state == "pursuit":
             self.pursuit.on_detection(detection)
             if self.gaze.control == "pid":
-                error_rad, error_px = pixel_error(self.camera, self.kinematics, detection)
+                error_rad, error_px = pixel_error(self.lens, self.kinematics, detection)
                 self.pid.update(error_rad, error_px, detection.t_capture_ns)
         self.sightings.take(detection, count=self.state in TAKING_UP)
 
@@ -224,6 +225,7 @@ class GazeController:
             demand = self.shaper.shape(demand, dt_s)
             if demand is None:  # a non-finite number reached the demand: hold instead
                 demand = self._hold(wall_ns)
+        demand = self.zoom.apply(demand, self.state, self.odometry, wall_ns, mono_s)
         transitions, self.pending = tuple(self.pending), []
         trace, self.finished_trace = self.finished_trace, None
         return Decision(demand, transitions, trace)

@@ -7,16 +7,16 @@ so that a person crossing in front does not feed the pursuit's residual or its s
 from __future__ import annotations
 
 from gazed.gaze.aim import Aim, angle_between
-from gazed.geometry.camera import CameraModel
 from gazed.geometry.kinematics import HeadKinematics
 from gazed.geometry.target_angles import target_angles
+from gazed.geometry.zoom import ZoomLens
 from gazed.messages import Detection, Prediction
 
 
 def focus(
     detection: Detection,
     prediction: Prediction | None,
-    camera: CameraModel,
+    lens: ZoomLens,
     kinematics: HeadKinematics,
 ) -> Detection:
     """The detection with the chosen track's mover as its target; unchanged where vision found
@@ -25,6 +25,7 @@ def focus(
     if not detection.found or len(detection.movers) < 2 or head is None or prediction is None:
         return detection
     pan, tilt = Aim.of_prediction(prediction).at(detection.t_capture_ns)
+    camera = lens.at_pose(head)
 
     def off_rad(k: int) -> float:
         mover = detection.movers[k]

@@ -20,8 +20,8 @@ import math
 
 from gazed.gaze.aim import detection_aim
 from gazed.gaze.demand import make_demand
-from gazed.geometry.camera import CameraModel
 from gazed.geometry.kinematics import HeadKinematics
+from gazed.geometry.zoom import ZoomLens
 from gazed.messages import Detection, GazeDemand, Odometry
 
 
@@ -114,12 +114,13 @@ class PixelPid:
 
 
 def pixel_error(
-    camera: CameraModel, kinematics: HeadKinematics, detection: Detection
+    lens: ZoomLens, kinematics: HeadKinematics, detection: Detection
 ) -> tuple[tuple[float, float], float]:
     """The target's error as joint angles from the head pose at capture, and its pixel distance
-    from the principal point."""
+    from the principal point, through the lens at the frame's zoom."""
     assert detection.head is not None
-    aim = detection_aim(camera, kinematics, detection)
+    aim = detection_aim(lens, kinematics, detection)
+    camera = lens.at_pose(detection.head)
     error_rad = (aim.pan_rad - detection.head.pan_rad, aim.tilt_rad - detection.head.tilt_rad)
     cx, cy = float(camera.K[0, 2]), float(camera.K[1, 2])
     return error_rad, math.hypot(detection.u_px - cx, detection.v_px - cy)

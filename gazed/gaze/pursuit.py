@@ -12,8 +12,8 @@ from collections import deque
 from gazed.config import GazeSection
 from gazed.gaze.aim import Aim, detection_aim
 from gazed.gaze.demand import make_demand
-from gazed.geometry.camera import CameraModel
 from gazed.geometry.kinematics import HeadKinematics
+from gazed.geometry.zoom import ZoomLens
 from gazed.messages import Detection, GazeDemand, Prediction
 
 PREDICTION_FRESH_S = 0.5  # an older prediction is not used for pursuit
@@ -60,12 +60,12 @@ class Pursuit:
         self,
         gaze: GazeSection,
         fovea_rad: float,
-        camera: CameraModel,
+        lens: ZoomLens,
         kinematics: HeadKinematics,
     ) -> None:
         self.gain = gaze.residual_gain
         self.feedback = ResidualFeedback(gaze.residual_smoothing, fovea_rad)
-        self.camera = camera
+        self.lens = lens
         self.kinematics = kinematics
         self.prediction: Prediction | None = None
         self.stale_predictions = 0
@@ -82,7 +82,7 @@ class Pursuit:
 
     def on_detection(self, detection: Detection) -> None:
         """A detection seen in pursuit: it updates the residual feedback."""
-        self.feedback.update(detection_aim(self.camera, self.kinematics, detection))
+        self.feedback.update(detection_aim(self.lens, self.kinematics, detection))
 
     def aim(self, wall_ns: int) -> Aim | None:
         """The latest prediction, if fresh, as an aim."""
@@ -103,7 +103,7 @@ class Pursuit:
         if aim is None:
             if found is None:
                 return None
-            aim, source = detection_aim(self.camera, self.kinematics, found), found
+            aim, source = detection_aim(self.lens, self.kinematics, found), found
         actuation_s = self.prediction.actuation_latency_s if self.prediction is not None else 0.0
         pan, tilt = aim.at(wall_ns + round(actuation_s * 1e9))
         if correction:

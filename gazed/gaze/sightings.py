@@ -12,8 +12,8 @@ from gazed.config import GazeSection
 from gazed.gaze import FUTURE_TOLERANCE_NS
 from gazed.gaze.aim import Aim, detection_aim, image_aim
 from gazed.gaze.move import at_rest
-from gazed.geometry.camera import CameraModel
 from gazed.geometry.kinematics import HeadKinematics
+from gazed.geometry.zoom import ZoomLens
 from gazed.messages import Candidates, Detection
 
 RUN_GAP_FRAMES = 2.5  # a detection this many frame periods after the last still continues a run
@@ -28,13 +28,13 @@ class Sightings:
         self,
         gaze: GazeSection,
         frame_period_s: float,
-        camera: CameraModel,
+        lens: ZoomLens,
         kinematics: HeadKinematics,
     ) -> None:
         self.frame_period_s = frame_period_s
         self.max_age_ms = gaze.lost_after_ms
         self.candidate_min_score = gaze.candidate_min_score
-        self.camera = camera
+        self.lens = lens
         self.kinematics = kinematics
         self.found: Detection | None = None
         self.in_a_row = 0
@@ -59,7 +59,7 @@ class Sightings:
 
     def aim(self, detection: Detection) -> Aim:
         """Where a detection says the target is, at its capture."""
-        return detection_aim(self.camera, self.kinematics, detection)
+        return detection_aim(self.lens, self.kinematics, detection)
 
     def recent(self, wall_ns: int, since_ns: int) -> Detection | None:
         """The latest detection if it was captured since `since_ns`, at most `max_age_ms` ago
@@ -87,7 +87,7 @@ class Sightings:
         if best.score < self.candidate_min_score:
             return None
         return image_aim(
-            self.camera,
+            self.lens.at_pose(c.head),
             self.kinematics,
             c.head,
             c.t_capture_ns,

@@ -23,9 +23,9 @@ from gazed.gaze.target_rule import (
     nearest_on_ground,
     rule_pick,
 )
-from gazed.geometry.camera import CameraModel
 from gazed.geometry.kinematics import HeadKinematics
 from gazed.geometry.target_angles import target_angles
+from gazed.geometry.zoom import ZoomLens
 from gazed.messages import EstimatorState, GazeSelect, Prediction, Track
 
 OPERATOR = "operator"  # how every gaze/state reason about an operator's request begins
@@ -44,10 +44,10 @@ class ChoiceChange:
 class TargetChoice:
     """Feed it every `EstimatorState` and `GazeSelect`; `target_id` is the chosen track."""
 
-    def __init__(self, gaze: GazeSection, camera: CameraModel, kinematics: HeadKinematics) -> None:
+    def __init__(self, gaze: GazeSection, lens: ZoomLens, kinematics: HeadKinematics) -> None:
         self.rule = gaze.select_rule
         self.zone = GroundZone(gaze.select_zone_xy_m) if gaze.select_zone_xy_m else None
-        self.camera = camera
+        self.lens = lens
         self.kinematics = kinematics
         self.target_id: int | None = None
         self.by_operator = False
@@ -112,6 +112,7 @@ class TargetChoice:
         assert select.pixel_px is not None and select.head is not None  # GazeSelect checks
         u, v = select.pixel_px
         head = select.head
-        angles = target_angles(self.camera, self.kinematics, head.pan_rad, head.tilt_rad, u, v)
+        camera = self.lens.at_pose(head)
+        angles = target_angles(camera, self.kinematics, head.pan_rad, head.tilt_rad, u, v)
         found = nearest_by_angle(self.tracks, angles.pan_rad, angles.tilt_rad, self.kinematics)
         return found, f"nearest pixel ({u:g}, {v:g})" if found else "no tracks"

@@ -21,9 +21,9 @@ import numpy as np
 from gazed.config import GazeSection
 from gazed.gaze import STAGE
 from gazed.gaze.move import Settling
-from gazed.geometry.camera import CameraModel
 from gazed.geometry.kinematics import HeadKinematics
 from gazed.geometry.target_angles import target_angles
+from gazed.geometry.zoom import ZoomLens
 from gazed.messages import EdgeObservation, GazeCommand, Odometry, TraceResult
 
 CORNER_LOOKS = 2  # looks in a row that see a corner before a leg ends (texture can fake one)
@@ -61,11 +61,11 @@ class LineTracer:
     def __init__(
         self,
         gaze: GazeSection,
-        camera: CameraModel,
+        lens: ZoomLens,
         kinematics: HeadKinematics,
         joint_limits_rad: tuple[Angles, Angles],
     ) -> None:
-        self.camera = camera
+        self.lens = lens
         self.kinematics = kinematics
         self.joint_limits_rad = joint_limits_rad
         self.settling = Settling(
@@ -136,8 +136,9 @@ class LineTracer:
         job.corner_looks = 0
         head = edge.head
         assert head is not None
+        camera = self.lens.at_pose(head)
         here = target_angles(
-            self.camera, self.kinematics, head.pan_rad, head.tilt_rad, edge.u_px, edge.v_px
+            camera, self.kinematics, head.pan_rad, head.tilt_rad, edge.u_px, edge.v_px
         )
         if self._off_the_line(job, here.pan_rad, here.tilt_rad):
             job.off_line += 1  # the path bends: a corner passed (or one bad look)
@@ -149,7 +150,7 @@ class LineTracer:
         if len(job.samples) >= job.max_samples:
             return job.first_leg or "enough samples"
         options = [
-            target_angles(self.camera, self.kinematics, head.pan_rad, head.tilt_rad, *point)
+            target_angles(camera, self.kinematics, head.pan_rad, head.tilt_rad, *point)
             for point in (edge.ahead_px, edge.behind_px)
         ]
         steps = [(o.pan_rad - here.pan_rad, o.tilt_rad - here.tilt_rad) for o in options]

@@ -15,7 +15,7 @@ propagated to first order from independent angle, angle-rate, pixel and pixel-ra
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -108,6 +108,10 @@ class GroundGeometry:
             GroundHomography.from_matrix(np.array(calibration.homography)),
             HeightCorrection.from_section(calibration),
         )
+
+    def with_camera(self, camera: CameraModel) -> GroundGeometry:
+        """The same rig seen through `camera` (the lens at another zoom)."""
+        return self if camera is self.camera else replace(self, camera=camera)
 
     def ray(
         self,

@@ -16,6 +16,7 @@ import numpy as np
 
 from gazed.config import CameraSection
 from gazed.geometry.camera import CameraModel
+from gazed.messages import HeadPose
 
 # Zoom positions closer than this share a camera (cache key): far below any lens's repeatability.
 ZOOM_RESOLUTION = 1e-4
@@ -36,6 +37,11 @@ class ZoomLens:
     def from_section(cls, camera: CameraSection) -> ZoomLens:
         return cls(CameraModel.from_section(camera), camera.zoom_focal_px)
 
+    @classmethod
+    def fixed(cls, camera: CameraModel) -> ZoomLens:
+        """A fixed lens: `camera` at every zoom."""
+        return cls(camera, [])
+
     @property
     def zooms_lens(self) -> bool:
         """True for a zoom lens (the rig tabulates one); False for a fixed lens."""
@@ -46,6 +52,11 @@ class ZoomLens:
         if zoom is None or not self.zooms_lens:
             return self.base
         return self._at(round(min(max(zoom, 0.0), 1.0) / ZOOM_RESOLUTION))
+
+    def at_pose(self, head: HeadPose | None) -> CameraModel:
+        """The camera a frame captured at head pose `head` was taken with (the rig's camera
+        without a pose)."""
+        return self.camera_at(None if head is None else head.zoom)
 
     def focal_px(self, zoom: float | None) -> float:
         """The mean focal length at `zoom`, in pixels."""

@@ -4,7 +4,8 @@ above the horizon, sensor noise, optional flicker and motion blur.
 
 Everything random comes from the seed: the textures at construction, the noise of frame `seq`
 from (seed, seq), so the same seed, head angles and target states give the same frames bit for
-bit.
+bit. A zoom lens renders each frame through the camera at its zoom (`render(camera=...)`),
+of the same size as the rig's.
 """
 
 from __future__ import annotations
@@ -170,8 +171,11 @@ class Renderer:
         t_s: float = 0.0,
         pan_rate_rad_s: float = 0.0,
         tilt_rate_rad_s: float = 0.0,
+        camera: CameraModel | None = None,
     ) -> np.ndarray:
-        camera = self.camera
+        """The frame at joint angles (pan, tilt) through `camera` (the rig's if not given; a
+        zoom lens's at another zoom has the same size)."""
+        camera = self.camera if camera is None else camera
         size = (camera.width_px, camera.height_px)
         image_from_ground = self.pose.ground_to_image(pan_rad, tilt_rad, camera)
         ground = cv2.warpPerspective(
@@ -184,11 +188,11 @@ class Renderer:
         )
         self._haze(ground, image_from_ground)
         frame = cv2.cvtColor(ground, cv2.COLOR_GRAY2BGR)
-        self._paint_sky(frame, pan_rad, tilt_rad)
+        self._paint_sky(frame, pan_rad, tilt_rad, camera)
         for body in sorted(bodies, key=lambda b: -self._distance_m(b)):  # far ones first
-            self._paint_body(frame, body, pan_rad, tilt_rad)
+            self._paint_body(frame, body, pan_rad, tilt_rad, camera)
         if self.motion_blur_exposure_s > 0:
-            frame = self._blur(frame, pan_rate_rad_s, tilt_rate_rad_s)
+            frame = self._blur(frame, pan_rate_rad_s, tilt_rate_rad_s, camera.focal_px)
         if self.flicker_amplitude > 0:
             gain = 1.0 + self.flicker_amplitude * math.sin(2 * math.pi * self.flicker_hz * t_s)
             frame = cv2.convertScaleAbs(frame, alpha=gain)
@@ -243,11 +247,13 @@ class Renderer:
         roi = frame[top:bottom]
         roi[:] = cv2.blendLinear(roi, self._haze_image[top:bottom], 1.0 - weights, weights)
 
-    def _paint_sky(self, frame: np.ndarray, pan_rad: float, tilt_rad: float) -> None:
+    def _paint_sky(
+        self, frame: np.ndarray, pan_rad: float, tilt_rad: float, camera: CameraModel
+    ) -> None:
         """Pixels above the horizon see sky, not the mirror image of the ground behind the
         camera: the image rectangle clipped to the horizon's sky side, filled."""
-        line = self.pose.horizon_line(pan_rad, tilt_rad, self.camera)
-        w, h = self.camera.width_px - 0.5, self.camera.height_px - 0.5
+        line = self.pose.horizon_line(pan_rad, tilt_rad, camera)
+        w, h = camera.width_px - 0.5, camera.height_px - 0.5
         rectangle = [(-0.5, -0.5), (w, -0.5), (w, h), (-0.5, h)]
         polygon = _clip_to_half_plane(rectangle, line)
         if len(polygon) >= 3:
@@ -259,7 +265,9 @@ class Renderer:
             math.hypot(body.xy_m[0] - self.pose.centre_m[0], body.xy_m[1] - self.pose.centre_m[1])
         )
 
-    def _paint_body(self, frame: np.ndarray, body: Body, pan_rad: float, tilt_rad: float) -> None:
+    def _paint_body(
+        self, frame: np.ndarray, body: Body, pan_rad: float, tilt_rad: float, camera: CameraModel
+    ) -> None:
         """A vertical textured rectangle facing the camera, feet on the ground point."""
         x, y = body.xy_m
         dx, dy = x - self.pose.centre_m[0], y - self.pose.centre_m[1]
@@ -271,9 +279,7 @@ class Renderer:
         top = foot + np.array([0.0, 0.0, body.height_m])
         corners_m = np.array([top - right, top + right, foot + right, foot - right])
         try:
-            corners_px = self.pose.pixels(corners_m, pan_rad, tilt_rad, self.camera).astype(
-                np.float32
-            )
+            corners_px = self.pose.pixels(corners_m, pan_rad, tilt_rad, camera).astype(np.float32)
         except ValueError:
             return  # behind the camera
         x0, y0 = np.floor(corners_px.min(axis=0)).astype(int)
@@ -297,9 +303,11 @@ class Renderer:
             borderMode=cv2.BORDER_TRANSPARENT,
         )
 
-    def _blur(self, frame: np.ndarray, pan_rate_rad_s: float, tilt_rate_rad_s: float) -> np.ndarray:
-        """Linear motion blur along the image motion the head's rotation causes during exposure."""
-        f = self.camera.focal_px
+    def _blur(
+        self, frame: np.ndarray, pan_rate_rad_s: float, tilt_rate_rad_s: float, f: float
+    ) -> np.ndarray:
+        """Linear motion blur along the image motion the head's rotation causes during exposure
+        (focal length `f` in pixels)."""
         du = f * pan_rate_rad_s * self.motion_blur_exposure_s
         dv = -f * tilt_rate_rad_s * self.motion_blur_exposure_s
         length = round(math.hypot(du, dv))

@@ -3,7 +3,9 @@
 At a capture instant the world takes a snapshot: the head's true pose then (from the head
 emulator's `pose_at`), the target and the distractor on their `[sim]` trajectories, and the
 truth published for that frame. The pixels are rendered from the snapshot later
-(`camera_schedule`), so the snapshot holds everything the renderer needs.
+(`camera_schedule`), so the snapshot holds everything the renderer needs. With a zoom lens the
+head's pose carries the zoom at capture, and the frame is rendered through the lens at that
+zoom (`ZoomLens.at_pose`).
 """
 
 from __future__ import annotations
@@ -15,8 +17,8 @@ import cv2
 import numpy as np
 
 from gazed.config import Rig
-from gazed.geometry.camera import CameraModel
 from gazed.geometry.pose import CameraPose
+from gazed.geometry.zoom import ZoomLens
 from gazed.messages import FrameHeader, HeadPose, SimTruth
 from gazed.sim.reach import FieldOfRegard
 from gazed.sim.renderer import Body, Renderer
@@ -63,7 +65,8 @@ class SimWorld:
     def __init__(self, rig: Rig, pose_at: Callable[[float], HeadPose], t0_s: float) -> None:
         sim = rig.sim
         self.camera_delay_ns = round(sim.camera_delay_ms * 1e6)
-        self.camera = CameraModel.from_section(rig.camera)
+        self.lens = ZoomLens.from_section(rig.camera)
+        self.camera = self.lens.base
         self.renderer = Renderer(
             self.camera,
             CameraPose.from_rig(rig),
@@ -120,6 +123,7 @@ class SimWorld:
             t_s=scene.t_s - self.t0_s,
             pan_rate_rad_s=scene.head.pan_rate_rad_s,
             tilt_rate_rad_s=scene.head.tilt_rate_rad_s,
+            camera=self.lens.at_pose(scene.head),
         )
         if scene.header.encoding == "gray8":
             pixels = cv2.cvtColor(pixels, cv2.COLOR_BGR2GRAY)

@@ -16,10 +16,17 @@ residual alone would call every moving frame an outlier. A fit counts only when 
 rates varied over the window (a still head, or one turning at a constant rate, shows no lag)
 and the rotation explains most of the shifts.
 
-`CameraDelayEstimator` keeps a sliding window of shifts and odometry, fits it every
-`fit_every_s`, and takes the median of the recent fits as its estimate. Each frame's stamp
-moves back by the estimate (`next_correction_s`), following a changed estimate by at most
-`max_step_s` per frame so that consecutive frames keep their order.
+`CameraDelayEstimator` keeps a sliding window of shifts and odometry and takes the median of
+the recent fits as its estimate. It fits on every frame until the first fit succeeds, then every
+`fit_every_s`: until the first fit the stamps are wrong by the whole delay, and the frames that
+make the first fit possible (the head's first saccade, seen a delay later) are the ones to use
+at once. Each frame's stamp moves back by the estimate as it stands (`correction_s`), with no
+ramp: stamps wrong by an error e pair each frame with the head's pose e later, so the target
+appears displaced along the head's motion and the loop drives the head further that way, and a
+ramp keeps them wrong longer while it also shrinks every frame interval on its way (the
+detectors' velocities and ego-motion). A jump back by more than a frame interval costs instead
+one restart of the detectors (a stamp not after the previous one) and the detections whose
+stamps precede the tracker's state, which it leaves out.
 """
 
 from __future__ import annotations
@@ -95,10 +102,11 @@ def fit_lag(
     a, b, y = a[covered], b[covered], y[covered]
     if len(a) < 4:
         return None
-    x = _rotations(t, angles, a, b, lags_s)  # (K, N, 2)
-    rates = x[len(lags_s) // 2] / (b - a)[:, None]  # (N, 2), at the grid's middle lag
+    middle = lags_s[len(lags_s) // 2 : len(lags_s) // 2 + 1]
+    rates = _rotations(t, angles, a, b, middle)[0] / (b - a)[:, None]  # (N, 2)
     if not np.any(rates.std(axis=0) >= min_rate_std_rad_s):
-        return None
+        return None  # checked before the whole grid: a still head costs little
+    x = _rotations(t, angles, a, b, lags_s)  # (K, N, 2)
     keep = np.ones(len(a), dtype=bool)
     floor_px = max(
         SHIFT_PRECISION_PX, SHIFT_FRACTION * float(np.percentile(np.linalg.norm(y, axis=1), 90))
@@ -177,10 +185,8 @@ class CameraDelayEstimator:
         min_explained: float = 0.6,
         min_response: float = 0.05,
         max_pair_s: float = 0.25,
-        max_step_s: float = 0.005,
     ) -> None:
         self.delay_s = initial_s
-        self.applied_s = initial_s
         self.window_s = window_s
         self.lags_s = np.arange(min_delay_s, max_delay_s + step_s / 2, step_s)
         self.fit_every_s = fit_every_s
@@ -188,7 +194,6 @@ class CameraDelayEstimator:
         self.min_explained = min_explained
         self.min_response = min_response
         self.max_pair_s = max_pair_s
-        self.max_step_s = max_step_s
         self.fits = 0
         self.last_fit: LagFit | None = None
         self._recent: deque[float] = deque(maxlen=fits_kept)
@@ -216,12 +221,33 @@ class CameraDelayEstimator:
         while self._shifts[0][1] < t1_s - self.window_s:
             self._shifts.popleft()
 
+    def still_before(self, arrival_s: float, tolerance_rad: float) -> bool:
+        """Whether the head stood still (pan and tilt within `tolerance_rad`) over every
+        exposure time the lag grid allows for a frame that arrived at `arrival_s`: then the
+        frame's pose is known whatever the delay."""
+        if not self._odometry:
+            return False
+        odometry = np.array(self._odometry)
+        t0_s, t1_s = arrival_s - self.lags_s[-1], arrival_s - self.lags_s[0]
+        if odometry[0, 0] > t0_s:
+            return False  # the odometry does not reach back that far
+        inside = odometry[(odometry[:, 0] >= t0_s) & (odometry[:, 0] <= t1_s), 1:]
+        ends = [np.interp(t, odometry[:, 0], odometry[:, j]) for t in (t0_s, t1_s) for j in (1, 2)]
+        angles = np.vstack([inside, np.reshape(ends, (2, 2))])
+        return bool(np.all(np.ptp(angles, axis=0) <= tolerance_rad))
+
     def fit_due(self, now_s: float) -> bool:
-        """Whether `update(now_s)` would fit the window: `fit_every_s` has passed."""
-        return now_s - self._last_fit_s >= self.fit_every_s and bool(self._shifts)
+        """Whether `update(now_s)` would fit the window: it spans the lag grid (a shorter one
+        lets the fitted gain trade against the lag: a short stretch of motion looks alike at
+        several lags), and no fit has succeeded yet or `fit_every_s` has passed since the last."""
+        if not self._shifts:
+            return False
+        span_s = self._shifts[-1][1] - self._shifts[0][0]
+        every_s = self.fit_every_s if self.fits else 0.0
+        return span_s >= self.lags_s[-1] - self.lags_s[0] and now_s - self._last_fit_s >= every_s
 
     def update(self, now_s: float) -> bool:
-        """Fit the window if `fit_every_s` has passed; whether the estimate took a new fit."""
+        """Fit the window if due (`fit_due`); whether the estimate took a new fit."""
         if not self.fit_due(now_s):
             return False
         self._last_fit_s = now_s
@@ -239,10 +265,3 @@ class CameraDelayEstimator:
         self._recent.append(fit.lag_s)
         self.delay_s = float(np.median(self._recent))
         return True
-
-    def next_correction_s(self) -> float:
-        """The delay to take off the next frame's arrival stamp: the estimate, followed by at
-        most `max_step_s` per frame."""
-        step = min(max(self.delay_s - self.applied_s, -self.max_step_s), self.max_step_s)
-        self.applied_s += step
-        return self.applied_s

@@ -15,25 +15,26 @@ import time
 import numpy as np
 
 from gazed.config import CameraSection
+from gazed.geometry.camera import CameraModel
 from gazed.latency import LatencyWindow
 from gazed.messages import Odometry
 from gazed.vision.camera_delay import CameraDelayEstimator, ImageShift
 from gazed.vision.frames import CapturedFrame
 
 TIMING_WINDOW = 100  # frames over which the shift's cost is reported
-STEP_PERIODS = 0.25  # the correction moves at most this many frame periods per frame
 
 
 class CaptureStampCorrection:
     def __init__(self, camera: CameraSection) -> None:
         self.online = camera.delay_estimate
-        self.estimator = CameraDelayEstimator(
-            camera.delay_ms * 1e-3, max_step_s=STEP_PERIODS * camera.frame_period_s
-        )
+        self.estimator = CameraDelayEstimator(camera.delay_ms * 1e-3)
         self.shift = ImageShift(camera.width_px, camera.height_px)
         self.shift_time = LatencyWindow(default_s=0.0, size=TIMING_WINDOW)
         self.fit_time = LatencyWindow(default_s=0.0, size=TIMING_WINDOW)
         self._last_arrival_s: float | None = None
+        # a pixel's angle: a pose known to within it is as good as exact for the detectors
+        self.pixel_rad = 1.0 / CameraModel.from_section(camera).focal_px
+        self.pose_known = True
 
     def add_odometry(self, odometry: Odometry) -> None:
         if self.online:
@@ -42,7 +43,10 @@ class CaptureStampCorrection:
             )
 
     def frame(self, frame: CapturedFrame, gray: np.ndarray) -> CapturedFrame:
-        """The frame stamped at its exposure; `gray` (its grey pixels) feeds the estimate."""
+        """The frame stamped at its exposure; `gray` (its grey pixels) feeds the estimate.
+        `pose_known` then says whether the head's pose at that exposure is known: not while the
+        online estimate has no fit yet and the head moved over the exposure times it allows."""
+        self.pose_known = True
         if frame.head is not None:
             return frame
         arrival_s = frame.t_capture_ns * 1e-9
@@ -57,12 +61,15 @@ class CaptureStampCorrection:
             if self.estimator.fit_due(arrival_s):
                 self.estimator.update(arrival_s)
                 self.fit_time.add(time.perf_counter() - fitting)
-        delay_ns = round(self.estimator.next_correction_s() * 1e9)
+            self.pose_known = bool(self.estimator.fits) or self.estimator.still_before(
+                arrival_s, self.pixel_rad
+            )
+        delay_ns = round(self.estimator.delay_s * 1e9)
         return dataclasses.replace(frame, t_capture_ns=frame.t_capture_ns - delay_ns)
 
     def note(self) -> str:
         """The delay applied, and where it comes from."""
-        applied_ms = self.estimator.applied_s * 1e3
+        applied_ms = self.estimator.delay_s * 1e3
         if not self.online:
             return f"{applied_ms:.1f} ms ([camera] delay_ms; online estimate off)"
         fit = self.estimator.last_fit
@@ -74,9 +81,9 @@ class CaptureStampCorrection:
         )
 
     def stage_ms(self) -> dict[str, float]:
-        """The delay applied, the shift's median cost per frame and the fit's (twice a
-        second)."""
-        times = {"camera_delay": round(self.estimator.applied_s * 1e3, 3)}
+        """The delay applied, the shift's median cost per frame and the fit's (on every frame
+        until the first fit, then twice a second)."""
+        times = {"camera_delay": round(self.estimator.delay_s * 1e3, 3)}
         if self.shift_time.count:
             times["camera_delay_shift_median"] = round(self.shift_time.median_s * 1e3, 3)
         if self.fit_time.count:

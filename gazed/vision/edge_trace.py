@@ -51,22 +51,26 @@ class EdgeTracer:
         low_threshold: float = 60.0,
         high_threshold: float = 150.0,
     ) -> None:
-        self.half_px = max(round(camera.focal_px * math.tan(fovea_rad / 2)), step_px + 4)
-        self.centre = np.array([camera.K[0, 2], camera.K[1, 2]])
+        self.camera = camera
+        self.fovea_rad = fovea_rad
         self.step_px = step_px
         self.blur_sigma_px = blur_sigma_px
         self.low_threshold = low_threshold
         self.high_threshold = high_threshold
 
-    def observe(self, gray: np.ndarray) -> EdgePoint:
+    def observe(self, gray: np.ndarray, camera: CameraModel | None = None) -> EdgePoint:
+        """The edge nearest the principal point of `camera` (the frame's, at its zoom; the
+        rig's if not given), in a window spanning the fovea at its focal length."""
+        camera = self.camera if camera is None else camera
+        half_px = max(round(camera.focal_px * math.tan(self.fovea_rad / 2)), self.step_px + 4)
         h, w = gray.shape
-        cu, cv = (round(c) for c in self.centre)
-        x0, y0 = max(cu - self.half_px, 0), max(cv - self.half_px, 0)
-        x1, y1 = min(cu + self.half_px + 1, w), min(cv + self.half_px + 1, h)
+        cu, cv = round(camera.K[0, 2]), round(camera.K[1, 2])
+        x0, y0 = max(cu - half_px, 0), max(cv - half_px, 0)
+        x1, y1 = min(cu + half_px + 1, w), min(cv + half_px + 1, h)
         window = cv2.GaussianBlur(gray[y0:y1, x0:x1], (0, 0), self.blur_sigma_px)
         edges = cv2.Canny(window, self.low_threshold, self.high_threshold, L2gradient=True)
         contours, _ = cv2.findContours(edges, cv2.RETR_LIST, cv2.CHAIN_APPROX_NONE)
-        centre = self.centre - (x0, y0)
+        centre = np.array([camera.K[0, 2] - x0, camera.K[1, 2] - y0])
         # the string with the most edgels within a step of the centre's neighbourhood: a long
         # boundary, not a blob of texture
         reach = 2.0 * self.step_px

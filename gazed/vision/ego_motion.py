@@ -15,6 +15,11 @@ with normalised coordinates x = X/Z, y = Y/Z this gives the rotational part of s
     dx/dt = x y ωx - (1 + x²) ωy + y ωz
     dy/dt = (1 + y²) ωx - x y ωy - x ωz          (scaled by fx, fy to pixels per second).
 
+A zoom lens changes `K` between the two captures (each frame's camera is the lens at the zoom
+of its pose, `ZoomLens.at_pose`): the warp is then K2 C2^T C1 K1^-1, and a focal length f
+changing at the relative rate s = d(ln f)/dt adds the flow s (u - cx, v - cy) of an image
+growing about its principal point.
+
 Lens distortion is not modelled here: the flow and the warp are those of the ideal pinhole `K`.
 """
 
@@ -29,6 +34,7 @@ import numpy as np
 
 from gazed.geometry.camera import CameraModel
 from gazed.geometry.kinematics import HeadKinematics
+from gazed.geometry.zoom import ZoomLens
 from gazed.messages import HeadPose
 
 
@@ -68,14 +74,20 @@ def rotational_flow(
 
 
 def rotation_homography(
-    camera: CameraModel, kinematics: HeadKinematics, head_from: HeadPose, head_to: HeadPose
+    camera: CameraModel,
+    kinematics: HeadKinematics,
+    head_from: HeadPose,
+    head_to: HeadPose,
+    camera_to: CameraModel | None = None,
 ) -> np.ndarray:
-    """H = K C_to^T C_from K^-1 (3x3, H[2,2] = 1): a static point's pixel at `head_from` -> its
-    pixel at `head_to`. `cv2.warpPerspective(previous, H, size)` lays the previous frame over
-    the current one (seed 004 §5, "compensation of image itself")."""
+    """H = K_to C_to^T C_from K_from^-1 (3x3, H[2,2] = 1): a static point's pixel at `head_from`
+    (seen by `camera`) -> its pixel at `head_to` (seen by `camera_to`, the same camera if not
+    given). `cv2.warpPerspective(previous, H, size)` lays the previous frame over the current
+    one (seed 004 §5, "compensation of image itself")."""
     c_from = kinematics.camera_to_base(head_from.pan_rad, head_from.tilt_rad)
     c_to = kinematics.camera_to_base(head_to.pan_rad, head_to.tilt_rad)
-    H = camera.K @ c_to.T @ c_from @ camera.K_inv
+    K_to = camera.K if camera_to is None else camera_to.K
+    H = K_to @ c_to.T @ c_from @ camera.K_inv
     return H / H[2, 2]
 
 
@@ -92,17 +104,27 @@ class HeadStep:
 
     `H` maps previous pixels to current ones; `omega` is the mean angular velocity over the
     interval (from the two poses, so it stays consistent with `H` when the head accelerates and
-    when the device reports no rates), evaluated at the mid-interval pose.
+    when the device reports no rates), evaluated at the mid-interval pose. `K` is the current
+    frame's camera, `zoom_rate_s` the relative rate d(ln f)/dt of its focal length over the
+    interval (0 for a fixed lens).
     """
 
     H: np.ndarray
     omega: np.ndarray
     dt_s: float
     K: np.ndarray
+    zoom_rate_s: float = 0.0
 
     def flow(self, u_px: np.ndarray, v_px: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Rotational flow (px/s) at pixels of the current frame (seed 004 eq. 11)."""
-        return rotational_flow(self.K, self.omega, u_px, v_px)
+        """Flow (px/s) of static points at pixels of the current frame: the rotational flow
+        (seed 004 eq. 11) and the zoom's growth about the principal point."""
+        du, dv = rotational_flow(self.K, self.omega, u_px, v_px)
+        if self.zoom_rate_s == 0.0:
+            return du, dv
+        s = self.zoom_rate_s
+        return du + s * (np.asarray(u_px) - self.K[0, 2]), dv + s * (
+            np.asarray(v_px) - self.K[1, 2]
+        )
 
     def displacement(
         self, u_px: float | np.ndarray, v_px: float | np.ndarray
@@ -157,11 +179,15 @@ class HeadStep:
 
 
 class EgoMotion:
-    """Rotational ego-motion of one camera on one head (the camera's K, the head's R)."""
+    """Rotational ego-motion of one camera on one head (the camera's K, the head's R); with a
+    zoom `lens`, each pose's K is the lens's at the pose's zoom."""
 
-    def __init__(self, camera: CameraModel, kinematics: HeadKinematics) -> None:
+    def __init__(
+        self, camera: CameraModel, kinematics: HeadKinematics, lens: ZoomLens | None = None
+    ) -> None:
         self.camera = camera
         self.kinematics = kinematics
+        self.lens = ZoomLens.fixed(camera) if lens is None else lens
 
     def angular_velocity(self, head: HeadPose) -> np.ndarray:
         """ω of the camera (OpenCV frame, rad/s) at a pose with its rates."""
@@ -173,10 +199,12 @@ class EgoMotion:
         self, head: HeadPose, u_px: np.ndarray, v_px: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
         """Rotational flow (px/s) at pixels (u, v) for the pose and rates in `head`."""
-        return rotational_flow(self.camera.K, self.angular_velocity(head), u_px, v_px)
+        K = self.lens.at_pose(head).K
+        return rotational_flow(K, self.angular_velocity(head), u_px, v_px)
 
     def homography(self, head_from: HeadPose, head_to: HeadPose) -> np.ndarray:
-        return rotation_homography(self.camera, self.kinematics, head_from, head_to)
+        camera_from, camera_to = self.lens.at_pose(head_from), self.lens.at_pose(head_to)
+        return rotation_homography(camera_from, self.kinematics, head_from, head_to, camera_to)
 
     def step(self, head_from: HeadPose, head_to: HeadPose, dt_s: float) -> HeadStep:
         """The rotation between two captures: warp, and mean angular velocity over the interval."""
@@ -191,8 +219,14 @@ class EgoMotion:
             (head_to.pan_rad - head_from.pan_rad) / dt_s,
             (head_to.tilt_rad - head_from.tilt_rad) / dt_s,
         )
-        return HeadStep(self.homography(head_from, head_to), omega, dt_s, self.camera.K)
+        camera_from, camera_to = self.lens.at_pose(head_from), self.lens.at_pose(head_to)
+        H = rotation_homography(camera_from, self.kinematics, head_from, head_to, camera_to)
+        zoom_rate_s = 0.0
+        if camera_to is not camera_from:
+            zoom_rate_s = math.log(camera_to.focal_px / camera_from.focal_px) / dt_s
+        return HeadStep(H, omega, dt_s, camera_to.K, zoom_rate_s)
 
-    def still_step(self, dt_s: float) -> HeadStep:
-        """A step for a head known (or assumed) to be still: identity warp, no flow."""
-        return HeadStep(np.eye(3), np.zeros(3), dt_s, self.camera.K)
+    def still_step(self, dt_s: float, head: HeadPose | None = None) -> HeadStep:
+        """A step for a head known (or assumed) to be still: identity warp, no flow (the
+        camera at `head`'s zoom, the rig's without it)."""
+        return HeadStep(np.eye(3), np.zeros(3), dt_s, self.lens.at_pose(head).K)

@@ -40,7 +40,8 @@ the velocity of its recent centroids (`RegionTracks`); the target's own comes fi
 fitted velocity. The window is a fovea, not the frame: the movers are those it covers.
 
 The window follows the target: it is centred on the predicted position while the target is
-found, and returns to the principal point when it is lost.
+found, and returns to the principal point when it is lost. It spans the fovea at each frame's
+focal length (a zoom lens's, at the frame's zoom).
 """
 
 from __future__ import annotations
@@ -76,9 +77,9 @@ EGO_ERROR = 0.05  # the fraction of the head's turn between frames the odometry 
 _CLOSING_KERNEL = np.ones((3, 3), np.uint8)
 
 
-def fovea_side_px(camera: CameraModel, fovea_rad: float) -> int:
+def _side_px(focal_px: float, fovea_rad: float) -> int:
     """Side of a square window spanning `fovea_rad` at the image centre: 2 f tan(fovea/2)."""
-    return max(8, round(2.0 * camera.focal_px * math.tan(fovea_rad / 2.0)))
+    return max(8, round(2.0 * focal_px * math.tan(fovea_rad / 2.0)))
 
 
 class NormalFlowDetector:
@@ -95,11 +96,8 @@ class NormalFlowDetector:
         min_area_px: int,
     ) -> None:
         self.camera = camera
-        self.side = min(
-            fovea_side_px(camera, fovea_rad),
-            camera.width_px - 2 * MARGIN_PX,
-            camera.height_px - 2 * MARGIN_PX,
-        )
+        self.fovea_rad = fovea_rad
+        self.side = self._fovea_side_px(camera.focal_px)
         self.noise_px = noise_px
         self.min_gradient = min_gradient
         self.min_area_px = min_area_px
@@ -115,6 +113,7 @@ class NormalFlowDetector:
         if pair.previous is None:
             self.reset()
             return DetectorOutput.nothing()
+        self._size_fovea(pair.step.K)
         fovea = self._place(pair.step, pair.gray.shape)
         track = self._track[2] if self._track is not None else None
         window = FlowWindow(
@@ -221,14 +220,28 @@ class NormalFlowDetector:
         tu, tv = step.transport(cu, cv)
         return self.noise_px + EGO_ERROR * math.hypot(tu - cu, tv - cv)
 
+    def _fovea_side_px(self, focal_px: float) -> int:
+        return min(
+            _side_px(focal_px, self.fovea_rad),
+            self.camera.width_px - 2 * MARGIN_PX,
+            self.camera.height_px - 2 * MARGIN_PX,
+        )
+
+    def _size_fovea(self, K: np.ndarray) -> None:
+        """The window spans the fovea at the frame's focal length (a zoom lens changes it)."""
+        side = self._fovea_side_px(0.5 * float(K[0, 0] + K[1, 1]))
+        if side != self.side:
+            self.side = side
+            self._offsets_px = window_offsets_px(side)
+
     def _place(self, step: HeadStep, shape: tuple[int, ...]) -> Fovea:
-        """Centre the fovea on the predicted target, or on the principal point."""
+        """Centre the fovea on the predicted target, or on the frame's principal point."""
         if self._track is not None:
             u, v, d = self._track
             u, v = step.transport(u, v)
             cu, cv = u + d[0], v + d[1]
         else:
-            cu, cv = self.camera.K[0, 2], self.camera.K[1, 2]
+            cu, cv = step.K[0, 2], step.K[1, 2]
         h, w = shape[:2]
         x0 = round(cu - (self.side - 1) / 2.0)
         y0 = round(cv - (self.side - 1) / 2.0)

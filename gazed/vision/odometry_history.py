@@ -7,7 +7,8 @@ After the newest sample it extrapolates with the newest rates, but only by two o
 own periods (the median interval between its recent samples; at most `max_gap_s`): a stream
 that has fallen further behind has stalled — a servo process killed, a link lost — and its
 head has most likely stopped rather than kept turning at its last rate. Beyond that, or before
-the oldest sample, there is no pose (and no ego-motion compensation).
+the oldest sample, there is no pose (and no ego-motion compensation). The zoom, where the
+head reports one, is interpolated the same way and held past the newest sample.
 """
 
 from __future__ import annotations
@@ -79,6 +80,7 @@ class OdometryHistory:
                 tilt_rad=before.tilt_rad + before.tilt_rate_rad_s * dt_s,
                 pan_rate_rad_s=before.pan_rate_rad_s,
                 tilt_rate_rad_s=before.tilt_rate_rad_s,
+                zoom=before.zoom,
             )
         after = self._samples[i]
         span = self._times[i] - self._times[i - 1]
@@ -92,4 +94,12 @@ class OdometryHistory:
             + a * (after.pan_rate_rad_s - before.pan_rate_rad_s),
             tilt_rate_rad_s=before.tilt_rate_rad_s
             + a * (after.tilt_rate_rad_s - before.tilt_rate_rad_s),
+            zoom=_between(before.zoom, after.zoom, a),
         )
+
+
+def _between(before: float | None, after: float | None, a: float) -> float | None:
+    """The zoom a fraction `a` of the way between two readings (None unless both have one)."""
+    if before is None or after is None:
+        return None
+    return before + a * (after - before)

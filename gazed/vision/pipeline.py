@@ -6,6 +6,7 @@ previous frame, works out the head's rotation between the two (or an identity st
 compensation is off: no pose for either frame, or `[vision] compensate_ego_motion = false`),
 computes the motion-energy pyramid once if the detector or the candidates need it, and runs
 both. Frames out of time order or further apart than `frame_gap_max_ms` restart the detectors.
+With a zoom `lens`, each frame's camera is the lens at the zoom of its pose (`ego_motion`).
 A camera with lens distortion has its frames remapped to the ideal pinhole first and the results
 mapped back to its own pixels (see `undistort`). The movers' appearance is the colour histogram
 of each one's box (`appearance`) in the frame as captured, which the caller passes beside the
@@ -23,6 +24,7 @@ import numpy as np
 from gazed.config import VisionSection
 from gazed.geometry.camera import CameraModel
 from gazed.geometry.kinematics import HeadKinematics
+from gazed.geometry.zoom import ZoomLens
 from gazed.messages import HeadPose
 from gazed.vision.appearance import colour_histogram
 from gazed.vision.background import BackgroundDetector
@@ -97,10 +99,11 @@ class VisionPipeline:
         kinematics: HeadKinematics,
         vision: VisionSection,
         detector: str | None = None,
+        lens: ZoomLens | None = None,
     ) -> None:
         self.camera = camera
         self.vision = vision
-        self.ego = EgoMotion(camera, kinematics)
+        self.ego = EgoMotion(camera, kinematics, lens)
         self.detector = make_detector(detector or vision.detector, vision, camera)
         self.candidates = (
             CandidateFinder(
@@ -162,7 +165,7 @@ class VisionPipeline:
             assert head is not None and prev_head is not None
             step = self.ego.step(prev_head, head, dt_s)
         else:
-            step = self.ego.still_step(dt_s)
+            step = self.ego.still_step(dt_s, head)
         started = time.perf_counter()
         energy = None
         candidates_wanted = self.candidates is not None and with_candidates

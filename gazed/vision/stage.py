@@ -26,8 +26,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from gazed.config import Rig
-from gazed.geometry.camera import CameraModel
 from gazed.geometry.kinematics import HeadKinematics
+from gazed.geometry.zoom import ZoomLens
 from gazed.latency import LatencyWindow
 from gazed.messages import (
     Candidate,
@@ -74,8 +74,10 @@ class VisionStage:
         self.stage = stage
         self.clock_ns = clock_ns
         self.compensate = vision.compensate_ego_motion
-        self.camera = CameraModel.from_section(rig.camera)
-        self.pipeline = VisionPipeline(self.camera, HeadKinematics.from_section(rig.head), vision)
+        self.lens = ZoomLens.from_section(rig.camera)
+        self.camera = self.lens.base
+        kinematics = HeadKinematics.from_section(rig.head)
+        self.pipeline = VisionPipeline(self.camera, kinematics, vision, lens=self.lens)
         self.history = OdometryHistory(
             vision.odometry_history_ms * 1e-3, vision.odometry_max_gap_ms * 1e-3
         )
@@ -123,8 +125,11 @@ class VisionStage:
             return VisionOutput()
         frame = self.capture_stamp.frame(frame, gray)  # stamped at exposure, not arrival
         head = frame.head if frame.head is not None else self.history.pose_at(frame.t_capture_ns)
+        if not self.capture_stamp.pose_known:  # the delay not estimated yet, the head moving
+            head = None
         if self.gaze_state == "trace":  # line calibration: the edge under the fovea, nothing else
-            return VisionOutput(edge=self._edge(frame, head, self.edges.observe(gray)))
+            edge = self.edges.observe(gray, self.lens.at_pose(head))
+            return VisionOutput(edge=self._edge(frame, head, edge))
         wanted = self.gaze_state not in CANDIDATES_UNUSED
         result = self.pipeline.process(
             gray,

@@ -5,7 +5,8 @@ so a rotating camera sees it move exactly by K R K^-1, as a distant scene does);
 (the target) moves over it in the world. Each frame is rendered from the head pose at its
 capture time, with seeded sensor noise, and comes with the truth: the target's pixel and its
 independent image velocity (its motion against the world, in pixels per second, the head held
-still: the velocity the detectors report).
+still: the velocity the detectors report). With a zoom `lens`, each frame is seen through the
+lens at the zoom of its head pose (the target's disc keeps its size in pixels).
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ import numpy as np
 
 from gazed.geometry.camera import CameraModel
 from gazed.geometry.kinematics import HeadKinematics
+from gazed.geometry.zoom import ZoomLens
 from gazed.messages import HeadPose
 
 # t_s -> HeadPose (angles and rates); t_s -> target direction as joint angles (pan, tilt)
@@ -119,10 +121,12 @@ class SyntheticScene:
         target_brightness: float = 0.0,
         noise_std: float = 1.5,
         field_rad: float = 1.2,
+        lens: ZoomLens | None = None,
     ) -> None:
         """`target_brightness` shifts the target's grey levels (a walker in dark clothes: < 0);
         `field_rad`: the background covers directions up to this angle from the rest gaze."""
         self.camera = camera
+        self.lens = ZoomLens.fixed(camera) if lens is None else lens
         self.kinematics = kinematics
         self.head = head
         self.target = target
@@ -145,7 +149,7 @@ class SyntheticScene:
         return self.kinematics.camera_to_base(head.pan_rad, head.tilt_rad)
 
     def _pixel_of_direction(self, head: HeadPose, direction: np.ndarray) -> np.ndarray:
-        return self.camera.pixel(self._camera_to_base(head).T @ direction)
+        return self.lens.at_pose(head).pixel(self._camera_to_base(head).T @ direction)
 
     def _target_direction(self, t_s: float) -> np.ndarray:
         assert self.target is not None
@@ -175,7 +179,7 @@ class SyntheticScene:
         s, c = self._scale_px, float(self._half)
         # pixel -> base direction -> frontal plane (X, Y) -> texel (c + s X, c - s Y)
         to_texel = np.array([[s, 0.0, c], [0.0, -s, c], [0.0, 0.0, 1.0]])
-        M = to_texel @ self._camera_to_base(truth.head) @ self.camera.K_inv
+        M = to_texel @ self._camera_to_base(truth.head) @ self.lens.at_pose(truth.head).K_inv
         gray = cv2.warpPerspective(
             self._background,
             M,

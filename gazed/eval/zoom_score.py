@@ -1,0 +1,104 @@
+"""Scores of the zoom control in a closed-loop run (`[gaze] zoom_control`).
+
+- the target's height in the frame: per truth frame, the height of the box around its body as
+  the renderer draws it (an upright rectangle facing the camera, `[sim] target_width_m` wide),
+  seen through the lens at the head's true zoom then (`SimTruth.head`), as a fraction of the
+  frame's height (a head panned far from its base's axis sees the body rolled, and its box is
+  taller than the body); from acquisition on, the share of frames within ±`TOLERANCE` of
+  `zoom_target_height`, and the median and the 5th and 95th percentiles of the fraction;
+- losses: entries into `lost` from pursuit after acquisition, and those while the zoom moved
+  (by more than `MOVING_ZOOM` over the `MOVING_WINDOW_S` before the loss).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from gazed.config import Rig
+from gazed.geometry.pose import CameraPose
+from gazed.geometry.zoom import ZoomLens
+from gazed.messages import GazeState, SimTruth
+
+TOLERANCE = 0.2  # a height within this fraction of the setpoint counts as held
+MOVING_ZOOM = 0.01  # the zoom moved: by more than this (of its range) ...
+MOVING_WINDOW_S = 1.0  # ... over this long before a loss
+
+
+def zoom_scoring(rig: Rig) -> ZoomScoring | None:
+    """The rig's zoom scoring; None where its gaze does not control a zoom."""
+    if not rig.gaze.zoom_control:
+        return None
+    lens = ZoomLens.from_section(rig.camera)
+    pose = CameraPose.from_rig(rig)
+    return ZoomScoring(lens, pose, rig.gaze.zoom_target_height, rig.sim.target_width_m)
+
+
+@dataclass(frozen=True)
+class ZoomScoring:
+    """What the zoom of one rig is scored against: its lens, its setpoint, the true pose."""
+
+    lens: ZoomLens
+    pose: CameraPose
+    setpoint: float
+    width_m: float
+
+    def heights(self, truth: list[SimTruth]) -> np.ndarray:
+        """Per truth frame: the target's height in the frame, as a fraction of its height."""
+        fractions = []
+        for t in truth:
+            camera = self.lens.at_pose(t.head)
+            directions = self.pose.camera_directions(
+                self._corners_m(t), t.head.pan_rad, t.head.tilt_rad
+            )
+            if np.any(directions[:, 2] <= 0):
+                fractions.append(np.nan)  # behind the camera
+                continue
+            rows = camera.pixel(directions)[:, 1]
+            fractions.append(float(rows.max() - rows.min()) / camera.height_px)
+        return np.asarray(fractions)
+
+    def _corners_m(self, t: SimTruth) -> np.ndarray:
+        """The body's four corners (4, 3), facing the camera as the renderer draws it."""
+        x, y = t.target_xy_m
+        dx, dy = x - self.pose.centre_m[0], y - self.pose.centre_m[1]
+        norm = max(float(np.hypot(dx, dy)), 1e-9)
+        right = np.array([dy, -dx, 0.0]) / norm * self.width_m / 2.0
+        foot, top = np.array([x, y, 0.0]), np.array([x, y, t.target_height_m])
+        return np.array([top - right, top + right, foot + right, foot - right])
+
+    def score(
+        self, truth: list[SimTruth], states: list[GazeState], start: int | None
+    ) -> dict[str, object]:
+        """The zoom's scores from truth frame `start` (acquisition) on (module docstring)."""
+        if start is None:
+            return {"height_within_fraction": 0.0, "losses": None, "losses_while_zooming": None}
+        heights = self.heights(truth[start:])
+        held = np.abs(heights / self.setpoint - 1.0) <= TOLERANCE
+        p5, p50, p95 = np.nanpercentile(heights, [5, 50, 95])
+        times_ns = np.array([t.t_capture_ns for t in truth])
+        zooms = np.array([t.head.zoom if t.head.zoom is not None else 0.0 for t in truth])
+        losses = [
+            s.t_capture_ns
+            for s in states
+            if s.state == "lost"
+            and s.previous == "pursuit"
+            and s.t_capture_ns >= truth[start].t_capture_ns
+        ]
+        zooming = 0
+        for t_ns in losses:
+            window = (times_ns >= t_ns - MOVING_WINDOW_S * 1e9) & (times_ns <= t_ns)
+            if window.any() and np.ptp(zooms[window]) > MOVING_ZOOM:
+                zooming += 1
+        return {
+            "setpoint": self.setpoint,
+            "height_within_fraction": round(float(np.mean(held)), 4),
+            "height_fraction": {
+                "p5": round(float(p5), 4),
+                "p50": round(float(p50), 4),
+                "p95": round(float(p95), 4),
+            },
+            "losses": len(losses),
+            "losses_while_zooming": zooming,
+        }

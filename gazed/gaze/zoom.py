@@ -1,0 +1,164 @@
+"""Zoom control: hold the target's height in the frame with a zoom lens (`[gaze] zoom_*`).
+
+It reads the gaze's latest detection (`Sightings.found`: the chosen track's mover) while it
+pursues. The target's height is that of its box in the frame, the mover at the detection's
+pixel (`Detection.movers`, `Mover.box_height_px`) less `zoom_box_margin_px` (the detector's
+box reaches past the body by its smoothing), as a fraction h of the frame's height. Divided
+by the lens's focal length at the frame's own zoom (the pose it was captured at), f_capture,
+it is the target's size a = h / f_capture, which the zoom does not change; the median of the
+last `SIZE_SAMPLES` sizes (a box the detector merged for a few frames with an edge behind the
+target does not move the zoom) gives the focal length that shows the target at the setpoint
+h*, h* / a: a goal that does not depend on how far the zoom has moved since the frames were
+taken, so the loop's latency does not make it overshoot.
+
+Each tick, the zoom demand moves towards a goal, at most `zoom_in_rate_s` or `zoom_out_rate_s`
+(of the zoom range per second) from the last demand, within `zoom_min`..`zoom_max`:
+- in any state but pursuit (and line tracing, which leaves the zoom alone), to the widest:
+  a target is reacquired (search, saccade, lost) with the widest view first;
+- in pursuit, while the target's centre is within `zoom_out_edge` of the frame's edge, or it
+  moves faster than `zoom_out_speed` frame heights per second: out, to the widest;
+- in pursuit, with the target taller than the deadband allows: out, to the setpoint's focal
+  length; shorter: in, to it, but only once the target has been steady (neither near the edge
+  nor fast) for `zoom_in_steady_ms`, and never on a detection older than `lost_after_ms`;
+- otherwise the demand stays.
+
+Off (`zoom_control = false`, or a fixed lens) every demand goes out unchanged: no zoom.
+"""
+
+from __future__ import annotations
+
+import math
+import statistics
+from collections import deque
+from dataclasses import dataclass
+
+from gazed.config import GazeSection
+from gazed.gaze.sightings import Sightings
+from gazed.geometry.zoom import ZoomLens
+from gazed.messages import Detection, GazeDemand, GazeStateName, Odometry
+
+LEAVE_ALONE: tuple[GazeStateName, ...] = ("trace",)  # states that never move the zoom
+TICK_MAX_S = 0.5  # a longer gap between ticks ramps the zoom by this much time at most
+SIZE_SAMPLES = 15  # the target's size is the median of this many sightings' (about 0.6 s)
+
+
+@dataclass(frozen=True)
+class ZoomSighting:
+    """What one detection says for the zoom: when it was taken, the focal length it was seen
+    at, and whether the target is escaping the frame."""
+
+    t_capture_ns: int
+    focal_px: float
+    escaping: bool
+
+
+def target_height_px(detection: Detection) -> float | None:
+    """The height of the target's box: the mover at the detection's pixel (None: no such
+    mover, or one without a box)."""
+    for mover in detection.movers:
+        if (mover.u_px, mover.v_px) == (detection.u_px, detection.v_px):
+            return mover.box_height_px if mover.box_height_px > 0 else None
+    return None
+
+
+class ZoomControl:
+    """`apply` sets the zoom of each demand, from the detections `sightings` takes."""
+
+    def __init__(self, gaze: GazeSection, lens: ZoomLens, sightings: Sightings) -> None:
+        self.gaze = gaze
+        self.lens = lens
+        self.sightings = sightings
+        self.enabled = gaze.zoom_control and lens.zooms_lens
+        self.width_px, self.height_px = lens.base.width_px, lens.base.height_px
+        self.stale_ns = round(gaze.lost_after_ms * 1e6)
+        self.steady_ns = round(gaze.zoom_in_steady_ms * 1e6)
+        self.seen: ZoomSighting | None = None
+        self.sizes: deque[float] = deque(maxlen=SIZE_SAMPLES)  # h / f_capture (1/px)
+        self.unsteady_ns: int | None = None  # the last time the target was not steady
+        self.demanded: float | None = None
+        self.last_s: float | None = None
+
+    def on_detection(self, detection: Detection) -> None:
+        """A found detection of the target the gaze follows; one without a head pose, or not
+        newer than the last, says nothing new."""
+        seen = self.seen
+        if detection.head is None or (
+            seen is not None and seen.t_capture_ns >= detection.t_capture_ns
+        ):
+            return
+        u, v, w, h = detection.u_px, detection.v_px, self.width_px, self.height_px
+        edge = min(u / w, (w - 1 - u) / w, v / h, (h - 1 - v) / h)
+        speed = math.hypot(detection.du_px_s, detection.dv_px_s) / h
+        escaping = edge < self.gaze.zoom_out_edge or speed > self.gaze.zoom_out_speed
+        focal_px = self.lens.focal_px(detection.head.zoom)
+        self.seen = ZoomSighting(detection.t_capture_ns, focal_px, escaping)
+        height_px = target_height_px(detection)
+        if height_px is not None:
+            height = max(height_px - self.gaze.zoom_box_margin_px, 1.0) / h
+            self.sizes.append(height / focal_px)
+        if escaping:
+            self.unsteady_ns = detection.t_capture_ns
+
+    def apply(
+        self,
+        demand: GazeDemand | None,
+        state: GazeStateName,
+        odometry: Odometry | None,
+        wall_ns: int,
+        mono_s: float,
+    ) -> GazeDemand | None:
+        """The demand with the zoom to go to (unchanged when off, or in a state that leaves
+        the zoom alone, or before the zoom's position is known; no demand, none)."""
+        zoom = self.zoom(state, odometry, wall_ns, mono_s)
+        if zoom is None or demand is None:
+            return demand
+        return demand.model_copy(update={"zoom": zoom})
+
+    def zoom(
+        self, state: GazeStateName, odometry: Odometry | None, wall_ns: int, mono_s: float
+    ) -> float | None:
+        """The zoom demand for this tick (None: leave the zoom)."""
+        dt_s = 0.0 if self.last_s is None else min(max(mono_s - self.last_s, 0.0), TICK_MAX_S)
+        self.last_s = mono_s
+        if not self.enabled or state in LEAVE_ALONE:
+            return None
+        if state != "pursuit":
+            self.unsteady_ns = wall_ns  # steady again only after a while in pursuit
+            self.sizes.clear()  # and sized afresh
+        elif self.sightings.found is not None:
+            self.on_detection(self.sightings.found)
+        if self.demanded is None:
+            if odometry is None or odometry.zoom is None:
+                return None
+            self.demanded = odometry.zoom
+        goal, rate_s = self._goal(state, wall_ns)
+        now = self.demanded
+        if goal is not None:
+            goal = min(max(goal, self.gaze.zoom_min), self.gaze.zoom_max)
+            step = rate_s * dt_s
+            now = min(max(goal, now - step), now + step)
+        self.demanded = now
+        return now
+
+    def _goal(self, state: GazeStateName, wall_ns: int) -> tuple[float | None, float]:
+        """Where the zoom should go and how fast (None: stay)."""
+        gaze = self.gaze
+        widest = (gaze.zoom_min, gaze.zoom_out_rate_s)
+        if state != "pursuit":
+            return widest
+        seen = self.seen
+        if seen is None or wall_ns - seen.t_capture_ns > self.stale_ns:
+            return None, 0.0
+        if seen.escaping:
+            return widest
+        if not self.sizes:
+            return None, 0.0
+        size = statistics.median(self.sizes)
+        ratio = size * seen.focal_px / gaze.zoom_target_height  # the height it has now
+        if abs(ratio - 1.0) <= gaze.zoom_deadband:
+            return None, 0.0
+        goal = self.lens.zoom_for_focal(gaze.zoom_target_height / size)
+        if ratio > 1.0:
+            return goal, gaze.zoom_out_rate_s
+        steady = self.unsteady_ns is None or seen.t_capture_ns - self.unsteady_ns >= self.steady_ns
+        return (goal, gaze.zoom_in_rate_s) if steady else (None, 0.0)
