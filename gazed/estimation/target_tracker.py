@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from gazed.config import Rig
+from gazed.estimation.association import load_solver
 from gazed.estimation.events import ManeuverEvent as ModelChange
 from gazed.estimation.loop_latency import LoopLatency
 from gazed.estimation.measurement import Measurement
@@ -85,6 +86,7 @@ class TargetTracker:
         self.filter = section.filter
         self.predict_over_latency = section.predict_over_latency
         self.tracks = TrackSet(section)
+        load_solver()  # before several tracks first compete (`association`)
         self.target_id: int | None = None  # the gaze's choice
         self.camera = CameraModel.from_section(rig.camera)
         self.kinematics = HeadKinematics.from_section(rig.head)
