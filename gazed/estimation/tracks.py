@@ -257,24 +257,25 @@ class TrackSet:
 
     def _merge_duplicates(self, t_s: float) -> None:
         """Each coasting track that is a duplicate (`same_target`) of a confirmed one that took a
-        detection this frame becomes one track with it (`_merge`)."""
+        detection this frame becomes one track with it (`_merge`), once."""
         seen = [track for track in self.tracks if track.confirmed and not track.coasting]
         ended: set[int] = set()
         for lost in [track for track in self.tracks if track.coasting]:
-            for found in seen:
-                if found.id in ended or lost.id in ended:
-                    continue
-                a, b = lost.estimator.predict(t_s), found.estimator.predict(t_s)
-                # a filter without a state (restarted and waiting for a velocity, or stopped)
-                # is no duplicate of anything
-                if (
-                    a is not None
-                    and b is not None
-                    and same_target(a, b, self.duplicate_d2, PERSON_EXTENT_COV_M2)
-                ):
-                    ended.add(self._merge(lost, found))
+            a = lost.estimator.predict(t_s)
+            if a is None:  # a filter without a state (stopped) is no duplicate of anything
+                continue
+            twin = next(
+                (f for f in seen if f.id not in ended and self._duplicates(a, f, t_s)), None
+            )
+            if twin is not None:
+                ended.add(self._merge(lost, twin))
         if ended:
             self.tracks = [track for track in self.tracks if track.id not in ended]
+
+    def _duplicates(self, state: PredictedState, found: PersonTrack, t_s: float) -> bool:
+        """Whether a coasting track's `state` and `found` are estimates of one person."""
+        b = found.estimator.predict(t_s)  # None: restarted, waiting for a velocity
+        return b is not None and same_target(state, b, self.duplicate_d2, PERSON_EXTENT_COV_M2)
 
     def _merge(self, lost: PersonTrack, found: PersonTrack) -> int:
         """`found` took a detection where `lost` coasts: the older id lives on with `found`'s
