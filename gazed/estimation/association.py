@@ -25,10 +25,10 @@ estimates' cross-covariance is left out, which widens the test a little), with t
 extent added to the positions: a detector may report one part of a person to one track and
 another part to the other.
 
-The joint assignment is SciPy's; `scipy.optimize` takes long to import (a second or more on a
-busy machine), so the estimator imports it beside its start-up (`load_solver`) rather than in
-the step where several tracks first compete: a step that long would hold up the bus's receive
-thread past the link's lease.
+The joint assignment is SciPy's; `scipy.optimize` takes long to import (on a busy machine,
+longer than a bus link's lease), so the estimator imports it beside its start-up
+(`load_solver`) rather than in the step where several tracks first compete: a step that long
+holds up the bus's receive thread past the lease, and the link closes.
 """
 
 from __future__ import annotations
