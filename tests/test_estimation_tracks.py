@@ -15,7 +15,7 @@ import pytest
 from bench.crossing_people import SCENES, SIM_RIG, Scene, walk
 
 from gazed.config import Rig, load_rig
-from gazed.estimation import target_tracker
+from gazed.estimation import tracks as tracks_module
 from gazed.estimation.measurement import Measurement
 from gazed.estimation.target_tracker import TargetTracker
 from gazed.estimation.tracks import Sighting, TrackSet
@@ -204,10 +204,10 @@ def test_tentative_tracks_leave_a_lone_person_alone() -> None:
     assert state is not None and state.position[0] == pytest.approx(1.0, abs=0.05)
 
 
-def test_the_tracker_imports_the_assignment_solver_as_it_starts(
+def test_the_tracks_import_the_assignment_solver_as_they_start(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     started = []
-    monkeypatch.setattr(target_tracker, "load_solver", lambda: started.append(True))
+    monkeypatch.setattr(tracks_module, "load_solver", lambda: started.append(True))
     TargetTracker(load_rig(SIM_RIG), "estimator")
     assert started == [True]

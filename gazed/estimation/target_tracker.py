@@ -32,7 +32,6 @@ from typing import Any
 import numpy as np
 
 from gazed.config import Rig
-from gazed.estimation.association import load_solver
 from gazed.estimation.events import ManeuverEvent as ModelChange
 from gazed.estimation.loop_latency import LoopLatency
 from gazed.estimation.measurement import Measurement
@@ -86,7 +85,6 @@ class TargetTracker:
         self.filter = section.filter
         self.predict_over_latency = section.predict_over_latency
         self.tracks = TrackSet(section)
-        load_solver()  # before several tracks first compete (`association`)
         self.target_id: int | None = None  # the gaze's choice
         self.camera = CameraModel.from_section(rig.camera)
         self.kinematics = HeadKinematics.from_section(rig.head)
@@ -230,9 +228,8 @@ class TargetTracker:
 
     def silent(self, wall_ns: int, mono_s: float) -> tuple[Prediction | None, float]:
         """No detection came: after `silence_s`, and for up to coast_max_ms, the chosen track
-        predicted to the effect time and marked coasting, at the camera's rate however often it
-        is called. Returns that prediction (None: not due, or no track) and the seconds until
-        the next call is wanted."""
+        predicted to the effect time and marked coasting, once a frame period however often it is
+        called. Returns it (None: not due, or no track) and the seconds until the next call."""
         if self.last_detection_s is None:
             return None, IDLE_S
         silent_s = mono_s - self.last_detection_s

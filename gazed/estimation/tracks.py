@@ -49,7 +49,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from gazed.config import EstimatorSection
-from gazed.estimation.association import associate, gate_threshold, pair_costs, same_target
+from gazed.estimation.association import (
+    associate,
+    gate_threshold,
+    load_solver,
+    pair_costs,
+    same_target,
+)
 from gazed.estimation.estimator import TRACKING, TrackEstimator
 from gazed.estimation.factory import build_estimator
 from gazed.estimation.measurement import Measurement
@@ -120,6 +126,7 @@ class TrackSet:
         self.gate_d2 = gate_threshold(self.section.gate_probability, 2)
         self.duplicate_d2 = gate_threshold(self.section.gate_probability, 4)
         self.coast_max_s = self.section.coast_max_ms / 1000.0
+        load_solver()  # imported before several tracks first compete (`association`)
 
     def get(self, track_id: int) -> PersonTrack | None:
         for track in self.tracks:
