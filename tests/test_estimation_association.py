@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+import sys
+
 import numpy as np
 import pytest
 from filterpy.common import Q_continuous_white_noise
@@ -12,8 +14,11 @@ from gazed.estimation.association import (
     associate,
     gate_threshold,
     hellinger_squared,
+    load_solver,
     pair_costs,
+    same_target,
 )
+from gazed.estimation.results import PredictedState
 
 RATE_HZ = 7.0
 NOISE_M = 0.12  # a detector's ground error, 1 sigma per axis
@@ -163,3 +168,37 @@ def test_hellinger_distance() -> None:
 def test_empty_sides() -> None:
     result = associate(pair_costs(np.zeros((0, 2)), np.zeros((0, 2, 2)), np.ones((2, 2)), 9.0))
     assert result.pairs == () and result.lone_detections == (0, 1)
+
+
+def test_one_track_or_one_detection_takes_its_least_cost_in_the_gate() -> None:
+    one_track = np.array([[4.0, np.inf, 1.5, 2.0]])
+    assert associate(one_track).pairs == ((0, 2),)
+    assert associate(one_track).lone_detections == (0, 1, 3)
+    one_detection = np.array([[np.inf], [3.0], [0.5]])
+    assert associate(one_detection).pairs == ((2, 0),)
+    assert associate(one_detection).lone_tracks == (0, 1)
+    assert associate(np.full((1, 3), np.inf)).pairs == ()
+
+
+def test_the_solver_is_imported_on_a_thread_of_its_own() -> None:
+    thread = load_solver()
+    thread.join(timeout=30.0)
+    assert not thread.is_alive() and "scipy.optimize" in sys.modules
+
+
+def state(xy: tuple[float, float], v: tuple[float, float], sd_m: float = 0.03) -> PredictedState:
+    cov = np.diag([sd_m**2, sd_m**2, (2 * sd_m) ** 2, (2 * sd_m) ** 2])
+    return PredictedState(0.0, np.array(xy), np.array(v), cov)
+
+
+def test_same_target_is_the_track_to_track_test_with_the_extent() -> None:
+    gate = gate_threshold(0.999, 4)
+    extent = np.eye(2) * 0.5**2 / 12
+    walking = state((0.0, 1.0), (1.0, 0.0))
+    part = state((0.0, 1.25), (1.0, 0.05))  # another part of the same walker
+    assert not same_target(walking, part, gate)  # 0.25 m apart: 6 sigma without the extent
+    assert same_target(walking, part, gate, extent)
+    assert not same_target(walking, state((0.0, 2.2), (1.0, 0.0)), gate, extent)  # someone else
+    crossing = state((0.0, 1.0), (-1.0, 0.0))  # the same place, the other way
+    assert not same_target(walking, crossing, gate, extent)
+    assert walking.covariance[0, 0] == pytest.approx(0.03**2)  # the inputs are left alone

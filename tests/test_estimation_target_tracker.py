@@ -162,6 +162,26 @@ def test_silence_is_bridged_at_the_cameras_rate_up_to_coast_max() -> None:
     assert tracker.counts["silent_predictions"] == 1
 
 
+def test_silence_is_bridged_once_a_frame_period_however_often_it_is_asked() -> None:
+    """The process steps on every arrival (servo commands, gaze states), not only on frames:
+    a coasting prediction goes out once a frame period, not once a step."""
+    rig = load_rig(SIM_RIG)
+    tracker, clock = tracker_for(rig)
+    stream = detections(SIM_RIG, 10)
+    for detection in stream:
+        feed(tracker, clock, detection)
+    period_s = rig.camera.frame_period_s
+    tracker.heard(100.0)
+    wall_ns = stream[-1].t_capture_ns + ARRIVAL_NS
+    silent_s = 100.0 + 2.5 * period_s
+    first, _ = tracker.silent(wall_ns, silent_s)
+    again, wait_s = tracker.silent(wall_ns, silent_s + 0.25 * period_s)  # woken by a command
+    assert first is not None and again is None
+    assert wait_s == pytest.approx(0.75 * period_s)
+    later, _ = tracker.silent(wall_ns, silent_s + period_s)
+    assert later is not None and tracker.counts["silent_predictions"] == 2
+
+
 def test_maneuver_events_follow_the_state() -> None:
     tracker, clock = tracker_for(load_rig(SIM_RIG))
     events = []

@@ -15,6 +15,7 @@ import pytest
 from bench.crossing_people import SCENES, SIM_RIG, Scene, walk
 
 from gazed.config import Rig, load_rig
+from gazed.estimation import tracks as tracks_module
 from gazed.estimation.measurement import Measurement
 from gazed.estimation.target_tracker import TargetTracker
 from gazed.estimation.tracks import Sighting, TrackSet
@@ -147,3 +148,66 @@ def test_a_lone_target_that_jumps_keeps_its_id() -> None:
     tracks.step(0.68, [measurement(0.68, (1.0, 1.0)), measurement(0.68, (-2.0, 1.0))])
     tracks.step(0.72, [measurement(0.72, (1.0, 1.0)), measurement(0.72, (3.0, 1.0))])
     assert [t.id for t in tracks.tracks] == [0, 1, 2]
+
+
+def walking(t_s: float, xy: tuple[float, float]) -> Sighting:
+    """A mover walking at 1 m/s along x, as a sighting."""
+    cov = np.eye(2) * 0.0004
+    return Sighting(Measurement.ground(t_s, xy, cov, (1.0, 0.0), np.eye(2) * 0.01))
+
+
+def test_a_person_split_into_two_tracks_is_merged_under_the_older_id() -> None:
+    tracks = TrackSet(load_rig(SIM_RIG).estimator)
+    for k in range(10):
+        tracks.step(k * 0.04, [walking(k * 0.04, (k * 0.04, 1.0))])
+    for k in range(10, 14):  # the detector splits the walker: its other part 0.25 m off
+        t = k * 0.04
+        tracks.step(t, [walking(t, (t, 1.0)), walking(t, (t, 1.25))])
+    assert [(t.id, t.confirmed) for t in tracks.tracks] == [(0, True), (1, True)]
+    person = tracks.get(0)
+    assert person is not None
+    t = 14 * 0.04  # only the other part now: track 1 takes it where track 0 coasts
+    tracks.step(t, [walking(t, (t, 1.25))])
+    assert tracks.tracks == [person] and not person.coasting  # one track, the older id
+    assert tracks.counts["tracks_merged"] == 1
+    state = person.estimator.predict(t)
+    assert state is not None and state.position[1] == pytest.approx(1.25, abs=0.05)
+
+
+def test_people_crossing_where_one_hides_the_other_are_not_merged() -> None:
+    tracks = TrackSet(load_rig(SIM_RIG).estimator)
+    for k in range(25):  # one walks +x, the other -x; they meet at x = 0 at t = 1 s
+        t = k * 0.04
+        a = Sighting(
+            Measurement.ground(t, (t - 1.0, 1.0), np.eye(2) * 4e-4, (1.0, 0.0), np.eye(2) * 0.01)
+        )
+        b = Sighting(
+            Measurement.ground(t, (1.0 - t, 1.0), np.eye(2) * 4e-4, (-1.0, 0.0), np.eye(2) * 0.01)
+        )
+        tracks.step(t, [a] if 0.8 < t < 1.2 else [a, b])  # b hidden behind a near the meeting
+    assert [t.id for t in tracks.tracks] == [0, 1] and tracks.counts["tracks_merged"] == 0
+
+
+def test_tentative_tracks_leave_a_lone_person_alone() -> None:
+    section = load_rig(SIM_RIG).estimator
+    tracks = TrackSet(section)
+    for k in range(10):
+        tracks.step(k * 0.04, [measurement(k * 0.04, (0.0, 1.0))])
+    (person,) = tracks.tracks
+    clutter = [measurement(0.4, (x, 3.0)) for x in (-2.0, 0.0, 2.0)]  # the head's leftovers
+    tracks.step(0.4, [measurement(0.4, (0.0, 1.0)), *clutter])
+    assert len(tracks.tracks) == 4
+    for k in range(11, 11 + section.reinit_after_misses):  # one mover, 1 m off: still the person's
+        tracks.step(k * 0.04, [measurement(k * 0.04, (1.0, 1.0))])
+    assert tracks.tracks == [person] and person.id == 0 and not person.coasting  # restarted
+    state = person.estimator.predict(0.7)
+    assert state is not None and state.position[0] == pytest.approx(1.0, abs=0.05)
+
+
+def test_the_tracks_import_the_assignment_solver_as_they_start(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    started = []
+    monkeypatch.setattr(tracks_module, "load_solver", lambda: started.append(True))
+    TargetTracker(load_rig(SIM_RIG), "estimator")
+    assert started == [True]

@@ -360,6 +360,20 @@ def test_lost_with_a_prediction_that_says_too_little_goes_back_to_search_at_once
     ]
 
 
+def test_lost_with_no_prediction_to_coast_on_goes_back_to_search_at_once() -> None:
+    """A target pursued on its detections alone (the estimator had no track of it yet) and
+    then missed: there is nothing to coast on, so the gaze goes back to search (whole-frame
+    motion from a still head) at once instead of holding still for search_after_ms."""
+    clock = Clock()
+    c = in_pursuit(clock)  # on detections only: no prediction ever came
+    states = []
+    for _ in range(12):  # 480 ms without a detection
+        clock.advance(0.04)
+        decision = c.tick(clock.wall_ns, clock.mono_s)
+        states.extend((t.state, t.reason) for t in decision.transitions)
+    assert states == [("lost", "no detection for 300 ms"), ("search", "no prediction to coast on")]
+
+
 def test_lone_detections_while_lost_do_not_resume_pursuit() -> None:
     """False detections while the head scans (one every 0.3 s) never make `reacquire_detections`
     in a row: the controller stays lost and goes back to search, where the whole frame is looked

@@ -17,15 +17,32 @@ coefficient, is 1 for the same colours), and `σ²` the track's own spread of it
 the detections it has taken — so a person whose colours vary from frame to frame (changing
 light, a turning body) is compared more loosely than one whose colours hold. Where positions are
 ambiguous the appearance decides; where they are not it barely matters.
+
+Two tracks are of one target (`same_target`) when the difference of their positions and
+velocities lies inside the χ² gate of that dimension against the sum of their covariances
+(Bar-Shalom, "On the track-to-track correlation problem", IEEE TAC 26(2), 1981; the two
+estimates' cross-covariance is left out, which widens the test a little), with the target's
+extent added to the positions: a detector may report one part of a person to one track and
+another part to the other.
+
+The joint assignment is SciPy's; `scipy.optimize` takes long to import (on a busy machine,
+longer than a bus link's lease), so the estimator imports it beside its start-up
+(`load_solver`) rather than in the step where several tracks first compete: a step that long
+holds up the bus's receive thread past the lease, and the link closes.
 """
 
 from __future__ import annotations
 
+import importlib
+import threading
 from dataclasses import dataclass
 
 import numpy as np
 
 from gazed.estimation.chi_square import chi2_quantile
+from gazed.estimation.results import PredictedState
+
+SOLVER_MODULE = "scipy.optimize"
 
 UNASSIGNABLE = 1e12  # the cost of a pair outside the gate
 
@@ -89,16 +106,41 @@ def pair_costs(
     return np.where(d2 <= gate_d2, costs, np.inf)
 
 
+def same_target(
+    a: PredictedState, b: PredictedState, gate_d2: float, extent_cov: np.ndarray | None = None
+) -> bool:
+    """Whether two tracks' states at one instant are estimates of one target: `Δᵀ C⁻¹ Δ` over
+    [position, velocity] at most `gate_d2` (the χ² gate of 4 dimensions), where
+    `C = Pa + Pb`, plus twice `extent_cov` (2, 2) on the positions where each track may follow
+    a different part of one extended target."""
+    delta = np.concatenate([a.position - b.position, a.velocity - b.velocity])
+    C = a.covariance + b.covariance
+    if extent_cov is not None:
+        C[:2, :2] += 2.0 * extent_cov
+    return float(delta @ np.linalg.solve(C, delta)) <= gate_d2
+
+
+def load_solver() -> threading.Thread:
+    """Start importing the assignment's solver on a thread of its own, so that the first frame
+    where several tracks compete finds it imported (module docstring); the thread is returned."""
+    thread = threading.Thread(
+        target=importlib.import_module, args=(SOLVER_MODULE,), name="import-solver", daemon=True
+    )
+    thread.start()
+    return thread
+
+
 def associate(costs: np.ndarray) -> Assignment:
     """The joint assignment of least total cost among the pairs inside the gate."""
     T, D = costs.shape
-    if T == 1 and D == 1:  # one pair: it is the assignment if it is inside the gate
-        inside = bool(np.isfinite(costs[0, 0]))
-        return Assignment(((0, 0),), (), (), costs) if inside else Assignment((), (0,), (0,), costs)
     pairs: list[tuple[int, int]] = []
-    if T and D:
-        # imported here: scipy.optimize takes long to import, and a lone walker never needs it
-        from scipy.optimize import linear_sum_assignment
+    if T and D and (T == 1 or D == 1):  # one track (or detection): its least cost in the gate
+        k = int(np.argmin(costs))
+        r, c = divmod(k, D)
+        if np.isfinite(costs[r, c]):
+            pairs = [(r, c)]
+    elif T and D:
+        from scipy.optimize import linear_sum_assignment  # imported by then (`load_solver`)
 
         finite = np.where(np.isfinite(costs), costs, UNASSIGNABLE)
         rows, cols = linear_sum_assignment(finite)

@@ -113,6 +113,7 @@ class TargetTracker:
         self.silence_s = 2.0 * self.frame_period_s  # no detection for this long: predict anyway
         self.coast_max_s = section.coast_max_ms / 1000.0
         self.last_detection_s: float | None = None
+        self.silent_due_s = 0.0  # monotonic: when the next coasting prediction is due
 
     # ------------------------------------------------------------------------------ detections
 
@@ -222,20 +223,26 @@ class TargetTracker:
     def heard(self, mono_s: float) -> float:
         """Detections came at monotonic `mono_s`; the seconds until silence would begin."""
         self.last_detection_s = mono_s
+        self.silent_due_s = mono_s + self.silence_s
         return self.silence_s
 
     def silent(self, wall_ns: int, mono_s: float) -> tuple[Prediction | None, float]:
         """No detection came: after `silence_s`, and for up to coast_max_ms, the chosen track
-        predicted to the effect time and marked coasting, at the camera's rate. Returns that
-        prediction (None: not due, or no track) and the seconds until the next call is wanted."""
+        predicted to the effect time and marked coasting, once a frame period however often it is
+        called. Returns it (None: not due, or no track) and the seconds until the next call."""
         if self.last_detection_s is None:
             return None, IDLE_S
         silent_s = mono_s - self.last_detection_s
         if silent_s > self.coast_max_s:
             return None, IDLE_S
+        if silent_s < self.silence_s:
+            return None, self.frame_period_s
+        if mono_s < self.silent_due_s:  # a step woken by something else, within a frame period
+            return None, self.silent_due_s - mono_s
+        self.silent_due_s = mono_s + self.frame_period_s
         prediction = None
         track = self.chosen()
-        if silent_s >= self.silence_s and track is not None:
+        if track is not None:
             t_effect_ns = wall_ns + round(self.latency.actuation_s * 1e9)
             predicted = track.estimator.predict(t_effect_ns / 1e9)
             if predicted is not None:

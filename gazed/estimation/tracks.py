@@ -19,7 +19,22 @@ Every frame (one detection message, with any number of movers):
    is the track's, inside its gate or not: outside it, it is an outlier the track's filter
    counts, and the filter restarts at it (same id) after `reinit_after_misses` of them in a
    row, as a single-target estimator does when its target jumps (the detector latched onto
-   another part of it, or the head lost it and found it again).
+   another part of it, or the head lost it and found it again). Tentative tracks do not count
+   here: one confirmed track and one mover is the same case (a detector that splits one
+   person into parts, or reports the leftovers of the head's own motion, starts tentative
+   tracks beside a person whose filter may have gated out its own detections);
+5. two tracks on one person are merged: a track that coasts while another takes a detection
+   where it is, moving as it moves, is that one's duplicate. A detector can split one person
+   into parts, or report a part off the track's gate (a filter grown too sure of itself gates
+   out its own person), and the part starts a second track that then takes the person's
+   detections from the first. The test is the track-to-track one (Bar-Shalom, "On the
+   track-to-track correlation problem", IEEE TAC 26(2), 1981): the difference of the two
+   states' position and velocity, `Δ`, against the sum of their covariances and a person's
+   extent (`PERSON_WIDTH_M`: each track may follow another part of the person),
+   `Δᵀ (P₁ + P₂ + 2E)⁻¹ Δ` inside the χ² gate of four dimensions, against a confirmed track only
+   (a person, with a velocity of its own). The merged track keeps the older id (the person's,
+   and so the gaze's choice) and takes the filter that took the detection. People who cross
+   or pass move apart in velocity, and so are never merged where one hides the other.
 
 Ids count up from 0 and are never reused, so a track's id names one person for its whole life;
 a person lost for longer than `coast_max_ms` comes back as a new track with a new id.
@@ -34,7 +49,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from gazed.config import EstimatorSection
-from gazed.estimation.association import associate, gate_threshold, pair_costs
+from gazed.estimation.association import (
+    associate,
+    gate_threshold,
+    load_solver,
+    pair_costs,
+    same_target,
+)
 from gazed.estimation.estimator import TRACKING, TrackEstimator
 from gazed.estimation.factory import build_estimator
 from gazed.estimation.measurement import Measurement
@@ -44,6 +65,9 @@ MAX_TRACKS = 256  # an EstimatorState carries at most this many
 APPEARANCE_SMOOTHING = 0.1  # weight of each new histogram in a track's template and its spread
 INITIAL_SPREAD = 0.05  # a new track's appearance spread (h²), until its detections measure it
 SPREAD_FLOOR = 0.01  # a spread never below this: one colour change is not a different person
+PERSON_WIDTH_M = 0.5  # a detector may report any part of a person this wide (shoulder width)
+# the covariance of a point spread evenly across a person (w²/12 on each ground axis)
+PERSON_EXTENT_COV_M2 = np.eye(2) * PERSON_WIDTH_M**2 / 12.0
 TAKEN = (Outcome.ACCEPTED, Outcome.INITIALISED, Outcome.PENDING, Outcome.REINITIALISED)
 
 
@@ -100,7 +124,9 @@ class TrackSet:
 
     def __post_init__(self) -> None:
         self.gate_d2 = gate_threshold(self.section.gate_probability, 2)
+        self.duplicate_d2 = gate_threshold(self.section.gate_probability, 4)
         self.coast_max_s = self.section.coast_max_ms / 1000.0
+        load_solver()  # imported before several tracks first compete (`association`)
 
     def get(self, track_id: int) -> PersonTrack | None:
         for track in self.tracks:
@@ -114,11 +140,12 @@ class TrackSet:
         if any(t_s <= _state_time(track.estimator) for track in self.tracks):
             self.counts["late_frames"] += 1
             return
-        if len(self.tracks) == 1 and len(sightings) == 1:
-            # one track, one mover: the mover is the track's, inside its gate or not (an outlier
-            # its filter counts, restarting there after reinit_after_misses in a row, as a
-            # single-target estimator does when its target jumps)
-            pairs, lone_sightings = {0: 0}, ()
+        lone = self._lone_track()
+        if lone is not None and len(sightings) == 1:
+            # one person, one mover: the mover is the person's, inside its gate or not (an
+            # outlier its filter counts, restarting there after reinit_after_misses in a row,
+            # as a single-target estimator does when its target jumps)
+            pairs, lone_sightings = {lone: 0}, ()
         else:
             pairs, lone_sightings = self._assign(self._predicted(t_s), sightings)
         for row, track in enumerate(self.tracks):
@@ -131,6 +158,7 @@ class TrackSet:
                 self._take(track, sightings[column], t_s)
         for column in lone_sightings:
             self._start(sightings[column], t_s)
+        self._merge_duplicates(t_s)
         self._end(t_s)
 
     def health(self) -> dict[str, int]:
@@ -143,6 +171,14 @@ class TrackSet:
         return dict(totals)
 
     # -------------------------------------------------------------------------------- internals
+
+    def _lone_track(self) -> int | None:
+        """The row of the one person there is: the only track, else the only confirmed one
+        (tentative tracks are not people yet); None where there are several or none."""
+        if len(self.tracks) == 1:
+            return 0
+        confirmed = [row for row, track in enumerate(self.tracks) if track.confirmed]
+        return confirmed[0] if len(confirmed) == 1 else None
 
     def _predicted(self, t_s: float) -> list[PredictedState]:
         states = []
@@ -225,6 +261,46 @@ class TrackSet:
         self.tracks.append(track)
         self.counts["tracks_started"] += 1
         self.counts["tracks_confirmed"] += int(track.confirmed)
+
+    def _merge_duplicates(self, t_s: float) -> None:
+        """Each coasting track that is a duplicate (`same_target`) of a confirmed one that took a
+        detection this frame becomes one track with it (`_merge`), once."""
+        seen = [track for track in self.tracks if track.confirmed and not track.coasting]
+        ended: set[int] = set()
+        for lost in [track for track in self.tracks if track.coasting]:
+            a = lost.estimator.predict(t_s)
+            if a is None:  # a filter without a state (stopped) is no duplicate of anything
+                continue
+            twin = next(
+                (f for f in seen if f.id not in ended and self._duplicates(a, f, t_s)), None
+            )
+            if twin is not None:
+                ended.add(self._merge(lost, twin))
+        if ended:
+            self.tracks = [track for track in self.tracks if track.id not in ended]
+
+    def _duplicates(self, state: PredictedState, found: PersonTrack, t_s: float) -> bool:
+        """Whether a coasting track's `state` and `found` are estimates of one person."""
+        b = found.estimator.predict(t_s)  # None: restarted, waiting for a velocity
+        return b is not None and same_target(state, b, self.duplicate_d2, PERSON_EXTENT_COV_M2)
+
+    def _merge(self, lost: PersonTrack, found: PersonTrack) -> int:
+        """`found` took a detection where `lost` coasts: the older id lives on with `found`'s
+        filter and what it saw; the younger ends. Returns the id that ends."""
+        self.counts["tracks_merged"] += 1
+        self.counts["tracks_ended"] += 1
+        self.ended_health.update(lost.estimator.health())
+        if found.id < lost.id:
+            return lost.id
+        lost.estimator, lost.coasting = found.estimator, False
+        lost.hits += found.hits
+        lost.last_hit_s, lost.confirmed = found.last_hit_s, True
+        lost.box_height_px, lost.appearance, lost.spread = (
+            found.box_height_px,
+            found.appearance,
+            found.spread,
+        )
+        return found.id
 
     def _end(self, t_s: float) -> None:
         """Drop the tracks that coasted past coast_max_s, and the tentative ones that can no

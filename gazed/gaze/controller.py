@@ -11,7 +11,8 @@ States and transitions (each published with its reason):
             --the move takes too long---------------------------> search
     pursuit --no detection for lost_after_ms--------------------> lost
     lost    --reacquire_detections in a row (one per frame)-------> pursuit
-            --lost for search_after_ms, or the region too wide--> search
+            --lost for search_after_ms, the region too wide, or--> search
+              no prediction to coast on
     any     --a `trace` command (`gazed calibrate trace`)---------> trace
             --an operator's park, search or hold (`operator`)---> park, search, hold
     trace   --corner, lost edge, enough samples, joint limit, stop--> search
@@ -362,7 +363,8 @@ class GazeController:
             reason = f"search region {math.degrees(region_rad):.0f}° wide after {lost_s:.1f} s"
             self.enter("search", reason, wall_ns, mono_s)
             return self._hold(wall_ns)
-        if self.pursuit.aim(wall_ns) is None:  # nothing to coast on
+        if self.pursuit.aim(wall_ns) is None:  # nothing to coast on: the whole frame says more
+            self.enter("search", "no prediction to coast on", wall_ns, mono_s)
             return self._hold(wall_ns)
         demand = self._follow(wall_ns, correction=False)
         assert demand is not None and prediction is not None
