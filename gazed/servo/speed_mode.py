@@ -1,17 +1,24 @@
-"""Speed mode: a head driven by speed commands (ONVIF ContinuousMove) follows the same
-set-points as a head driven by position.
+"""Speed mode: a head driven by speed commands (ONVIF ContinuousMove, VISCA Pan-tiltDrive,
+Pelco-D drives) follows the same set-points as a head driven by position.
 
-Each set-point the writer sends becomes a rate: the set-points' own rate (the demand's
-feed-forward, as the set-point generator shapes it) plus `gain_per_s` times the position error
-(set-point minus where the head is, from its last position reading moved on at the rate it was
-told). Each poll of the position closes the loop again on the newest reading. The rate is then
+The head is predicted by a model of the device: its last position reading moved on at each rate
+it was told, from `latency_s` after the command was sent, reached at the `[head]` acceleration
+limit. Each set-point the writer sends, and each poll of the position, then sets the rate: the
+set-points' own rate (the demand's feed-forward, as the set-point generator shapes it) plus the
+gap between the set-point and the predicted head at the moment a command sent now would act,
+closed over the horizon (the time until the loop can next change the step, plus the latency:
+the gain of a dead-beat loop on the prediction, kept stable on a head slower to act than the
+rig says). The closing rate is no more than the head gains or sheds in a horizon. The rate is
+then
 
 - capped, on the way to a joint limit, to what the head can still brake from before it
   (sqrt(2·a·d) over the distance left once it has run one poll period at its present rate), and
-  zero at or past the limit: the head never runs out of its limits;
+  zero at or past the limit: the head never runs out of its limits; likewise capped to what it
+  can brake from before where the set-points would come to rest, so it never runs past them;
 - quantised to the device's speed steps (`SpeedSteps`, a table of rates per step), never to a
-  step faster than the cap; an error larger than the slowest step covers between two polls
-  gets at least the slowest step, so the head ends on its set-point, not a dead band away;
+  step faster than the cap. The model runs on the step sent, so the quantisation's error is
+  in the next gap and closed with it: the head dithers between the two steps around the
+  set-points' rate and stays within a step's travel over the horizon of them;
 - sent only when a step changes, or again before the device's own timeout runs out, and at
   most once a command period (`command_rate_hz`; a VISCA camera holds a socket per drive until
   it acts on it); Stop is never held back.
@@ -35,6 +42,7 @@ from typing import Protocol
 
 from gazed.config import HeadSection, Rig
 from gazed.servo.codec import CodecError
+from gazed.servo.drive_model import DriveModel
 from gazed.servo.driver import DeviceError, DevicePosition
 from gazed.servo.pelco_d import SPEED_MAX as PELCO_SPEED_MAX
 from gazed.servo.transport import LinkError
@@ -106,7 +114,8 @@ class SpeedSteps:
 class SpeedHead:
     """`device` driven by speed towards the set-points written to it, inside `head`'s limits
     (device angles), when `by_speed(device)` says so once it is connected (otherwise the
-    set-points go to it as positions); `mono_s` and `wall_ns` are the clocks."""
+    set-points go to it as positions); `latency_s` is how long the device takes to act on a
+    speed command; `mono_s` and `wall_ns` are the clocks."""
 
     def __init__(
         self,
@@ -114,7 +123,7 @@ class SpeedHead:
         head: HeadSection,
         steps: tuple[SpeedSteps, SpeedSteps],
         *,
-        gain_per_s: float,
+        latency_s: float,
         command_timeout_s: float,
         poll_period_s: float,
         command_period_s: float = 0.0,
@@ -129,10 +138,15 @@ class SpeedHead:
         self.transport = device.transport
         self.counters = device.counters
         self.steps = steps
-        self.gain_per_s = gain_per_s
+        self.latency_s = latency_s
         self.command_timeout_s = command_timeout_s
         self.poll_period_s = poll_period_s
         self.command_period_s = command_period_s
+        # the gap a step is to close: the step runs until the loop can next change it (a command
+        # period, and no less than a poll period, the readings closing the loop), and a reading
+        # shows it a latency after it was sent; with the latency in, the loop stays stable on a
+        # head whose latency is several times the rig's
+        self.horizon_s = max(command_period_s, poll_period_s) + latency_s
         self._mono_s = mono_s
         self._wall_ns = wall_ns
         self._bounds = device_bounds(head)
@@ -141,6 +155,8 @@ class SpeedHead:
         self._sent_s = -math.inf
         self._setpoint: tuple[float, float, float, float, float] | None = None  # p, t, rates, s
         self._reading: tuple[float, float, float] | None = None  # where, from when (mono s)
+        # the rates told and when each acts, after the model's state at the last reading
+        self.model = DriveModel(latency_s, self._accel_rad_s2, mono_s())
         self.stopped = True
 
     @property
@@ -151,6 +167,7 @@ class SpeedHead:
         self.device.connect()
         self.by_speed = self._by_speed(self.device)
         self.sent, self._sent_s, self._setpoint, self._reading = (0, 0), -math.inf, None, None
+        self.model = DriveModel(self.latency_s, self._accel_rad_s2, self._mono_s())
         self.stopped = True
 
     def disconnect(self) -> None:
@@ -184,66 +201,59 @@ class SpeedHead:
         if not self.by_speed:
             return position
         now_s = self._mono_s()
-        self._reading = (position.pan_rad, position.tilt_rad, now_s)
+        read_s = now_s - max(0.0, (self._wall_ns() - position.t_pan_ns) / 1e9)
+        read_s = self.model.read(read_s)
+        self._reading = (position.pan_rad, position.tilt_rad, read_s)
         if self._setpoint is not None:
             self._command(now_s)
         return position
 
     def stop(self) -> int:
         t_ns = self.device.stop()
-        self._anchor(self._mono_s())
-        self.sent, self._sent_s, self.stopped = (0, 0), self._mono_s(), True
+        now_s = self._mono_s()
+        self.model.tell(now_s, 0.0, 0.0)
+        self.sent, self._sent_s, self.stopped = (0, 0), now_s, True
         self._setpoint = None
         return t_ns
 
     # --- the law -----------------------------------------------------------------------------
 
     def rates_rad_s(self, now_s: float) -> tuple[float, float]:
-        """The rate each axis is to run at now (before quantisation)."""
-        (pan_ff, tilt_ff), (pan_error, tilt_error) = self._feed_forward_and_error(now_s)
-        return pan_ff + self.gain_per_s * pan_error, tilt_ff + self.gain_per_s * tilt_error
+        """The rate each axis is to run at from when a command sent now acts (before
+        quantisation): the set-points' rate, plus what closes the gap the head is predicted
+        to have then within the horizon (the gain a dead-beat loop on the prediction has), but
+        no more than the head can gain or shed within a horizon at its acceleration limit, so
+        that a large gap never runs it faster than it can brake."""
+        feed_forward, error = self._feed_forward_and_error(now_s)
+        rates = []
+        for axis in (0, 1):
+            most_rad_s = self._accel_rad_s2[axis] * self.horizon_s  # gained or shed in a horizon
+            closing = max(-most_rad_s, min(most_rad_s, error[axis] / self.horizon_s))
+            rates.append(feed_forward[axis] + closing)
+        return rates[0], rates[1]
 
     def _feed_forward_and_error(
         self, now_s: float
     ) -> tuple[tuple[float, float], tuple[float, float]]:
-        """The set-points' rates, and how far the head is from them now."""
+        """The set-points' rates, and how far the head will be from them when a command sent
+        now acts."""
         assert self._setpoint is not None
         pan_sp, tilt_sp, pan_ff, tilt_ff, set_s = self._setpoint
-        ahead_s = now_s - set_s
-        if ahead_s > self.command_timeout_s:  # the set-points have stopped coming: stand still
+        acts_s = now_s + self.latency_s
+        ahead_s = acts_s - set_s
+        if now_s - set_s > self.command_timeout_s:  # the set-points have stopped coming
             pan_ff = tilt_ff = ahead_s = 0.0
         pan_sp, tilt_sp = pan_sp + pan_ff * ahead_s, tilt_sp + tilt_ff * ahead_s
-        pan_at, tilt_at = self.where(now_s)
+        pan_at, tilt_at = self.where(acts_s)
         return (pan_ff, tilt_ff), (pan_sp - pan_at, tilt_sp - tilt_at)
 
-    def _step(self, axis: int, now_s: float, position_rad: float) -> int:
-        """The axis's speed step now. An error the gain would round to no step, yet larger than
-        the slowest step covers between two looks at the head, still gets the slowest step, so
-        the head ends on its set-point and not a dead band away."""
-        steps = self.steps[axis]
-        rate = self.rates_rad_s(now_s)[axis]
-        error = self._feed_forward_and_error(now_s)[1][axis]
-        slowest = steps.rates_rad_s[0]
-        if abs(error) > slowest * (self.poll_period_s + self.command_period_s):
-            rate = math.copysign(max(abs(rate), slowest), rate if rate else error)
-        return steps.quantise(rate, self.cap_rad_s(axis, position_rad, rate))
-
-    def where(self, now_s: float) -> tuple[float, float]:
-        """The head's position now: its last reading moved on at the rates it was told since."""
+    def where(self, t_s: float) -> tuple[float, float]:
+        """Where the head is at `t_s`: its last reading moved on as the device model runs."""
         if self._reading is None:
             assert self._setpoint is not None
             return self._setpoint[0], self._setpoint[1]
-        pan, tilt, read_s = self._reading
-        since_s = max(0.0, now_s - read_s)
-        return (
-            pan + self.steps[0].rate_rad_s(self.sent[0]) * since_s,
-            tilt + self.steps[1].rate_rad_s(self.sent[1]) * since_s,
-        )
-
-    def _anchor(self, now_s: float) -> None:
-        """Before the rates change: where the head is now becomes what they move on from."""
-        if self._reading is not None:
-            self._reading = (*self.where(now_s), now_s)
+        (pan_moved, tilt_moved), _, _ = self.model.run(t_s)
+        return self._reading[0] + pan_moved, self._reading[1] + tilt_moved
 
     def cap_rad_s(self, axis: int, position_rad: float, rate_rad_s: float) -> float:
         """The fastest the axis may run in the direction of `rate_rad_s` from `position_rad`
@@ -255,17 +265,46 @@ class SpeedHead:
             return 0.0
         return math.sqrt(2.0 * self._accel_rad_s2[axis] * room_rad)
 
+    def _setpoint_stops(self, now_s: float) -> tuple[float, float]:
+        """Where the set-points would come to rest if they braked when a command sent now acts."""
+        (pan_ff, tilt_ff), (pan_error, tilt_error) = self._feed_forward_and_error(now_s)
+        pan_at, tilt_at = self.where(now_s + self.latency_s)
+        pan_accel, tilt_accel = self._accel_rad_s2
+        return (
+            pan_at + pan_error + pan_ff * abs(pan_ff) / (2.0 * pan_accel),
+            tilt_at + tilt_error + tilt_ff * abs(tilt_ff) / (2.0 * tilt_accel),
+        )
+
+    def _braking_cap_rad_s(self, axis: int, gap_rad: float, rate_rad_s: float) -> float:
+        """The fastest the axis may run towards where the set-points could stop, `gap_rad`
+        ahead, and still brake there: a head running behind its set-points catches up
+        without running past them when they stop."""
+        if gap_rad * rate_rad_s <= 0.0:
+            return math.inf  # running away from it
+        return math.sqrt(2.0 * self._accel_rad_s2[axis] * abs(gap_rad))
+
     def _command(self, now_s: float) -> int:
         """Send the steps due now, if they differ from those running or are to be renewed;
         when they went out (ns), 0 if nothing was sent."""
-        position = self.where(now_s)
-        wanted = tuple(self._step(axis, now_s, position[axis]) for axis in (0, 1))
+        position = self.where(now_s + self.latency_s)
+        rates = self.rates_rad_s(now_s)
+        stops = self._setpoint_stops(now_s)
+        wanted = tuple(
+            self.steps[axis].quantise(
+                rates[axis],
+                min(
+                    self.cap_rad_s(axis, position[axis], rates[axis]),
+                    self._braking_cap_rad_s(axis, stops[axis] - position[axis], rates[axis]),
+                ),
+            )
+            for axis in (0, 1)
+        )
         pan_step, tilt_step = wanted
         if wanted == (0, 0):
             if self.stopped:
                 return 0
             t_ns = self.device.stop()
-            self._anchor(now_s)
+            self.model.tell(now_s, 0.0, 0.0)
             self.sent, self._sent_s, self.stopped = (0, 0), now_s, True
             return t_ns
         since_s = now_s - self._sent_s
@@ -278,7 +317,9 @@ class SpeedHead:
             tilt_step / self.steps[1].count,
             self.command_timeout_s,
         )
-        self._anchor(now_s)
+        self.model.tell(
+            now_s, self.steps[0].rate_rad_s(pan_step), self.steps[1].rate_rad_s(tilt_step)
+        )
         self.sent, self._sent_s, self.stopped = (pan_step, tilt_step), now_s, False
         return t_ns
 
@@ -314,13 +355,13 @@ def speed_head(
     wall_ns: Callable[[], int] = time.time_ns,
     by_speed: Callable[[SpeedDevice], bool] = lambda _device: True,
 ) -> SpeedHead:
-    """`device` driven by speed with the rig's steps, gain, command timeout and poll period."""
+    """`device` driven by speed with the rig's steps, latency, command timeout and rates."""
     servo = rig.servo
     return SpeedHead(
         device,
         rig.head,
         rig_speed_steps(rig),
-        gain_per_s=servo.speed_gain_per_s,
+        latency_s=servo.speed_latency_ms / 1000.0,
         command_timeout_s=servo.command_timeout_ms / 1000.0,
         poll_period_s=1.0 / servo.odometry_rate_hz,
         command_period_s=1.0 / servo.command_rate_hz,
