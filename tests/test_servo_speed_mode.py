@@ -1,8 +1,10 @@
 """Speed mode on a recording device and a virtual clock: rates quantised to the table's steps
-(never past a cap), feed-forward plus a term on the position error, never a step towards a
+(never past a cap), the set-points' rate plus the gap predicted when a command acts (the
+device model: latency and acceleration ramp; the set-points' trend), never a step towards a
 limit the head could not brake before, commands renewed before the device's timeout and not
-repeated otherwise, Stop once the set-points come to rest, and a set-point older than the
-command timeout held still."""
+repeated otherwise, Stop once the set-points come to rest, a set-point older than the command
+timeout held still; and on the emulated head's mechanism, a pursuit followed within a step's
+travel over the horizon."""
 
 from __future__ import annotations
 
@@ -14,7 +16,9 @@ from hypothesis import given
 from hypothesis import strategies as st
 from servo_link_support import link_rig
 
+from gazed.servo.drive_model import DriveModel
 from gazed.servo.driver import DevicePosition
+from gazed.servo.setpoint_trend import run_on, set_point_rates
 from gazed.servo.speed_mode import SpeedHead, SpeedSteps
 from gazed.sim.head_mechanics import HeadMechanics
 
@@ -153,6 +157,8 @@ def test_at_most_one_command_a_command_period_but_stop_at_once() -> None:
     now[0] = 0.12
     head.set_position(RAD(3.0), 0.0)  # 100 deg/s and more: held back, too soon
     assert device.commands == [(5, 0)]
+    now[0] = 0.14
+    head.set_position(RAD(3.0), 0.0)
     now[0] = 0.16
     device.position = (RAD(2.4), 0.0)
     head.query_position()
@@ -357,3 +363,34 @@ def test_a_head_with_latency_and_coarse_steps_follows_a_pursuit_closely() -> Non
     # over a small gain; the head's 30 ms to act is predicted, not lagged
     assert rms_deg < 0.15
     assert device.counters["commands"] <= 4 * 50  # never above the command rate
+
+
+def test_the_set_points_rate_and_its_change_come_from_the_last_three() -> None:
+    def parabola(t_s: float) -> float:  # rate 2 - 10 t, its change -10
+        return 2.0 * t_s - 5.0 * t_s * t_s
+
+    _, _, middle = set_point_rates((parabola(0.02), 0.0), (parabola(0.0), 0.0), 0.02, None)
+    rates, accels, _ = set_point_rates(
+        (parabola(0.05), 0.0), (parabola(0.02), 0.0), 0.03, (middle, 0.02)
+    )
+    assert rates[0] == pytest.approx(2.0 - 10.0 * 0.05)
+    assert accels[0] == pytest.approx(-10.0)
+
+
+def test_set_points_run_on_until_they_rest_or_reach_the_rate_limit() -> None:
+    braking = run_on(1.0, 2.0, -10.0, 5.0, 1.0)  # at rest after 0.2 s, 0.2 rad on
+    assert braking == pytest.approx((1.2, 0.0, 0.0))
+    speeding = run_on(0.0, 4.0, 10.0, 5.0, 1.0)  # at the 5 rad/s limit after 0.1 s
+    assert speeding == pytest.approx((0.45 + 5.0 * 0.9, 5.0, 0.0))
+    assert run_on(0.0, 1.0, 0.0, 5.0, 0.5) == pytest.approx((0.5, 1.0, 0.0))
+
+
+def test_a_told_rate_acts_after_the_latency_at_the_acceleration_limit() -> None:
+    model = DriveModel(0.05, (10.0, 10.0), 0.0)
+    model.tell(0.0, 1.0, -1.0)
+    assert model.run(0.05)[0] == pytest.approx((0.0, 0.0))
+    moved, rates, targets = model.run(0.1)  # 0.05 s of ramp at 10 rad/s^2
+    assert moved == pytest.approx((0.0125, -0.0125))
+    assert rates == pytest.approx((0.5, -0.5)) and targets == (1.0, -1.0)
+    model.read(0.1)  # a reading: the model runs on from its state then
+    assert model.run(0.2)[0] == pytest.approx((0.0375 + 0.05, -0.0875))  # ramp, then steady

@@ -42,9 +42,10 @@ from typing import Protocol
 
 from gazed.config import HeadSection, Rig
 from gazed.servo.codec import CodecError
-from gazed.servo.drive_model import DriveModel
+from gazed.servo.drive_model import DriveModel, Pair
 from gazed.servo.driver import DeviceError, DevicePosition
 from gazed.servo.pelco_d import SPEED_MAX as PELCO_SPEED_MAX
+from gazed.servo.setpoint_trend import run_on, set_point_rates
 from gazed.servo.transport import LinkError
 from gazed.sim.head_mechanics import device_bounds
 
@@ -151,9 +152,11 @@ class SpeedHead:
         self._wall_ns = wall_ns
         self._bounds = device_bounds(head)
         self._accel_rad_s2 = head.accel_max_rad_s2
+        self._rate_max_rad_s = head.rate_max_rad_s
         self.sent: tuple[int, int] = (0, 0)
         self._sent_s = -math.inf
-        self._setpoint: tuple[float, float, float, float, float] | None = None  # p, t, rates, s
+        self._setpoint: tuple[Pair, Pair, Pair, float] | None = None  # at, rates, accels, when
+        self._middle: tuple[Pair, float] | None = None  # the last interval's rates, length
         self._reading: tuple[float, float, float] | None = None  # where, from when (mono s)
         # the rates told and when each acts, after the model's state at the last reading
         self.model = DriveModel(latency_s, self._accel_rad_s2, mono_s())
@@ -167,6 +170,7 @@ class SpeedHead:
         self.device.connect()
         self.by_speed = self._by_speed(self.device)
         self.sent, self._sent_s, self._setpoint, self._reading = (0, 0), -math.inf, None, None
+        self._middle = None
         self.model = DriveModel(self.latency_s, self._accel_rad_s2, self._mono_s())
         self.stopped = True
 
@@ -186,13 +190,17 @@ class SpeedHead:
         if not self.by_speed:
             return self.device.set_position(pan_rad, tilt_rad)
         now_s = self._mono_s()
-        pan_rate = tilt_rate = 0.0
+        rates, accels, middle = (0.0, 0.0), (0.0, 0.0), None
         if self._setpoint is not None:
-            last_pan, last_tilt, _, _, last_s = self._setpoint
+            last, _, _, last_s = self._setpoint
             dt_s = now_s - last_s
             if 0.0 < dt_s <= self.command_timeout_s:
-                pan_rate, tilt_rate = (pan_rad - last_pan) / dt_s, (tilt_rad - last_tilt) / dt_s
-        self._setpoint = (pan_rad, tilt_rad, pan_rate, tilt_rate, now_s)
+                rates, accels, middle_rates = set_point_rates(
+                    (pan_rad, tilt_rad), last, dt_s, self._middle
+                )
+                middle = (middle_rates, dt_s)
+        self._setpoint = ((pan_rad, tilt_rad), rates, accels, now_s)
+        self._middle = middle
         return self._command(now_s) or self._wall_ns()
 
     def query_position(self, between: Callable[[], None] | None = None) -> DevicePosition:
@@ -232,26 +240,33 @@ class SpeedHead:
             rates.append(feed_forward[axis] + closing)
         return rates[0], rates[1]
 
-    def _feed_forward_and_error(
-        self, now_s: float
-    ) -> tuple[tuple[float, float], tuple[float, float]]:
-        """The set-points' rates, and how far the head will be from them when a command sent
-        now acts."""
+    def _feed_forward_and_error(self, now_s: float) -> tuple[Pair, Pair]:
+        """The set-points' rates when a command sent now acts, and how far the head will be
+        from them then."""
+        set_point, rates, _accels = self._set_point_then(now_s)
+        at = self.where(now_s + self.latency_s)
+        return rates, (set_point[0] - at[0], set_point[1] - at[1])
+
+    def _set_point_then(self, now_s: float) -> tuple[Pair, Pair, Pair]:
+        """The set-points, their rates and rates' change when a command sent now acts: moved
+        on at their rate and its change until the rate reaches rest or the head's limit. A
+        set-point older than the command timeout stands still."""
         assert self._setpoint is not None
-        pan_sp, tilt_sp, pan_ff, tilt_ff, set_s = self._setpoint
-        acts_s = now_s + self.latency_s
-        ahead_s = acts_s - set_s
+        set_point, rates, accels, set_s = self._setpoint
         if now_s - set_s > self.command_timeout_s:  # the set-points have stopped coming
-            pan_ff = tilt_ff = ahead_s = 0.0
-        pan_sp, tilt_sp = pan_sp + pan_ff * ahead_s, tilt_sp + tilt_ff * ahead_s
-        pan_at, tilt_at = self.where(acts_s)
-        return (pan_ff, tilt_ff), (pan_sp - pan_at, tilt_sp - tilt_at)
+            return set_point, (0.0, 0.0), (0.0, 0.0)
+        ahead_s = now_s + self.latency_s - set_s
+        moved = [
+            run_on(set_point[axis], rates[axis], accels[axis], self._rate_max_rad_s[axis], ahead_s)
+            for axis in (0, 1)
+        ]
+        return (moved[0][0], moved[1][0]), (moved[0][1], moved[1][1]), (moved[0][2], moved[1][2])
 
     def where(self, t_s: float) -> tuple[float, float]:
         """Where the head is at `t_s`: its last reading moved on as the device model runs."""
         if self._reading is None:
             assert self._setpoint is not None
-            return self._setpoint[0], self._setpoint[1]
+            return self._setpoint[0]
         (pan_moved, tilt_moved), _, _ = self.model.run(t_s)
         return self._reading[0] + pan_moved, self._reading[1] + tilt_moved
 
@@ -265,37 +280,40 @@ class SpeedHead:
             return 0.0
         return math.sqrt(2.0 * self._accel_rad_s2[axis] * room_rad)
 
-    def _setpoint_stops(self, now_s: float) -> tuple[float, float]:
-        """Where the set-points would come to rest if they braked when a command sent now acts."""
-        (pan_ff, tilt_ff), (pan_error, tilt_error) = self._feed_forward_and_error(now_s)
-        pan_at, tilt_at = self.where(now_s + self.latency_s)
-        pan_accel, tilt_accel = self._accel_rad_s2
-        return (
-            pan_at + pan_error + pan_ff * abs(pan_ff) / (2.0 * pan_accel),
-            tilt_at + tilt_error + tilt_ff * abs(tilt_ff) / (2.0 * tilt_accel),
-        )
-
-    def _braking_cap_rad_s(self, axis: int, gap_rad: float, rate_rad_s: float) -> float:
-        """The fastest the axis may run towards where the set-points could stop, `gap_rad`
-        ahead, and still brake there: a head running behind its set-points catches up
-        without running past them when they stop."""
-        if gap_rad * rate_rad_s <= 0.0:
-            return math.inf  # running away from it
-        return math.sqrt(2.0 * self._accel_rad_s2[axis] * abs(gap_rad))
+    def _braking_caps_rad_s(self, now_s: float, at: Pair, rates: Pair) -> Pair:
+        """The fastest each axis may run at `rates` from `at` (when a command sent now acts)
+        towards where the set-points could come to rest, and still brake there: a head running
+        behind its set-points catches up without running past them when they stop. The
+        set-points could stop braking at the rate's change they brake at, or at the head's
+        acceleration limit if they are not braking; when they are, the step runs on until the
+        loop can next change it before the head brakes."""
+        set_point, sp_rates, sp_accels = self._set_point_then(now_s)
+        caps = []
+        for axis in (0, 1):
+            rate, accel = sp_rates[axis], sp_accels[axis]
+            braking = accel * rate < 0.0
+            head_accel = self._accel_rad_s2[axis]
+            stop = set_point[axis] + rate * abs(rate) / (
+                2.0 * (abs(accel) if braking else head_accel)
+            )
+            gap_rad = stop - at[axis]
+            if gap_rad * rates[axis] <= 0.0:
+                caps.append(math.inf)  # running away from it
+                continue
+            reaction = head_accel * (self.horizon_s - self.latency_s) if braking else 0.0
+            caps.append(math.sqrt(reaction * reaction + 2.0 * head_accel * abs(gap_rad)) - reaction)
+        return caps[0], caps[1]
 
     def _command(self, now_s: float) -> int:
         """Send the steps due now, if they differ from those running or are to be renewed;
         when they went out (ns), 0 if nothing was sent."""
         position = self.where(now_s + self.latency_s)
         rates = self.rates_rad_s(now_s)
-        stops = self._setpoint_stops(now_s)
+        braking_caps = self._braking_caps_rad_s(now_s, position, rates)
         wanted = tuple(
             self.steps[axis].quantise(
                 rates[axis],
-                min(
-                    self.cap_rad_s(axis, position[axis], rates[axis]),
-                    self._braking_cap_rad_s(axis, stops[axis] - position[axis], rates[axis]),
-                ),
+                min(self.cap_rad_s(axis, position[axis], rates[axis]), braking_caps[axis]),
             )
             for axis in (0, 1)
         )
