@@ -14,7 +14,8 @@ then
 - capped, on the way to a joint limit, to what the head can still brake from before it
   (sqrt(2·a·d) over the distance left once it has run one poll period at its present rate), and
   zero at or past the limit: the head never runs out of its limits; likewise capped to what it
-  can brake from before where the set-points would come to rest, so it never runs past them;
+  can brake from before where the set-points would come to rest (at the rate's change they
+  brake at, `setpoint_trend`), so it never runs past them when they stop;
 - quantised to the device's speed steps (`SpeedSteps`, a table of rates per step), never to a
   step faster than the cap. The model runs on the step sent, so the quantisation's error is
   in the next gap and closed with it: the head dithers between the two steps around the
@@ -241,16 +242,27 @@ class SpeedHead:
         return rates[0], rates[1]
 
     def _feed_forward_and_error(self, now_s: float) -> tuple[Pair, Pair]:
-        """The set-points' rates when a command sent now acts, and how far the head will be
-        from them then."""
-        set_point, rates, _accels = self._set_point_then(now_s)
+        """The set-points' rates (over the last interval between two), and how far the head
+        will be from them when a command sent now acts, the set-points moved on at those rates.
+        Their rates' change is left out here: it carries the demands' noise, which the gap's
+        closing then corrects anyway."""
+        assert self._setpoint is not None
+        set_point, _, _, set_s = self._setpoint
+        rates = self._middle[0] if self._middle is not None else (0.0, 0.0)
+        if now_s - set_s > self.command_timeout_s:  # the set-points have stopped coming
+            rates = (0.0, 0.0)
+        ahead_s = now_s + self.latency_s - set_s if rates != (0.0, 0.0) else 0.0
         at = self.where(now_s + self.latency_s)
-        return rates, (set_point[0] - at[0], set_point[1] - at[1])
+        return rates, (
+            set_point[0] + rates[0] * ahead_s - at[0],
+            set_point[1] + rates[1] * ahead_s - at[1],
+        )
 
     def _set_point_then(self, now_s: float) -> tuple[Pair, Pair, Pair]:
-        """The set-points, their rates and rates' change when a command sent now acts: moved
-        on at their rate and its change until the rate reaches rest or the head's limit. A
-        set-point older than the command timeout stands still."""
+        """The set-points, their rates and rates' change when a command sent now acts, for
+        where they could come to rest: moved on at their rate and its change until the rate
+        reaches rest or the head's limit. A set-point older than the command timeout stands
+        still."""
         assert self._setpoint is not None
         set_point, rates, accels, set_s = self._setpoint
         if now_s - set_s > self.command_timeout_s:  # the set-points have stopped coming
@@ -282,11 +294,9 @@ class SpeedHead:
 
     def _braking_caps_rad_s(self, now_s: float, at: Pair, rates: Pair) -> Pair:
         """The fastest each axis may run at `rates` from `at` (when a command sent now acts)
-        towards where the set-points could come to rest, and still brake there: a head running
-        behind its set-points catches up without running past them when they stop. The
-        set-points could stop braking at the rate's change they brake at, or at the head's
-        acceleration limit if they are not braking; when they are, the step runs on until the
-        loop can next change it before the head brakes."""
+        towards where the set-points could come to rest (braking as they do, or at the head's
+        acceleration limit) and still brake there; if they are braking, after the step has
+        run until the loop can next change it."""
         set_point, sp_rates, sp_accels = self._set_point_then(now_s)
         caps = []
         for axis in (0, 1):
