@@ -67,7 +67,7 @@ class TcpBridge:
 
     def _pump(self, client: socket.socket) -> None:
         """Bytes both ways until either end closes."""
-        fd = os.open(self.pty_path, os.O_RDWR | os.O_NOCTTY | os.O_NONBLOCK)
+        fd = os.open(self.pty_path, os.O_RDWR | os.O_NOCTTY)
         tty.setraw(fd)
         try:
             with selectors.DefaultSelector() as selector:
