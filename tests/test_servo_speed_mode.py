@@ -286,13 +286,16 @@ def test_a_visca_camera_in_speed_mode_is_driven_by_pan_tilt_drives_only(tmp_path
 
 
 class Mechanism:
-    """A speed device on the emulated head's mechanism: each command acts `head_latency_ms`
-    later, at the head's acceleration limit; readings in 0.075 deg units (VISCA's)."""
+    """A speed device on the emulated head's mechanism, `rate_max_rad_s` at velocity 1 on each
+    axis: each command acts `head_latency_ms` later, at the head's acceleration limit; readings
+    in 0.075 deg units (VISCA's)."""
 
     codec = object()
     transport = object()
 
-    def __init__(self, mechanics: HeadMechanics, rate_max_rad_s: float, now: list[float]):
+    def __init__(
+        self, mechanics: HeadMechanics, rate_max_rad_s: tuple[float, float], now: list[float]
+    ) -> None:
         self.counters: Counter[str] = Counter()
         self.mechanics, self.rate_max_rad_s, self.now = mechanics, rate_max_rad_s, now
         self.is_connected = False
@@ -304,7 +307,8 @@ class Mechanism:
         self.is_connected = False
 
     def set_speed(self, pan_fraction: float, tilt_fraction: float, timeout_s: float) -> int:
-        pan, tilt = pan_fraction * self.rate_max_rad_s, tilt_fraction * self.rate_max_rad_s
+        pan = pan_fraction * self.rate_max_rad_s[0]
+        tilt = tilt_fraction * self.rate_max_rad_s[1]
         self.mechanics.schedule(self.now[0], lambda m: (m.pan.move_at(pan), m.tilt.move_at(tilt)))
         self.counters["commands"] += 1
         return round(self.now[0] * 1e9)
@@ -331,7 +335,7 @@ def test_a_head_with_latency_and_coarse_steps_follows_a_pursuit_closely() -> Non
     now = [0.0]
     mechanics = HeadMechanics(rig.head, sim, 0.0)
     steps = SpeedSteps.even(RAD(120.0), 24)  # 5 deg/s a step, as a VISCA camera's drive
-    device = Mechanism(mechanics, RAD(120.0), now)
+    device = Mechanism(mechanics, (RAD(120.0), RAD(120.0)), now)
     head = SpeedHead(
         device,
         rig.head,
