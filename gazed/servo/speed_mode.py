@@ -159,7 +159,7 @@ class SpeedHead:
         self._setpoint: tuple[Pair, Pair, Pair, float] | None = None  # at, rates, accels, when
         self._middle: tuple[Pair, float] | None = None  # the last interval's rates, length
         self._reading: tuple[float, float, float] | None = None  # where, from when (mono s)
-        # the rates told and when each acts, after the model's state at the last reading
+        # the device model: the rates told, run on from the last reading
         self.model = DriveModel(latency_s, self._accel_rad_s2, mono_s())
         self.stopped = True
 
@@ -222,7 +222,7 @@ class SpeedHead:
         now_s = self._mono_s()
         self.model.tell(now_s, 0.0, 0.0)
         self.sent, self._sent_s, self.stopped = (0, 0), now_s, True
-        self._setpoint = None
+        self._setpoint = self._middle = None
         return t_ns
 
     # --- the law -----------------------------------------------------------------------------
@@ -251,7 +251,7 @@ class SpeedHead:
         rates = self._middle[0] if self._middle is not None else (0.0, 0.0)
         if now_s - set_s > self.command_timeout_s:  # the set-points have stopped coming
             rates = (0.0, 0.0)
-        ahead_s = now_s + self.latency_s - set_s if rates != (0.0, 0.0) else 0.0
+        ahead_s = now_s + self.latency_s - set_s
         at = self.where(now_s + self.latency_s)
         return rates, (
             set_point[0] + rates[0] * ahead_s - at[0],
