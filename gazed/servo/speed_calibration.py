@@ -35,7 +35,8 @@ from gazed.servo.drive_speeds import DriveSpeeds, drive_rates_rad_s
 from gazed.servo.driver import DeviceError, ServoDriver
 from gazed.servo.onvif_driver import rig_folder
 from gazed.servo.onvif_head import OnvifHead
-from gazed.servo.speed_mode import SpeedDevice, rig_speed_steps
+from gazed.servo.speed_mode import SpeedDevice
+from gazed.servo.speed_steps import rig_speed_steps
 from gazed.servo.transport import LinkError
 from gazed.servo.visca_ip_transport import open_transport
 from gazed.sim.head_mechanics import device_bounds

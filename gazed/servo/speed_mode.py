@@ -16,7 +16,7 @@ then
   zero at or past the limit: the head never runs out of its limits; likewise capped to what it
   can brake from before where the set-points would come to rest (at the rate's change they
   brake at, `setpoint_trend`), so it never runs past them when they stop;
-- quantised to the device's speed steps (`SpeedSteps`, a table of rates per step), never to a
+- quantised to the device's speed steps (`speed_steps`, a table of rates per step), never to a
   step faster than the cap. The model runs on the step sent, so the quantisation's error is
   in the next gap and closed with it: the head dithers between the two steps around the
   set-points' rate and stays within a step's travel over the horizon of them;
@@ -34,23 +34,20 @@ before half of it has passed.
 
 from __future__ import annotations
 
-import bisect
 import contextlib
 import math
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from typing import Protocol
 
 from gazed.config import HeadSection, Rig
 from gazed.servo.codec import CodecError
 from gazed.servo.drive_model import DriveModel, Pair
 from gazed.servo.driver import DeviceError, DevicePosition
-from gazed.servo.pelco_d import SPEED_MAX as PELCO_SPEED_MAX
 from gazed.servo.setpoint_trend import run_on, set_point_rates
+from gazed.servo.speed_steps import SpeedSteps, rig_speed_steps
 from gazed.servo.transport import LinkError
 from gazed.sim.head_mechanics import device_bounds
-
-DEFAULT_STEPS = 32
 
 
 class SpeedDevice(Protocol):
@@ -74,43 +71,6 @@ class SpeedDevice(Protocol):
     def set_position(self, pan_rad: float, tilt_rad: float) -> int: ...
 
     def query_position(self, between: Callable[[], None] | None = None) -> DevicePosition: ...
-
-
-class SpeedSteps:
-    """One axis's speed steps: step k (1..N) runs at `rates_rad_s[k-1]`; step 0 is stopped."""
-
-    def __init__(self, rates_rad_s: Sequence[float]) -> None:
-        if not rates_rad_s or any(
-            b <= a for a, b in zip([0.0, *rates_rad_s], rates_rad_s, strict=False)
-        ):
-            raise ValueError("speed steps: expected positive rates rising with the step")
-        self.rates_rad_s = list(rates_rad_s)
-
-    @classmethod
-    def even(cls, rate_max_rad_s: float, steps: int = DEFAULT_STEPS) -> SpeedSteps:
-        return cls([rate_max_rad_s * k / steps for k in range(1, steps + 1)])
-
-    @property
-    def count(self) -> int:
-        return len(self.rates_rad_s)
-
-    def rate_rad_s(self, step: int) -> float:
-        return math.copysign(self.rates_rad_s[abs(step) - 1], step) if step else 0.0
-
-    def quantise(self, rate_rad_s: float, cap_rad_s: float = math.inf) -> int:
-        """The signed step nearest `rate_rad_s`, none faster than `cap_rad_s`."""
-        speed = min(abs(rate_rad_s), cap_rad_s)
-        rates = [0.0, *self.rates_rad_s]
-        i = bisect.bisect_left(rates, speed)
-        if i == len(rates):
-            step = len(rates) - 1
-        elif i > 0 and speed - rates[i - 1] <= rates[i] - speed:
-            step = i - 1
-        else:
-            step = i
-        while step > 0 and rates[step] > cap_rad_s:
-            step -= 1
-        return int(math.copysign(step, rate_rad_s)) if step else 0
 
 
 class SpeedHead:
@@ -242,21 +202,24 @@ class SpeedHead:
         return rates[0], rates[1]
 
     def _feed_forward_and_error(self, now_s: float) -> tuple[Pair, Pair]:
-        """The set-points' rates (over the last interval between two), and how far the head
-        will be from them when a command sent now acts, the set-points moved on at those rates.
-        Their rates' change is left out here: it carries the demands' noise, which the gap's
-        closing then corrects anyway."""
+        """The set-points' rates, and how far the head will be from them when a command sent
+        now acts."""
+        acts_s = now_s + self.latency_s
+        (pan_sp, tilt_sp), rates = self._set_point_at(acts_s, now_s)
+        pan_at, tilt_at = self.where(acts_s)
+        return rates, (pan_sp - pan_at, tilt_sp - tilt_at)
+
+    def _set_point_at(self, t_s: float, now_s: float) -> tuple[Pair, Pair]:
+        """The set-point at `t_s`, moved on at the set-points' rates over their last interval
+        (their rates' change carries the demands' noise, which the gap's closing corrects
+        anyway), and those rates; a set-point older than the command timeout stands still."""
         assert self._setpoint is not None
-        set_point, _, _, set_s = self._setpoint
+        (pan, tilt), _, _, set_s = self._setpoint
         rates = self._middle[0] if self._middle is not None else (0.0, 0.0)
         if now_s - set_s > self.command_timeout_s:  # the set-points have stopped coming
             rates = (0.0, 0.0)
-        ahead_s = now_s + self.latency_s - set_s
-        at = self.where(now_s + self.latency_s)
-        return rates, (
-            set_point[0] + rates[0] * ahead_s - at[0],
-            set_point[1] + rates[1] * ahead_s - at[1],
-        )
+        ahead_s = t_s - set_s
+        return (pan + rates[0] * ahead_s, tilt + rates[1] * ahead_s), rates
 
     def _set_point_then(self, now_s: float) -> tuple[Pair, Pair, Pair]:
         """The set-points, their rates and rates' change when a command sent now acts, for
@@ -275,10 +238,10 @@ class SpeedHead:
         return (moved[0][0], moved[1][0]), (moved[0][1], moved[1][1]), (moved[0][2], moved[1][2])
 
     def where(self, t_s: float) -> tuple[float, float]:
-        """Where the head is at `t_s`: its last reading moved on as the device model runs."""
+        """Where the head is at `t_s`: its last reading moved on as the device model runs; on
+        its set-points while it has not been read (a head that reports no position)."""
         if self._reading is None:
-            assert self._setpoint is not None
-            return self._setpoint[0]
+            return self._set_point_at(t_s, self._mono_s())[0]
         (pan_moved, tilt_moved), _, _ = self.model.run(t_s)
         return self._reading[0] + pan_moved, self._reading[1] + tilt_moved
 
@@ -350,29 +313,6 @@ class SpeedHead:
         )
         self.sent, self._sent_s, self.stopped = (pan_step, tilt_step), now_s, False
         return t_ns
-
-
-def rig_speed_steps(rig: Rig) -> tuple[SpeedSteps, SpeedSteps]:
-    """The rig's tables of rates per step, or even steps up to the fastest speed commands, as
-    many as the protocol has speed codes (`DEFAULT_STEPS` for ONVIF, whose speeds are real)."""
-    servo = rig.servo
-    counts = {
-        "visca": (
-            getattr(servo, "pan_speed_max_code", 0),
-            getattr(servo, "tilt_speed_max_code", 0),
-        ),
-        "pelco-d": (PELCO_SPEED_MAX, PELCO_SPEED_MAX),
-    }.get(servo.protocol, (DEFAULT_STEPS, DEFAULT_STEPS))
-    tables = []
-    for table, rate_max_deg_s, count in (
-        (servo.pan_speed_steps_deg_s, getattr(servo, "pan_speed_max_deg_s", 0.0), counts[0]),
-        (servo.tilt_speed_steps_deg_s, getattr(servo, "tilt_speed_max_deg_s", 0.0), counts[1]),
-    ):
-        if table:
-            tables.append(SpeedSteps([math.radians(rate) for rate in table]))
-        else:
-            tables.append(SpeedSteps.even(math.radians(rate_max_deg_s), count))
-    return tables[0], tables[1]
 
 
 def speed_head(

@@ -26,7 +26,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from test_servo_speed_mode import Mechanism
 
 from gazed.config import load_rig
-from gazed.servo.speed_mode import rig_speed_steps, speed_head
+from gazed.servo.speed_mode import speed_head
+from gazed.servo.speed_steps import rig_speed_steps
 from gazed.sim.head_mechanics import HeadMechanics
 
 REPO = Path(__file__).resolve().parents[2]
