@@ -113,14 +113,16 @@ def test_the_rate_is_the_set_points_rate_plus_the_gap_predicted_when_it_acts() -
     assert head.horizon_s == pytest.approx(0.02 + LATENCY_S)  # a poll period and the latency
     now[0] = 0.1
     head.set_position(RAD(1.0), 0.0)  # the set-points run at 10 deg/s, the head 1 deg behind
+    # the loop last looked at the head 0.1 s ago: the step may run that long
+    assert head.horizon_s == pytest.approx(0.1 + LATENCY_S)
     # when a command sent now acts (30 ms on), the set-point is at 1.3 deg and the head still
-    # at 0: 10 deg/s and 1.3 deg over the 50 ms horizon
-    assert head.rates_rad_s(0.1) == pytest.approx((RAD(10.0 + 1.3 / 0.05), 0.0))
-    assert device.commands == [(6, 0)]  # 36 deg/s -> the 50 deg/s step
-    now[0] = 0.11
-    device.position = (RAD(1.1), 0.0)
-    head.query_position()  # the head has caught up: 20 deg/s from 0.13 s would overshoot
-    assert device.commands[-1] == (4, 0)
+    # at 0: 10 deg/s and 1.3 deg over the horizon
+    assert head.rates_rad_s(0.1) == pytest.approx((RAD(10.0 + 1.3 / 0.13), 0.0))
+    assert device.commands == [(5, 0)]  # 20 deg/s
+    for i in range(1, 300):  # looking every 10 ms, the long gap fades from the horizon
+        now[0] = 0.1 + i * 0.01
+        head.query_position()
+    assert head.horizon_s == pytest.approx(0.02 + LATENCY_S)
 
 
 def test_the_head_is_predicted_from_its_reading_with_each_rate_told_latency_and_ramp() -> None:
@@ -128,12 +130,13 @@ def test_the_head_is_predicted_from_its_reading_with_each_rate_told_latency_and_
     head.set_position(0.0, 0.0)
     head.query_position()
     now[0] = 0.1
-    head.set_position(RAD(1.0), 0.0)  # 50 deg/s told at 0.1 s
+    head.set_position(RAD(1.0), 0.0)  # a step told at 0.1 s
+    rate = STEPS.rate_rad_s(head.sent[0])
     now[0] = 0.12
     head.query_position()  # read at 0 deg at 0.12 s: the step has not acted yet
     assert head.where(0.13) == pytest.approx((0.0, 0.0))
-    ramp_s = RAD(50.0) / RAD(3000.0)  # link_rig's acceleration limit
-    moved = RAD(50.0) * (0.02 - ramp_s / 2.0)
+    ramp_s = rate / RAD(3000.0)  # link_rig's acceleration limit
+    moved = rate * (0.02 - ramp_s / 2.0)
     assert head.where(0.15) == pytest.approx((moved, 0.0))
 
 
@@ -180,7 +183,7 @@ def test_a_stale_set_point_stands_still_and_the_head_stops_on_it() -> None:
     device.position = (RAD(1.9), 0.0)
     head.query_position()
     pan_at = head.where(now[0] + LATENCY_S)[0]
-    assert head.rates_rad_s(now[0]) == pytest.approx(((RAD(2.0) - pan_at) / 0.05, 0.0))
+    assert head.rates_rad_s(now[0]) == pytest.approx(((RAD(2.0) - pan_at) / head.horizon_s, 0.0))
     device.position = (RAD(2.0), 0.0)
     for _ in range(5):  # the head told to stop where it stands, on its set-point
         head.stop() if device.commands[-1] != "stop" else None

@@ -49,6 +49,8 @@ from gazed.servo.speed_steps import SpeedSteps, rig_speed_steps
 from gazed.servo.transport import LinkError
 from gazed.sim.head_mechanics import device_bounds
 
+GAP_MEMORY_S = 1.0  # how long a long gap between the loop's looks at the head is remembered
+
 
 class SpeedDevice(Protocol):
     """A head that takes speed commands as fractions of its fastest step (ONVIF head)."""
@@ -104,11 +106,10 @@ class SpeedHead:
         self.command_timeout_s = command_timeout_s
         self.poll_period_s = poll_period_s
         self.command_period_s = command_period_s
-        # the gap a step is to close: the step runs until the loop can next change it (a command
-        # period, and no less than a poll period, the readings closing the loop), and a reading
-        # shows it a latency after it was sent; with the latency in, the loop stays stable on a
-        # head whose latency is several times the rig's
-        self.horizon_s = max(command_period_s, poll_period_s) + latency_s
+        # the loop's period: a command period, and no less than a poll period (the readings
+        # close the loop); `_gap_s` is the longest recent time between its looks at the head
+        self._period_s = self._gap_s = max(command_period_s, poll_period_s)
+        self._decided_s: float | None = None
         self._mono_s = mono_s
         self._wall_ns = wall_ns
         self._bounds = device_bounds(head)
@@ -131,7 +132,7 @@ class SpeedHead:
         self.device.connect()
         self.by_speed = self._by_speed(self.device)
         self.sent, self._sent_s, self._setpoint, self._reading = (0, 0), -math.inf, None, None
-        self._middle = None
+        self._middle, self._decided_s, self._gap_s = None, None, self._period_s
         self.model = DriveModel(self.latency_s, self._accel_rad_s2, self._mono_s())
         self.stopped = True
 
@@ -186,6 +187,22 @@ class SpeedHead:
         return t_ns
 
     # --- the law -----------------------------------------------------------------------------
+
+    @property
+    def horizon_s(self) -> float:
+        """Over how long a gap is closed: the step runs until the loop can next change it (its
+        period, or longer if it has lately looked at the head less often: a busy host), and a
+        reading shows it a latency after it was sent; with the latency in, the loop stays
+        stable on a head whose latency is several times the rig's."""
+        return max(self._period_s, self._gap_s) + self.latency_s
+
+    def _looked(self, now_s: float) -> None:
+        """The loop looks at the head now: a longer gap since the last look counts at once, a
+        shorter one lets the gap counted fade back to the period over `GAP_MEMORY_S`."""
+        if self._decided_s is not None:
+            fade = math.exp(-(now_s - self._decided_s) / GAP_MEMORY_S)
+            self._gap_s = max(now_s - self._decided_s, self._gap_s * fade)
+        self._decided_s = now_s
 
     def rates_rad_s(self, now_s: float) -> tuple[float, float]:
         """The rate each axis is to run at from when a command sent now acts (before
@@ -279,7 +296,9 @@ class SpeedHead:
 
     def _command(self, now_s: float) -> int:
         """Send the steps due now, if they differ from those running or are to be renewed;
-        when they went out (ns), 0 if nothing was sent."""
+        when they went out (ns), 0 if nothing was sent. A command is dated halfway through
+        its exchange with the device."""
+        self._looked(now_s)
         position = self.where(now_s + self.latency_s)
         rates = self.rates_rad_s(now_s)
         braking_caps = self._braking_caps_rad_s(now_s, position, rates)
@@ -295,7 +314,7 @@ class SpeedHead:
             if self.stopped:
                 return 0
             t_ns = self.device.stop()
-            self.model.tell(now_s, 0.0, 0.0)
+            self.model.tell((now_s + self._mono_s()) / 2.0, 0.0, 0.0)
             self.sent, self._sent_s, self.stopped = (0, 0), now_s, True
             return t_ns
         since_s = now_s - self._sent_s
@@ -309,7 +328,9 @@ class SpeedHead:
             self.command_timeout_s,
         )
         self.model.tell(
-            now_s, self.steps[0].rate_rad_s(pan_step), self.steps[1].rate_rad_s(tilt_step)
+            (now_s + self._mono_s()) / 2.0,
+            self.steps[0].rate_rad_s(pan_step),
+            self.steps[1].rate_rad_s(tilt_step),
         )
         self.sent, self._sent_s, self.stopped = (pan_step, tilt_step), now_s, False
         return t_ns
