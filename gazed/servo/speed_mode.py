@@ -6,10 +6,10 @@ it was told, from `latency_s` after the command was sent, reached at the `[head]
 limit. Each set-point the writer sends, and each poll of the position, then sets the rate: the
 set-points' own rate (the demand's feed-forward, as the set-point generator shapes it) plus the
 gap between the set-point and the predicted head at the moment a command sent now would act,
-closed over the horizon (the time until the loop can next change the step, plus the latency:
-the gain of a dead-beat loop on the prediction, kept stable on a head slower to act than the
-rig says). The closing rate is no more than the head gains or sheds in a horizon. The rate is
-then
+closed over the horizon (the time until the loop can next change the step, longer on a busy
+host, plus the latency: the gain of a dead-beat loop on the prediction, kept stable on a head
+slower to act than the rig says). The closing rate is no more than the head gains or sheds in
+a horizon. The rate is then
 
 - capped, on the way to a joint limit, to what the head can still brake from before it
   (sqrt(2·a·d) over the distance left once it has run one poll period at its present rate), and
