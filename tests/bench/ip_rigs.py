@@ -84,7 +84,8 @@ def main() -> None:
                 fovea[name].append(result["fovea_fraction"] or 0.0)
                 print(
                     f"round {round_ + 1} {name:<18} gaze error RMS {error} deg, fovea "
-                    f"{result['fovea_fraction']}, acquired after {result['acquired_after_s']} s",
+                    f"{result['fovea_fraction']}, acquired after {result['acquired_after_s']} s, "
+                    f"polls timed out {result['servo']['timeouts']}, CPU {result['cpu_percent']}",
                     flush=True,
                 )
     reference = statistics.median(rms[REFERENCE]) if rms[REFERENCE] else None
