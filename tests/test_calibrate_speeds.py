@@ -1,5 +1,6 @@
 """`gazed calibrate speeds` against the emulated ONVIF camera on a virtual clock: each step's
-rate from the camera's own readings, inside the joint limits; the command's refusals."""
+rate and the camera's latency from its own readings, inside the joint limits; the command's
+refusals."""
 
 from __future__ import annotations
 
@@ -17,6 +18,7 @@ from gazed.sim.head_onvif import OnvifEmulator
 
 def test_each_steps_rate_is_measured_inside_the_limits(tmp_path: Path) -> None:
     rig, clock = onvif_rig(tmp_path), Clock()
+    rig = rig.model_copy(update={"sim": rig.sim.model_copy(update={"head_latency_ms": 45.0})})
     head = rig.head
     poses = []
 
@@ -29,10 +31,12 @@ def test_each_steps_rate_is_measured_inside_the_limits(tmp_path: Path) -> None:
         OnvifEmulator(rig, clock=clock.now) as camera,
         OnvifHead(rig.servo, password=PASSWORD, wall_ns=clock.now_ns) as onvif,
     ):
-        pan, tilt = measure_speeds(onvif, head, (2, 2), 0.8, 0.04, clock.now, sleep)
-    # the emulated camera runs velocity 1 at 120 and 100 deg/s (sim-onvif.toml)
+        pan, tilt, latency_ms = measure_speeds(onvif, head, (2, 2), 0.8, 0.04, clock.now, sleep)
+    # the emulated camera runs velocity 1 at 120 and 100 deg/s (sim-onvif.toml) and acts on a
+    # command [sim] head_latency_ms after it
     assert pan == pytest.approx([60.0, 120.0], rel=0.02)
     assert tilt == pytest.approx([50.0, 100.0], rel=0.02)
+    assert latency_ms == pytest.approx(45.0, abs=3.0)
     assert all(head.pan_min_deg <= p <= head.pan_max_deg for p, _ in poses)
     assert all(head.tilt_min_deg <= t <= head.tilt_max_deg for _, t in poses)
 

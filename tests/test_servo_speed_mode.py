@@ -1,8 +1,10 @@
 """Speed mode on a recording device and a virtual clock: rates quantised to the table's steps
-(never past a cap), feed-forward plus a term on the position error, never a step towards a
+(never past a cap), the set-points' rate plus the gap predicted when a command acts (the
+device model: latency and acceleration ramp; the set-points' trend), never a step towards a
 limit the head could not brake before, commands renewed before the device's timeout and not
-repeated otherwise, Stop once the set-points come to rest, and a set-point older than the
-command timeout held still."""
+repeated otherwise, Stop once the set-points come to rest, a set-point older than the command
+timeout held still; and on the emulated head's mechanism, a pursuit followed within a step's
+travel over the horizon."""
 
 from __future__ import annotations
 
@@ -14,12 +16,17 @@ from hypothesis import given
 from hypothesis import strategies as st
 from servo_link_support import link_rig
 
+from gazed.servo.drive_model import DriveModel
 from gazed.servo.driver import DevicePosition
-from gazed.servo.speed_mode import SpeedHead, SpeedSteps
+from gazed.servo.setpoint_trend import run_on, set_point_rates
+from gazed.servo.speed_mode import SpeedHead
+from gazed.servo.speed_steps import SpeedSteps
+from gazed.sim.head_mechanics import HeadMechanics
 
 RAD = math.radians
 STEPS = SpeedSteps([RAD(r) for r in (1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0)])
 TIMEOUT_S = 0.5
+LATENCY_S = 0.03
 
 
 class Device:
@@ -32,6 +39,7 @@ class Device:
         self.counters: Counter[str] = Counter()
         self.commands: list[tuple[float, float] | str] = []
         self.position = (0.0, 0.0)
+        self.now_s = [0.0]
         self.is_connected = False
 
     def connect(self) -> None:
@@ -53,17 +61,19 @@ class Device:
         return 1
 
     def query_position(self, between=None) -> DevicePosition:
-        return DevicePosition(*self.position, 0, 0)
+        t_ns = round(self.now_s[0] * 1e9)
+        return DevicePosition(*self.position, t_ns, t_ns)
 
 
 def speed_head(command_period_s: float = 0.0) -> tuple[SpeedHead, Device, list[float]]:
     """A head of ±60° pan, -40..20° tilt and 3000°/s² (`link_rig`), polled at 50 Hz."""
-    device, now = Device(), [0.0]
+    device = Device()
+    now = device.now_s
     head = SpeedHead(
         device,
         link_rig().head,
         (STEPS, STEPS),
-        gain_per_s=4.0,
+        latency_s=LATENCY_S,
         command_timeout_s=TIMEOUT_S,
         poll_period_s=0.02,
         command_period_s=command_period_s,
@@ -91,23 +101,43 @@ def test_quantise_takes_the_nearest_step_with_its_sign_and_none_past_the_cap() -
 @given(st.floats(-10.0, 10.0), st.floats(0.0, 10.0))
 def test_a_quantised_step_never_runs_faster_than_its_cap(rate: float, cap: float) -> None:
     step = STEPS.quantise(rate, cap)
-    assert abs(STEPS.rate_rad_s(step)) <= cap
+    assert abs(STEPS.rate_rad_s(step)) <= cap + 1e-9
     assert step == 0 or math.copysign(1.0, step) == math.copysign(1.0, rate)
 
 
-def test_the_rate_is_the_set_points_rate_plus_a_term_on_the_error() -> None:
+def test_the_rate_is_the_set_points_rate_plus_the_gap_predicted_when_it_acts() -> None:
     head, device, now = speed_head()
     head.set_position(0.0, 0.0)
     head.query_position()
     assert device.commands == []  # at rest on its set-point: nothing to send
+    assert head.horizon_s == pytest.approx(0.02 + LATENCY_S)  # a poll period and the latency
     now[0] = 0.1
     head.set_position(RAD(1.0), 0.0)  # the set-points run at 10 deg/s, the head 1 deg behind
-    assert head.rates_rad_s(0.1) == pytest.approx((RAD(10.0 + 4.0 * 1.0), 0.0))
-    assert device.commands == [(4, 0)]  # 14 deg/s -> the 10 deg/s step
+    # the loop last looked at the head 0.1 s ago: the step may run that long
+    assert head.horizon_s == pytest.approx(0.1 + LATENCY_S)
+    # when a command sent now acts (30 ms on), the set-point is at 1.3 deg and the head still
+    # at 0: 10 deg/s and 1.3 deg over the horizon
+    assert head.rates_rad_s(0.1) == pytest.approx((RAD(10.0 + 1.3 / 0.13), 0.0))
+    assert device.commands == [(5, 0)]  # 20 deg/s
+    for i in range(1, 300):  # looking every 10 ms, the long gap fades from the horizon
+        now[0] = 0.1 + i * 0.01
+        head.query_position()
+    assert head.horizon_s == pytest.approx(0.02 + LATENCY_S)
+
+
+def test_the_head_is_predicted_from_its_reading_with_each_rate_told_latency_and_ramp() -> None:
+    head, _device, now = speed_head()
+    head.set_position(0.0, 0.0)
+    head.query_position()
+    now[0] = 0.1
+    head.set_position(RAD(1.0), 0.0)  # a step told at 0.1 s
+    rate = STEPS.rate_rad_s(head.sent[0])
     now[0] = 0.12
-    device.position = (RAD(1.0), 0.0)
-    head.query_position()  # the same step is still due: not sent again
-    assert device.commands == [(4, 0)]
+    head.query_position()  # read at 0 deg at 0.12 s: the step has not acted yet
+    assert head.where(0.13) == pytest.approx((0.0, 0.0))
+    ramp_s = rate / RAD(3000.0)  # link_rig's acceleration limit
+    moved = rate * (0.02 - ramp_s / 2.0)
+    assert head.where(0.15) == pytest.approx((moved, 0.0))
 
 
 def test_a_running_command_is_renewed_before_the_devices_timeout() -> None:
@@ -123,39 +153,42 @@ def test_a_running_command_is_renewed_before_the_devices_timeout() -> None:
 
 def test_at_most_one_command_a_command_period_but_stop_at_once() -> None:
     head, device, now = speed_head(command_period_s=0.1)
+    assert head.horizon_s == pytest.approx(0.1 + LATENCY_S)  # a command period and the latency
     head.set_position(0.0, 0.0)
     head.query_position()
     now[0] = 0.1
-    head.set_position(RAD(1.0), 0.0)  # 14 deg/s: step 4
-    now[0] = 0.15
-    head.set_position(RAD(3.0), 0.0)  # 40 deg/s and more: held back, too soon
-    assert device.commands == [(4, 0)]
-    now[0] = 0.21
-    head.set_position(RAD(5.4), 0.0)
-    assert device.commands[-1] == (6, 0)
-    device.position = (RAD(5.4), 0.0)
-    now[0] = 0.23
+    head.set_position(RAD(1.0), 0.0)  # 10 + 1.3 / 0.13 deg/s: step 5
+    now[0] = 0.12
+    head.set_position(RAD(3.0), 0.0)  # 100 deg/s and more: held back, too soon
+    assert device.commands == [(5, 0)]
+    now[0] = 0.14
+    head.set_position(RAD(3.0), 0.0)
+    now[0] = 0.16
+    device.position = (RAD(2.4), 0.0)
     head.query_position()
-    head.set_position(RAD(5.4), 0.0)  # at rest on the head: Stop at once, not held back
-    assert device.commands[-1] == "stop"
+    head.set_position(RAD(3.0), 0.0)  # the 20 deg/s running lands it on 3 deg when Stop acts
+    assert device.commands[-1] == "stop"  # at once, not held back
+    now[0] = 0.3
+    head.set_position(RAD(5.0), 0.0)  # a command period on: the next step goes out
+    assert device.commands[-1][0] > 0
 
 
-def test_stop_once_the_set_points_rest_on_the_head_and_a_stale_set_point_stands_still() -> None:
+def test_a_stale_set_point_stands_still_and_the_head_stops_on_it() -> None:
     head, device, now = speed_head()
     head.set_position(0.0, 0.0)
     now[0] = 0.1
     head.set_position(RAD(2.0), 0.0)  # 20 deg/s
     assert device.commands[-1] == (5, 0)
-    device.position = (RAD(1.9), 0.0)
     now[0] = 0.1 + TIMEOUT_S + 0.01  # no set-point since: the target stands at 2 deg
+    device.position = (RAD(1.9), 0.0)
     head.query_position()
-    assert head.rates_rad_s(now[0]) == pytest.approx((RAD(4.0 * 0.1), 0.0))
-    # 0.4 deg/s rounds to no step, but 0.1 deg is more than the slowest step runs between two
-    # polls (0.02 deg): the slowest step, so the head ends on its set-point
-    assert device.commands[-1] == (1, 0)
-    device.position = (RAD(1.99), 0.0)
-    now[0] += 0.02
-    head.query_position()
+    pan_at = head.where(now[0] + LATENCY_S)[0]
+    assert head.rates_rad_s(now[0]) == pytest.approx(((RAD(2.0) - pan_at) / head.horizon_s, 0.0))
+    device.position = (RAD(2.0), 0.0)
+    for _ in range(5):  # the head told to stop where it stands, on its set-point
+        head.stop() if device.commands[-1] != "stop" else None
+        now[0] += 0.02
+        head.query_position()
     assert device.commands[-1] == "stop"
 
 
@@ -164,15 +197,16 @@ def test_no_step_towards_a_limit_the_head_could_not_brake_before() -> None:
     pan_max, start = RAD(60.0), RAD(55.0)
     device.position = (start, 0.0)
     head.set_position(start, 0.0)
-    for i in range(1, 60):  # set-points run into the limit at 100 deg/s, the head behind them
+    rate = 0.0
+    for i in range(1, 60):  # set-points run into the limit at 100 deg/s, the head after them
         now[0] = i * 0.02
-        device.position = (min(pan_max, start + RAD(60.0) * now[0]), 0.0)
+        device.position = (min(pan_max, device.position[0] + rate * 0.02), 0.0)
         head.query_position()
         head.set_position(min(pan_max, start + RAD(100.0) * now[0]), 0.0)
-        sent = [c for c in device.commands if c != "stop"]
-        pan_step = sent[-1][0] if sent and device.commands[-1] != "stop" else 0
-        room = pan_max - device.position[0]
-        assert STEPS.rate_rad_s(pan_step) ** 2 <= 2 * RAD(3000.0) * max(room, 0.0) + 1e-12
+        pan_step = 0 if device.commands[-1] == "stop" else device.commands[-1][0]
+        rate = STEPS.rate_rad_s(pan_step)
+        room = pan_max - device.position[0] if pan_step > 0 else RAD(60.0) + device.position[0]
+        assert rate**2 <= 2 * RAD(3000.0) * max(room, 0.0) + 1e-12
     assert any(c != "stop" and c[0] >= 6 for c in device.commands)  # it did run fast
     assert device.commands[-1] == "stop"  # and stands at the limit
     head.set_position(pan_max - RAD(0.2), 0.0)  # away from the limit it moves again
@@ -197,7 +231,7 @@ def test_a_head_that_takes_positions_gets_them_unchanged() -> None:
         device,
         link_rig().head,
         (STEPS, STEPS),
-        gain_per_s=4.0,
+        latency_s=LATENCY_S,
         command_timeout_s=TIMEOUT_S,
         poll_period_s=0.02,
         by_speed=lambda _d: False,
@@ -253,3 +287,118 @@ def test_a_visca_camera_in_speed_mode_is_driven_by_pan_tilt_drives_only(tmp_path
     assert link.counts["errors"] == 0, link.last_error
     assert math.degrees(pose.pan_rad) == pytest.approx(15.0, abs=1.0)
     assert math.degrees(pose.tilt_rad) == pytest.approx(5.0, abs=1.0)
+
+
+class Mechanism:
+    """A speed device on the emulated head's mechanism, `rate_max_rad_s` at velocity 1 on each
+    axis: each command acts `head_latency_ms` later, at the head's acceleration limit; readings
+    in 0.075 deg units (VISCA's)."""
+
+    codec = object()
+    transport = object()
+
+    def __init__(
+        self, mechanics: HeadMechanics, rate_max_rad_s: tuple[float, float], now: list[float]
+    ) -> None:
+        self.counters: Counter[str] = Counter()
+        self.mechanics, self.rate_max_rad_s, self.now = mechanics, rate_max_rad_s, now
+        self.is_connected = False
+
+    def connect(self) -> None:
+        self.is_connected = True
+
+    def disconnect(self) -> None:
+        self.is_connected = False
+
+    def set_speed(self, pan_fraction: float, tilt_fraction: float, timeout_s: float) -> int:
+        pan = pan_fraction * self.rate_max_rad_s[0]
+        tilt = tilt_fraction * self.rate_max_rad_s[1]
+        self.mechanics.schedule(self.now[0], lambda m: (m.pan.move_at(pan), m.tilt.move_at(tilt)))
+        self.counters["commands"] += 1
+        return round(self.now[0] * 1e9)
+
+    def stop(self) -> int:
+        self.mechanics.schedule(self.now[0], lambda m: (m.pan.hold(), m.tilt.hold()))
+        self.counters["commands"] += 1
+        return round(self.now[0] * 1e9)
+
+    def set_position(self, pan_rad: float, tilt_rad: float) -> int:
+        raise AssertionError("a speed head sends no positions")
+
+    def query_position(self, between=None) -> DevicePosition:
+        self.mechanics.advance(self.now[0])
+        unit = RAD(0.075)
+        pan, tilt = (round(angle / unit) * unit for angle in self.mechanics.encoder())
+        t_ns = round(self.now[0] * 1e9)
+        return DevicePosition(pan, tilt, t_ns, t_ns)
+
+
+def test_a_head_with_latency_and_coarse_steps_follows_a_pursuit_closely() -> None:
+    rig = link_rig()
+    sim = rig.sim.model_copy(update={"head_latency_ms": 30.0})
+    now = [0.0]
+    mechanics = HeadMechanics(rig.head, sim, 0.0)
+    steps = SpeedSteps.even(RAD(120.0), 24)  # 5 deg/s a step, as a VISCA camera's drive
+    device = Mechanism(mechanics, (RAD(120.0), RAD(120.0)), now)
+    head = SpeedHead(
+        device,
+        rig.head,
+        (steps, steps),
+        latency_s=0.03,
+        command_timeout_s=TIMEOUT_S,
+        poll_period_s=0.02,
+        command_period_s=0.02,
+        mono_s=lambda: now[0],
+        wall_ns=lambda: round(now[0] * 1e9),
+    )
+    head.connect()
+
+    def setpoint(t_s: float) -> tuple[float, float]:
+        return RAD(20.0) * math.sin(t_s * math.pi / 2.0), RAD(5.0) * math.sin(t_s * math.pi)
+
+    errors = []
+    for i in range(400):  # 4 s: set-points and polls at 50 Hz, 10 ms apart
+        now[0] = i * 0.01
+        if i % 2:
+            head.query_position()
+        else:
+            head.set_position(*setpoint(now[0]))
+        mechanics.advance(now[0])
+        if now[0] >= 1.0:
+            errors += [a - b for a, b in zip(mechanics.encoder(), setpoint(now[0]), strict=True)]
+    rms_deg = math.degrees(math.sqrt(sum(e * e for e in errors) / len(errors)))
+    # the quantisation's share is a step over the horizon (5 deg/s over 50 ms), not a step
+    # over a small gain; the head's 30 ms to act is predicted, not lagged
+    assert rms_deg < 0.15
+    assert device.counters["commands"] <= 4 * 50  # never above the command rate
+
+
+def test_the_set_points_rate_and_its_change_come_from_the_last_three() -> None:
+    def parabola(t_s: float) -> float:  # rate 2 - 10 t, its change -10
+        return 2.0 * t_s - 5.0 * t_s * t_s
+
+    _, _, middle = set_point_rates((parabola(0.02), 0.0), (parabola(0.0), 0.0), 0.02, None)
+    rates, accels, _ = set_point_rates(
+        (parabola(0.05), 0.0), (parabola(0.02), 0.0), 0.03, (middle, 0.02)
+    )
+    assert rates[0] == pytest.approx(2.0 - 10.0 * 0.05)
+    assert accels[0] == pytest.approx(-10.0)
+
+
+def test_set_points_run_on_until_they_rest_or_reach_the_rate_limit() -> None:
+    braking = run_on(1.0, 2.0, -10.0, 5.0, 1.0)  # at rest after 0.2 s, 0.2 rad on
+    assert braking == pytest.approx((1.2, 0.0, 0.0))
+    speeding = run_on(0.0, 4.0, 10.0, 5.0, 1.0)  # at the 5 rad/s limit after 0.1 s
+    assert speeding == pytest.approx((0.45 + 5.0 * 0.9, 5.0, 0.0))
+    assert run_on(0.0, 1.0, 0.0, 5.0, 0.5) == pytest.approx((0.5, 1.0, 0.0))
+
+
+def test_a_told_rate_acts_after_the_latency_at_the_acceleration_limit() -> None:
+    model = DriveModel(0.05, (10.0, 10.0), 0.0)
+    model.tell(0.0, 1.0, -1.0)
+    assert model.run(0.05)[0] == pytest.approx((0.0, 0.0))
+    moved, rates, targets = model.run(0.1)  # 0.05 s of ramp at 10 rad/s^2
+    assert moved == pytest.approx((0.0125, -0.0125))
+    assert rates == pytest.approx((0.5, -0.5)) and targets == (1.0, -1.0)
+    model.read(0.1)  # a reading: the model runs on from its state then
+    assert model.run(0.2)[0] == pytest.approx((0.0375 + 0.05, -0.0875))  # ramp, then steady

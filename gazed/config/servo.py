@@ -57,8 +57,12 @@ class ServoLink(Section):
     tilt_speed_steps_deg_s: list[float] = Field(
         default_factory=list, description="Speed mode: the tilt rate of each speed step."
     )
-    speed_gain_per_s: float = Field(
-        4.0, gt=0, le=100, description="Speed mode: rate added per radian of position error."
+    speed_latency_ms: float = Field(
+        100.0,
+        ge=0,
+        le=2000,
+        description="Speed mode: how long after a speed command the head acts on it "
+        "(`gazed calibrate speeds` measures it; too long costs less than too short).",
     )
 
     @model_validator(mode="after")

@@ -1,14 +1,19 @@
 """`gazed calibrate speeds`: measure the rate of each speed step of a head driven by speed (an
-ONVIF camera's ContinuousMove, a VISCA or Pelco-D drive) with its own position readings, and
-print the rig's tables (`pan_speed_steps_deg_s`, `tilt_speed_steps_deg_s`).
+ONVIF camera's ContinuousMove, a VISCA or Pelco-D drive) and how long it takes to act on a speed
+command, with its own position readings, and print the rig's keys (`pan_speed_steps_deg_s`,
+`tilt_speed_steps_deg_s`, `speed_latency_ms`).
 
     gazed calibrate speeds --rig RIG [--steps N] [--seconds S]
 
 For each axis and each step k of N (velocity k/N), the camera runs at that speed towards the
 farther of its joint limits. Readings taken in the first `SETTLE_S` (the camera gathering
 speed) are left out; the rate is the least-squares slope of the rest against their dates. The
-run ends early, with Stop, once the camera could no longer brake before the limit at its rate
-and acceleration limit, so it never leaves the limits; then it stops and reads the next step.
+line crosses the angle the camera started from when a head that jumped to the rate would have
+set off; less the half of the ramp to the rate at the `[head]` acceleration limit that this
+adds, and the time the command was sent, that is the latency, whose median over the steps is
+printed. The run ends early, with Stop, once the camera could no longer brake before the limit
+at its rate and acceleration limit, so it never leaves the limits; then it stops and reads the
+next step.
 """
 
 from __future__ import annotations
@@ -30,7 +35,8 @@ from gazed.servo.drive_speeds import DriveSpeeds, drive_rates_rad_s
 from gazed.servo.driver import DeviceError, ServoDriver
 from gazed.servo.onvif_driver import rig_folder
 from gazed.servo.onvif_head import OnvifHead
-from gazed.servo.speed_mode import SpeedDevice, rig_speed_steps
+from gazed.servo.speed_mode import SpeedDevice
+from gazed.servo.speed_steps import rig_speed_steps
 from gazed.servo.transport import LinkError
 from gazed.servo.visca_ip_transport import open_transport
 from gazed.sim.head_mechanics import device_bounds
@@ -64,7 +70,7 @@ def speeds_command(args: argparse.Namespace) -> int:
         return 2
     try:
         with connected_speed_device(rig) as device:
-            tables = measure_speeds(
+            *tables, latency_ms = measure_speeds(
                 device, rig.head, steps, args.seconds, 1.0 / servo.odometry_rate_hz
             )
     except (LinkError, HandshakeError, DeviceError, CodecError, ValueError) as exc:
@@ -74,6 +80,7 @@ def speeds_command(args: argparse.Namespace) -> int:
         print(f"{key} = [{', '.join(f'{rate:.2f}' for rate in table)}]")
         if any(b <= a for a, b in zip([0.0, *table], table, strict=False)):
             print(f"# {key}: not rising with the step; run again, or with fewer --steps")
+    print(f"speed_latency_ms = {latency_ms:.1f}")
     return 0
 
 
@@ -111,13 +118,15 @@ def measure_speeds(
     poll_s: float,
     mono_s: Callable[[], float] = time.monotonic,
     sleep: Callable[[float], None] = time.sleep,
-) -> tuple[list[float], list[float]]:
-    """Each axis's rate (deg/s) at its steps 1..N (`steps` per axis), measured on `device`."""
+) -> tuple[list[float], list[float], float]:
+    """Each axis's rate (deg/s) at its steps 1..N (`steps` per axis), measured on `device`, and
+    the median latency (ms) from a speed command to the head acting on it."""
     bounds = device_bounds(head)
     tables: tuple[list[float], list[float]] = ([], [])
+    latencies_s = []
     for axis in (0, 1):
         for step in range(1, steps[axis] + 1):
-            rate = _run_step(
+            rate, latency_s = _run_step(
                 device,
                 axis,
                 step / steps[axis],
@@ -129,7 +138,8 @@ def measure_speeds(
                 sleep,
             )
             tables[axis].append(math.degrees(rate))
-    return tables
+            latencies_s.append(latency_s - rate / (2.0 * head.accel_max_rad_s2[axis]))
+    return tables[0], tables[1], max(0.0, float(np.median(latencies_s))) * 1000.0
 
 
 def _run_step(
@@ -142,8 +152,9 @@ def _run_step(
     poll_s: float,
     mono_s: Callable[[], float],
     sleep: Callable[[float], None],
-) -> float:
-    """Run one axis at `fraction` towards its farther limit; the rate its readings show."""
+) -> tuple[float, float]:
+    """Run one axis at `fraction` towards its farther limit; the rate its readings show, and
+    when (after the command was sent) that rate's line leaves the starting angle."""
     lower, upper = bounds
     start = camera.query_position()
     at = (start.pan_rad, start.tilt_rad)[axis]
@@ -152,12 +163,14 @@ def _run_step(
     velocity[axis] = sign * fraction
     began_s = mono_s()
     renewed_s = -math.inf
+    sent_s: float | None = None
     readings: list[tuple[float, float]] = []
     last: tuple[float, float] | None = None
     try:
         while (now_s := mono_s()) - began_s < seconds:
             if now_s - renewed_s > seconds / 2.0:
-                camera.set_speed(velocity[0], velocity[1], seconds)
+                t_ns = camera.set_speed(velocity[0], velocity[1], seconds)
+                sent_s = t_ns / 1e9 if sent_s is None else sent_s
                 renewed_s = now_s
             sleep(poll_s)
             position = camera.query_position()
@@ -178,4 +191,8 @@ def _run_step(
             "before the limit (lower --seconds, or start nearer the middle)"
         )
     times, angles = zip(*readings, strict=True)
-    return abs(float(np.polyfit(times, angles, 1)[0]))
+    t0_s = times[0]  # fitted about the first reading: seconds since the epoch lose digits
+    slope, offset = np.polyfit(np.subtract(times, t0_s), angles, 1)
+    assert sent_s is not None
+    crossed_s = t0_s + ((start.pan_rad, start.tilt_rad)[axis] - offset) / slope
+    return abs(float(slope)), float(crossed_s - sent_s)
