@@ -37,7 +37,7 @@ from gazed.gaze.sightings import Sightings
 from gazed.geometry.zoom import ZoomLens
 from gazed.messages import Detection, GazeDemand, GazeStateName, Odometry
 
-LEAVE_ALONE: tuple[GazeStateName, ...] = ("trace",)  # states that never move the zoom
+LEAVE_ALONE: tuple[GazeStateName, ...] = ("trace", "hold")  # states that never move the zoom
 TICK_MAX_S = 0.5  # a longer gap between ticks ramps the zoom by this much time at most
 SIZE_SAMPLES = 15  # the target's size is the median of this many sightings' (about 0.6 s)
 
