@@ -279,3 +279,8 @@ def test_a_bad_rig_exits_2_from_the_one_loader(
 def test_a_number_that_is_not_finite_is_refused_naming_its_key(value: str) -> None:
     with pytest.raises(RigError, match=r"camera\.cx_px"):
         parse_rig(f'[rig]\nname = "x"\n[camera]\ncx_px = {value}\n')
+
+
+def test_zoom_control_without_a_zoom_lens_names_the_key() -> None:
+    with pytest.raises(RigError, match=r"gaze\.zoom_control: needs a zoom lens"):
+        parse_rig('[rig]\nname = "x"\n[gaze]\nzoom_control = true\n')

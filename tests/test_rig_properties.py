@@ -222,6 +222,7 @@ def test_any_document_loads_or_names_its_keys(document: dict[str, Any]) -> None:
 
 @examples(300)
 @given(section_values())
+@example({"rig": {"name": "r"}, "gaze": {"zoom_control": True}})  # a check across sections
 def test_any_value_of_any_section_loads_or_names_its_key(document: dict[str, Any]) -> None:
     rig, problems = load(toml_text(document))
     if rig is None:

@@ -30,10 +30,11 @@ def describe_errors(exc: ValidationError, data: dict[str, Any]) -> list[str]:
         loc = _strip_tags(error["loc"])
         kind = error["type"]
         if kind == "value_error":
-            # cross-field checks name their key first: "pan_max_deg: must be above …"
+            # cross-field checks name their key first: "pan_max_deg: must be above …", or its whole
+            # path where they check across sections: "gaze.zoom_control: needs …"
             message = str(error["msg"]).removeprefix("Value error, ")
             key, sep, rest = message.partition(": ")
-            if sep and re.fullmatch(r"[a-z_0-9]+", key):
+            if sep and re.fullmatch(r"[a-z_0-9]+(\.[a-z_0-9]+)*", key):
                 loc, message = (*loc, key), rest
             lines.append(f"{_key_path(loc)}: {message}")
             continue

@@ -52,7 +52,7 @@ class Rig(Section):
     @model_validator(mode="after")
     def _zoom_control_needs_a_zoom_lens(self) -> Rig:
         if self.gaze.zoom_control and not self.camera.zoom_focal_px:
-            raise ValueError("gaze.zoom_control needs a zoom lens: [camera] zoom_focal_px")
+            raise ValueError("gaze.zoom_control: needs a zoom lens ([camera] zoom_focal_px)")
         return self
 
     @property
