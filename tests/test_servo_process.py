@@ -153,6 +153,8 @@ def test_reaches_commanded_angles_and_parks_on_sigterm(tmp_path: Path, protocol:
                     s.odometry is not None
                     and near(s.odometry.pan_rad, target[0], pan_unit)
                     and near(s.odometry.tilt_rad, target[1], tilt_unit)
+                    # at rest there, not passing through it on the way
+                    and s.odometry.pan_rate_rad_s == s.odometry.tilt_rate_rad_s == 0.0
                 ),
                 keep_demanding=target,
             )
