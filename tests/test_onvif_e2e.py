@@ -11,18 +11,23 @@ next to it without its dependencies: `pip install --no-deps ipycam==1.3.0`.
 
 from __future__ import annotations
 
-import importlib.util
 import math
 import subprocess
-import threading
 import time
 from pathlib import Path
 
 import cv2
 import pytest
 import tomlkit
-from conftest import PYTHON, REPO, SUPPORT, RunningSupervisor, child_env, free_tcp_port, poll_until
-from onveef import OnvifClient
+from conftest import PYTHON, REPO, RunningSupervisor, child_env, poll_until
+from onvif_support import (
+    LOOP_RANGE_DEG,
+    ipycam_installed,
+    ipycam_position_deg,
+    ipycam_rig,
+    loop_rig,
+    running_ipycam,
+)
 from servo_link_support import demand
 
 from gazed.bus import Bus
@@ -30,7 +35,6 @@ from gazed.config import load_rig
 from gazed.eval.loop import private_rig
 from gazed.eval.loop_metrics import LoopRecord, score
 from gazed.geometry.pose import CameraPose
-from gazed.servo.onvif_ptz import get_status, parse_status
 from gazed.topics import (
     ESTIMATOR_STATE,
     GAZE_DEMAND,
@@ -43,89 +47,16 @@ from gazed.topics import (
 
 pytestmark = pytest.mark.e2e
 
-USER, PASSWORD = "admin", "s3cret"
-RANGE_DEG = 30.0  # the rig's degrees at ipycam's generic -1 and 1
 RUN_S = 12.0
 
 
 @pytest.fixture
 def ipycam(shared_data: Path, tmp_path: Path):
-    """ipycam on a free loopback port, zoomed to 0.5 (at zoom 0 its pan and tilt do nothing);
-    yields (port, an onveef client of its own)."""
-    if importlib.util.find_spec("ipycam") is None:
+    """ipycam on the shared footage (`running_ipycam`): its port, a client, its profile."""
+    if not ipycam_installed():
         pytest.skip("ipycam is not installed (CI: pip install --no-deps ipycam==1.3.0)")
-    video = shared_data / "video" / "vtest_480x360.avi"
-    port = free_tcp_port()
-    process = subprocess.Popen(
-        [PYTHON, str(SUPPORT / "ipycam_loopback.py"), str(video), str(port), USER, PASSWORD],
-        cwd=tmp_path,  # ipycam writes its presets file to the working directory
-        env=child_env(),
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-    )
-    try:
-        assert process.stdout is not None
-        lines = iter(process.stdout.readline, "")
-        assert "READY" in (line.strip() for line in lines), "ipycam did not start"
-        threading.Thread(target=lambda: list(lines), daemon=True).start()  # drain its log
-        client = OnvifClient("127.0.0.1", port, USER, PASSWORD, retries=0, timeout_s=2.0)
-        token = client.get_profiles()[0]["token"]
-        client.ptz_absolute_move(profile_token=token, pan=0.0, tilt=0.0, zoom=0.5)
-        yield port, client, token
-        client.close()
-    finally:
-        process.terminate()
-        process.wait(10)
-
-
-def ipycam_position_deg(
-    client: OnvifClient, token: str, range_deg: tuple[float, float] = (RANGE_DEG, RANGE_DEG)
-) -> tuple[float, float]:
-    """ipycam's own report of its pan and tilt, in the rig's degrees."""
-    xml = client.call(service="ptz", operation="GetStatus", body_inner=get_status(token))
-    status = parse_status(xml)
-    return status.pan * range_deg[0], status.tilt * range_deg[1]
-
-
-def ipycam_rig(tmp_path: Path, port: int, mode: str) -> Path:
-    password_file = tmp_path / "password"
-    password_file.write_text(PASSWORD + "\n")
-    path = tmp_path / "ipycam.toml"
-    path.write_text(
-        f"""
-[rig]
-name = "ipycam{port}"
-[bus]
-listen = ["tcp/127.0.0.1:{free_tcp_port()}"]
-[camera]
-source = "http://{USER}:{PASSWORD}@127.0.0.1:{port}/stream.mjpeg"
-[head]
-pan_min_deg = -20
-pan_max_deg = 20
-tilt_min_deg = -15
-tilt_max_deg = 15
-pan_rate_max_deg_s = 30
-tilt_rate_max_deg_s = 30
-pan_accel_max_deg_s2 = 200
-tilt_accel_max_deg_s2 = 200
-[servo]
-protocol = "onvif"
-port = "onvif://127.0.0.1:{port}"
-username = "{USER}"
-password_file = "{password_file}"
-pan_range_deg = [-{RANGE_DEG}, {RANGE_DEG}]
-tilt_range_deg = [-{RANGE_DEG}, {RANGE_DEG}]
-pan_speed_max_deg_s = {RANGE_DEG}
-tilt_speed_max_deg_s = {RANGE_DEG}
-mode = "{mode}"
-timeout_ms = 1000
-command_timeout_ms = 500
-odometry_rate_hz = 20
-command_rate_hz = 20
-"""
-    )
-    return path
+    with running_ipycam(shared_data / "video" / "vtest_480x360.avi", tmp_path) as camera:
+        yield camera
 
 
 @pytest.mark.parametrize("mode", ["position", "speed"])
@@ -188,57 +119,6 @@ def test_the_servo_drives_ipycam_and_its_odometry_follows_ipycams_position(
     assert parked == pytest.approx(rig.head.park_rad, abs=0.6)
 
 
-def loop_rig(tmp_path: Path, port: int) -> Path:
-    """configs/pets.toml's world (the PETS 2009 camera's calibration) seen through ipycam's
-    digital PTZ: a 192x144 crop of the 480x360 footage at zoom 0.5, served at 480x360, whose
-    pan and tilt of -1..1 move it 144 and 108 source pixels, about 11 and 8.2 degrees."""
-    pets = tomlkit.parse((REPO / "configs" / "pets.toml").read_text())
-    password_file = tmp_path / "password"
-    password_file.write_text(PASSWORD + "\n")
-    rig = tomlkit.parse(
-        f"""
-[rig]
-name = "ipycamloop{port}"
-[bus]
-listen = ["tcp/127.0.0.1:{free_tcp_port()}"]
-[camera]
-source = "http://{USER}:{PASSWORD}@127.0.0.1:{port}/stream.mjpeg"
-width_px = 480
-height_px = 360
-rate_hz = 10.0
-fx_px = 1851.6
-fy_px = 1866.6
-[head]
-pan_min_deg = -10
-pan_max_deg = 10
-tilt_min_deg = -7
-tilt_max_deg = 7
-pan_rate_max_deg_s = 20
-tilt_rate_max_deg_s = 20
-pan_accel_max_deg_s2 = 100
-tilt_accel_max_deg_s2 = 100
-[servo]
-protocol = "onvif"
-port = "onvif://127.0.0.1:{port}"
-username = "{USER}"
-password_file = "{password_file}"
-pan_range_deg = [-11.0, 11.0]
-tilt_range_deg = [-8.2, 8.2]
-timeout_ms = 1000
-command_timeout_ms = 500
-odometry_rate_hz = 20
-command_rate_hz = 20
-[services.sim]
-enabled = false
-"""
-    )
-    for section in ("calibration", "vision", "estimator", "gaze"):
-        rig[section] = pets[section]
-    path = tmp_path / "ipycam-loop.toml"
-    path.write_text(tomlkit.dumps(rig))
-    return path
-
-
 def test_the_whole_loop_follows_a_walker_through_ipycam(ipycam, tmp_path: Path) -> None:
     port, client, token = ipycam
     supervisor = RunningSupervisor(loop_rig(tmp_path, port), tmp_path)
@@ -264,7 +144,7 @@ def test_the_whole_loop_follows_a_walker_through_ipycam(ipycam, tmp_path: Path) 
     assert pursuing_s >= 0.6 * (ended_ns - first) / 1e9
     pans = [math.degrees(r.pan_rad) for r in readings]
     assert max(pans) - min(pans) > 1.0  # the head followed someone
-    parked = ipycam_position_deg(client, token, (11.0, 8.2))
+    parked = ipycam_position_deg(client, token, LOOP_RANGE_DEG)
     assert parked == pytest.approx((0.0, 0.0), abs=0.3)
 
 

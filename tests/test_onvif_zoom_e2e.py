@@ -16,21 +16,17 @@ from pathlib import Path
 import pytest
 from conftest import PYTHON, REPO, child_env, poll_until
 from onveef import OnvifClient
+from onvif_support import IPYCAM_START_ZOOM, ipycam_rig, ipycam_status
 from servo_link_support import demand
-from test_onvif_e2e import (
-    ipycam,  # noqa: F401  (the fixture)
-    ipycam_rig,
-)
+from test_onvif_e2e import ipycam  # noqa: F401  (the fixture)
 
 from gazed.bus import Bus
 from gazed.config import load_rig
-from gazed.servo.onvif_ptz import get_status, parse_status
 from gazed.topics import GAZE_DEMAND, SERVO_ODOMETRY, SERVO_STATUS
 
 pytestmark = pytest.mark.e2e
 
 ZOOM_RATE_MAX_S = 0.5
-START_ZOOM = 0.5  # where the fixture leaves ipycam
 
 
 def zoom_rig(tmp_path: Path, port: int) -> Path:
@@ -44,8 +40,7 @@ def zoom_rig(tmp_path: Path, port: int) -> Path:
 
 
 def ipycam_zoom(client: OnvifClient, token: str) -> float | None:
-    xml = client.call(service="ptz", operation="GetStatus", body_inner=get_status(token))
-    return parse_status(xml).zoom
+    return ipycam_status(client, token).zoom
 
 
 def test_the_servo_zooms_ipycam_at_the_rigs_rate_and_reports_its_zoom(
@@ -75,7 +70,7 @@ def test_the_servo_zooms_ipycam_at_the_rigs_rate_and_reports_its_zoom(
             readings.extend(odometry.take())
             time.sleep(0.05)
             return len(readings) >= 2 and all(
-                r.zoom is not None and abs(r.zoom - (zoom or START_ZOOM)) < 1e-3
+                r.zoom is not None and abs(r.zoom - (zoom or IPYCAM_START_ZOOM)) < 1e-3
                 for r in readings[-2:]
             )
 
@@ -97,6 +92,6 @@ def test_the_servo_zooms_ipycam_at_the_rigs_rate_and_reports_its_zoom(
         b - a <= ZOOM_RATE_MAX_S * (tb - ta + write_s) + 1e-3
         for (ta, a), (tb, b) in itertools.combinations(zooms, 2)
     )
-    assert zooms[0][1] == pytest.approx(START_ZOOM, abs=0.05)
+    assert zooms[0][1] == pytest.approx(IPYCAM_START_ZOOM, abs=0.05)
     assert max(z for _, z in zooms) == pytest.approx(0.8, abs=1e-3)
     assert ipycam_zoom(client, token) == pytest.approx(0.0, abs=1e-6)  # parked wide

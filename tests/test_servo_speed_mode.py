@@ -9,12 +9,12 @@ travel over the horizon."""
 from __future__ import annotations
 
 import math
-from collections import Counter
 
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 from servo_link_support import link_rig
+from speed_head_support import Mechanism, StubSpeedDevice, follow
 
 from gazed.servo.drive_model import DriveModel
 from gazed.servo.driver import DevicePosition
@@ -29,46 +29,31 @@ TIMEOUT_S = 0.5
 LATENCY_S = 0.03
 
 
-class Device:
+class Device(StubSpeedDevice):
     """Records speed commands (as steps of 7) and Stops; reports the position it is given."""
 
-    codec = object()
-    transport = object()
-
     def __init__(self) -> None:
-        self.counters: Counter[str] = Counter()
+        super().__init__([0.0])
         self.commands: list[tuple[float, float] | str] = []
         self.position = (0.0, 0.0)
-        self.now_s = [0.0]
-        self.is_connected = False
-
-    def connect(self) -> None:
-        self.is_connected = True
-
-    def disconnect(self) -> None:
-        self.is_connected = False
 
     def set_speed(self, pan_fraction: float, tilt_fraction: float, timeout_s: float) -> int:
         assert timeout_s == TIMEOUT_S
         self.commands.append((round(pan_fraction * 7), round(tilt_fraction * 7)))
         return 1
 
-    def set_position(self, pan_rad: float, tilt_rad: float) -> int:
-        raise AssertionError("a speed head sends no positions")
-
     def stop(self) -> int:
         self.commands.append("stop")
         return 1
 
     def query_position(self, between=None) -> DevicePosition:
-        t_ns = round(self.now_s[0] * 1e9)
-        return DevicePosition(*self.position, t_ns, t_ns)
+        return DevicePosition(*self.position, self.now_ns, self.now_ns)
 
 
 def speed_head(command_period_s: float = 0.0) -> tuple[SpeedHead, Device, list[float]]:
     """A head of ±60° pan, -40..20° tilt and 3000°/s² (`link_rig`), polled at 50 Hz."""
     device = Device()
-    now = device.now_s
+    now = device.now
     head = SpeedHead(
         device,
         link_rig().head,
@@ -289,50 +274,6 @@ def test_a_visca_camera_in_speed_mode_is_driven_by_pan_tilt_drives_only(tmp_path
     assert math.degrees(pose.tilt_rad) == pytest.approx(5.0, abs=1.0)
 
 
-class Mechanism:
-    """A speed device on the emulated head's mechanism, `rate_max_rad_s` at velocity 1 on each
-    axis: each command acts `head_latency_ms` later, at the head's acceleration limit; readings
-    in 0.075 deg units (VISCA's)."""
-
-    codec = object()
-    transport = object()
-
-    def __init__(
-        self, mechanics: HeadMechanics, rate_max_rad_s: tuple[float, float], now: list[float]
-    ) -> None:
-        self.counters: Counter[str] = Counter()
-        self.mechanics, self.rate_max_rad_s, self.now = mechanics, rate_max_rad_s, now
-        self.is_connected = False
-
-    def connect(self) -> None:
-        self.is_connected = True
-
-    def disconnect(self) -> None:
-        self.is_connected = False
-
-    def set_speed(self, pan_fraction: float, tilt_fraction: float, timeout_s: float) -> int:
-        pan = pan_fraction * self.rate_max_rad_s[0]
-        tilt = tilt_fraction * self.rate_max_rad_s[1]
-        self.mechanics.schedule(self.now[0], lambda m: (m.pan.move_at(pan), m.tilt.move_at(tilt)))
-        self.counters["commands"] += 1
-        return round(self.now[0] * 1e9)
-
-    def stop(self) -> int:
-        self.mechanics.schedule(self.now[0], lambda m: (m.pan.hold(), m.tilt.hold()))
-        self.counters["commands"] += 1
-        return round(self.now[0] * 1e9)
-
-    def set_position(self, pan_rad: float, tilt_rad: float) -> int:
-        raise AssertionError("a speed head sends no positions")
-
-    def query_position(self, between=None) -> DevicePosition:
-        self.mechanics.advance(self.now[0])
-        unit = RAD(0.075)
-        pan, tilt = (round(angle / unit) * unit for angle in self.mechanics.encoder())
-        t_ns = round(self.now[0] * 1e9)
-        return DevicePosition(pan, tilt, t_ns, t_ns)
-
-
 def test_a_head_with_latency_and_coarse_steps_follows_a_pursuit_closely() -> None:
     rig = link_rig()
     sim = rig.sim.model_copy(update={"head_latency_ms": 30.0})
@@ -356,16 +297,8 @@ def test_a_head_with_latency_and_coarse_steps_follows_a_pursuit_closely() -> Non
     def setpoint(t_s: float) -> tuple[float, float]:
         return RAD(20.0) * math.sin(t_s * math.pi / 2.0), RAD(5.0) * math.sin(t_s * math.pi)
 
-    errors = []
-    for i in range(400):  # 4 s: set-points and polls at 50 Hz, 10 ms apart
-        now[0] = i * 0.01
-        if i % 2:
-            head.query_position()
-        else:
-            head.set_position(*setpoint(now[0]))
-        mechanics.advance(now[0])
-        if now[0] >= 1.0:
-            errors += [a - b for a, b in zip(mechanics.encoder(), setpoint(now[0]), strict=True)]
+    samples = follow(head, mechanics, now, setpoint, 4.0, 1.0)
+    errors = [a - b for _, head_at, sp in samples for a, b in zip(head_at, sp, strict=True)]
     rms_deg = math.degrees(math.sqrt(sum(e * e for e in errors) / len(errors)))
     # the quantisation's share is a step over the horizon (5 deg/s over 50 ms), not a step
     # over a small gain; the head's 30 ms to act is predicted, not lagged

@@ -14,10 +14,8 @@ from __future__ import annotations
 import argparse
 import math
 import statistics
-import subprocess
 import sys
 import tempfile
-import threading
 import time
 from pathlib import Path
 
@@ -25,49 +23,21 @@ import tomlkit
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from conftest import PYTHON, SHARED_DATA, SUPPORT, RunningSupervisor, child_env, free_tcp_port
+from conftest import SHARED_DATA, RunningSupervisor
 from onveef import OnvifClient
-from test_onvif_e2e import PASSWORD, USER, ipycam_position_deg, loop_rig
+from onvif_support import LOOP_RANGE_DEG, ipycam_position_deg, loop_rig, running_ipycam
 
 from gazed.topics import GAZE_STATE, SERVO_ODOMETRY
 
-RANGE_DEG = (11.0, 8.2)  # loop_rig's degrees at ipycam's generic -1 and 1
-
 
 def run(folder: Path, mode: str, seconds: float) -> str:
-    port = free_tcp_port()
-    camera = subprocess.Popen(
-        [
-            PYTHON,
-            str(SUPPORT / "ipycam_loopback.py"),
-            str(SHARED_DATA / "video" / "vtest_480x360.avi"),
-            str(port),
-            USER,
-            PASSWORD,
-        ],
-        cwd=folder,  # ipycam writes its presets file to the working directory
-        env=child_env(),
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-    )
-    try:
-        assert camera.stdout is not None
-        lines = iter(camera.stdout.readline, "")
-        if "READY" not in (line.strip() for line in lines):
-            raise SystemExit("ipycam did not start")
-        threading.Thread(target=lambda: list(lines), daemon=True).start()  # drain its log
-        client = OnvifClient("127.0.0.1", port, USER, PASSWORD, retries=0, timeout_s=2.0)
-        token = client.get_profiles()[0]["token"]
-        client.ptz_absolute_move(profile_token=token, pan=0.0, tilt=0.0, zoom=0.5)
+    video = SHARED_DATA / "video" / "vtest_480x360.avi"
+    with running_ipycam(video, folder) as (port, client, token):
         rig_path = loop_rig(folder, port)
         document = tomlkit.parse(rig_path.read_text())
         document["servo"]["mode"] = mode
         rig_path.write_text(tomlkit.dumps(document))
         return measure(RunningSupervisor(rig_path, folder), client, token, mode, seconds)
-    finally:
-        camera.terminate()
-        camera.wait(10)
 
 
 def measure(
@@ -84,7 +54,7 @@ def measure(
             seen_states.extend(states.take())
             readings.extend(odometry.take())
             if readings:
-                reported = ipycam_position_deg(client, token, RANGE_DEG)
+                reported = ipycam_position_deg(client, token, LOOP_RANGE_DEG)
                 last = readings[-1]
                 odometry_deg = (math.degrees(last.pan_rad), math.degrees(last.tilt_rad))
                 gaps_deg.append(math.dist(reported, odometry_deg))

@@ -15,36 +15,15 @@ import math
 import statistics
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from command_timing_support import command_to_reading_ms, rate_hz
 from onvif_support import PASSWORD, onvif_rig
 
 from gazed.servo.onvif_head import OnvifHead
 from gazed.sim.head_onvif import OnvifEmulator
-
-
-def rate_hz(call, count: int) -> float:
-    started = time.perf_counter()
-    for i in range(count):
-        call(i)
-    return count / (time.perf_counter() - started)
-
-
-def command_to_reading_ms(head: OnvifHead, send, count: int) -> list[float]:
-    """For each command: from sending it to the first reading that differs from the last."""
-    times = []
-    for i in range(count):
-        before = head.query_position().pan_rad
-        started = time.perf_counter()
-        send(i)
-        while abs(head.query_position().pan_rad - before) < 1e-9:
-            pass
-        times.append((time.perf_counter() - started) * 1e3)
-        head.stop()
-    return times
 
 
 def main() -> None:

@@ -23,7 +23,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from test_servo_speed_mode import Mechanism
+from speed_head_support import Mechanism, follow
 
 from gazed.config import load_rig
 from gazed.servo.speed_mode import speed_head
@@ -48,7 +48,7 @@ class Positions(Mechanism):
             m.tilt.move_to(tilt_rad)
 
         self.mechanics.schedule(self.now[0], move)
-        return round(self.now[0] * 1e9)
+        return self.now_ns
 
 
 def run(name: str, mode: str, head_latency_ms: float, seconds: float) -> tuple[float, float, int]:
@@ -64,17 +64,9 @@ def run(name: str, mode: str, head_latency_ms: float, seconds: float) -> tuple[f
     head = speed_head(rig, device, mono_s=lambda: now[0], wall_ns=lambda: round(now[0] * 1e9))
     head.by_speed = mode == "speed"
     head.device.connect()
-    samples = []
-    for i in range(round(seconds * 100)):
-        now[0] = i * 0.01
-        if i % 2:
-            head.query_position()
-        else:
-            head.set_position(*setpoint(now[0]))
-        mechanics.advance(now[0])
-        if now[0] >= 2.0:
-            samples.append((now[0], *mechanics.encoder()))
-    t, pan, tilt = np.array(samples).T
+    samples = follow(head, mechanics, now, setpoint, seconds, 2.0)
+    t = np.array([s[0] for s in samples])
+    pan, tilt = np.array([s[1] for s in samples]).T
 
     def rms_deg(lag_s: float) -> float:
         sp = np.array([setpoint(x - lag_s) for x in t])

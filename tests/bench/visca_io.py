@@ -18,12 +18,12 @@ import math
 import statistics
 import sys
 import tempfile
-import time
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from command_timing_support import command_to_reading_ms, rate_hz
 from servo_link_support import link_rig
 from tcp_bridge_support import TcpBridge
 from test_servo_visca_ip_link import udp_rig
@@ -57,29 +57,6 @@ def camera(transport: str, folder: Path, baud: int, latency_ms: float) -> Iterat
         )
         stack.enter_context(HeadEmulator(rig, link=None if transport == "udp" else pty))
         yield rig
-
-
-def rate_hz(call: Callable[[int], object], count: int) -> float:
-    started = time.perf_counter()
-    for i in range(count):
-        call(i)
-    return count / (time.perf_counter() - started)
-
-
-def command_to_reading_ms(
-    driver: ServoDriver, send: Callable[[int], object], count: int
-) -> list[float]:
-    """For each command: from sending it to the first reading that differs from the last."""
-    times = []
-    for i in range(count):
-        before = driver.query_position().pan_rad
-        started = time.perf_counter()
-        send(i)
-        while abs(driver.query_position().pan_rad - before) < 1e-9:
-            pass
-        times.append((time.perf_counter() - started) * 1e3)
-        driver.stop()
-    return times
 
 
 def measure(rig: Rig, count: int) -> dict[str, float]:
