@@ -12,14 +12,13 @@ next to it without its dependencies: `pip install --no-deps ipycam==1.3.0`.
 from __future__ import annotations
 
 import math
-import subprocess
 import time
 from pathlib import Path
 
 import cv2
 import pytest
 import tomlkit
-from conftest import PYTHON, REPO, RunningSupervisor, child_env, poll_until
+from conftest import REPO, RunningSupervisor, poll_until, start_service
 from onvif_support import (
     LOOP_RANGE_DEG,
     ipycam_installed,
@@ -71,14 +70,7 @@ def test_the_servo_drives_ipycam_and_its_odometry_follows_ipycams_position(
         demands = bus.publisher(GAZE_DEMAND)
         odometry = bus.subscribe(SERVO_ODOMETRY)
         statuses = bus.subscribe(SERVO_STATUS)
-        servo = subprocess.Popen(
-            [PYTHON, "-m", "services.servo", "--rig", str(rig_path)],
-            cwd=REPO,
-            env=child_env(),
-            stdout=subprocess.PIPE,
-            stderr=subprocess.STDOUT,
-            text=True,
-        )
+        servo = start_service("servo", rig_path)
         newest: list = []
 
         def reached(pan_deg: float, tilt_deg: float) -> bool:

@@ -9,12 +9,11 @@ Needs ipycam (CI: `pip install --no-deps ipycam==1.3.0`) and the shared footage.
 from __future__ import annotations
 
 import itertools
-import subprocess
 import time
 from pathlib import Path
 
 import pytest
-from conftest import PYTHON, REPO, child_env, poll_until
+from conftest import poll_until, start_service
 from onveef import OnvifClient
 from onvif_support import IPYCAM_START_ZOOM, ipycam_rig, ipycam_status
 from servo_link_support import demand
@@ -55,14 +54,7 @@ def test_the_servo_zooms_ipycam_at_the_rigs_rate_and_reports_its_zoom(
         demands = bus.publisher(GAZE_DEMAND)
         odometry = bus.subscribe(SERVO_ODOMETRY)
         statuses = bus.subscribe(SERVO_STATUS)
-        servo = subprocess.Popen(
-            [PYTHON, "-m", "services.servo", "--rig", str(rig_path)],
-            cwd=REPO,
-            env=child_env(),
-            stdout=subprocess.PIPE,
-            stderr=subprocess.STDOUT,
-            text=True,
-        )
+        servo = start_service("servo", rig_path)
         readings: list = []
 
         def zoomed_to(zoom: float | None) -> bool:

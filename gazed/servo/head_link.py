@@ -159,6 +159,8 @@ class HeadLink:
             t_s=mono_s(),
         )
         self.setpoints = self.writer.setpoints
+        if isinstance(self.driver, SpeedHead):  # speed mode runs on where they are heading
+            self.driver.follow(self.setpoints)
         self.dating = OdometryDating(rig.head, self.codec.pan_wraps)
         self.response_lag = ResponseLag()
         self.line = LineLoadMeter(STATUS_PERIOD_S)

@@ -1,12 +1,35 @@
-"""Where the set-points written to a speed-driven head are heading: their rates and the rates'
-change, from the last three, and where they will be a while on (speed mode's feed-forward is
-the set-points' rate when its command acts, a latency after it is sent)."""
+"""Where the set-points written to a speed-driven head are heading (speed mode's feed-forward is
+the set-points' rate when its command acts, a latency after it is sent): as their generator
+plans them, or, where it is not known, from the last three written (their rates and the rates'
+change) run on a while."""
 
 from __future__ import annotations
 
+import copy
 import math
 
+from gazed.config import HeadSection
+from gazed.geometry.kinematics import device_from_joint
+from gazed.servo.axis_motion import STEP_S
 from gazed.servo.drive_model import Pair
+from gazed.servo.setpoints import SetpointGenerator
+
+
+def planned(setpoints: SetpointGenerator, head: HeadSection, t_s: float) -> tuple[Pair, Pair, Pair]:
+    """The set-points at `t_s` as their generator moves them with no new demand, in device
+    angles (`head`'s signs and zeros), their rates and the rates' change then: exactly what
+    the writer will send, however long since it last wrote (a busy host), braking included."""
+    ahead_s = max(0.0, t_s - setpoints.t_s)
+    at, rates, accels = [], [], []
+    for motion, sign in ((setpoints.pan, head.pan_sign), (setpoints.tilt, head.tilt_sign)):
+        axis = copy.copy(motion)
+        axis.advance(ahead_s)
+        at.append(axis.position_rad)
+        rate = axis.velocity_rad_s
+        axis.advance(STEP_S)
+        rates.append(sign * rate)
+        accels.append(sign * (axis.velocity_rad_s - rate) / STEP_S)
+    return device_from_joint(head, at[0], at[1]), (rates[0], rates[1]), (accels[0], accels[1])
 
 
 def set_point_rates(

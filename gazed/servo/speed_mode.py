@@ -44,7 +44,8 @@ from gazed.config import HeadSection, Rig
 from gazed.servo.codec import CodecError
 from gazed.servo.drive_model import DriveModel, Pair
 from gazed.servo.driver import DeviceError, DevicePosition
-from gazed.servo.setpoint_trend import run_on, set_point_rates
+from gazed.servo.setpoint_trend import planned, run_on, set_point_rates
+from gazed.servo.setpoints import SetpointGenerator
 from gazed.servo.speed_steps import SpeedSteps, rig_speed_steps
 from gazed.servo.transport import LinkError
 from gazed.sim.head_mechanics import device_bounds
@@ -112,7 +113,9 @@ class SpeedHead:
         self._decided_s: float | None = None
         self._mono_s = mono_s
         self._wall_ns = wall_ns
+        self._head = head
         self._bounds = device_bounds(head)
+        self._setpoints: SetpointGenerator | None = None  # the set-points' generator, if known
         self._accel_rad_s2 = head.accel_max_rad_s2
         self._rate_max_rad_s = head.rate_max_rad_s
         self.sent: tuple[int, int] = (0, 0)
@@ -226,10 +229,19 @@ class SpeedHead:
         pan_at, tilt_at = self.where(acts_s)
         return rates, (pan_sp - pan_at, tilt_sp - tilt_at)
 
+    def follow(self, setpoints: SetpointGenerator) -> None:
+        """Take the set-points' future from the generator that makes them (the head link's):
+        where they will be when a command acts is then known, not extrapolated from the last
+        ones written, which on a busy host may be far apart."""
+        self._setpoints = setpoints
+
     def _set_point_at(self, t_s: float, now_s: float) -> tuple[Pair, Pair]:
-        """The set-point at `t_s`, moved on at the set-points' rates over their last interval
-        (their rates' change carries the demands' noise, which the gap's closing corrects
-        anyway), and those rates; a set-point older than the command timeout stands still."""
+        """The set-point at `t_s` and its rates: as the generator plans them; without one, the
+        last moved on at the set-points' rates over their last interval (their rates' change
+        carries the demands' noise, which the gap's closing corrects anyway), and a set-point
+        older than the command timeout standing still."""
+        if self._setpoints is not None:
+            return planned(self._setpoints, self._head, t_s)[:2]
         assert self._setpoint is not None
         (pan, tilt), _, _, set_s = self._setpoint
         rates = self._middle[0] if self._middle is not None else (0.0, 0.0)
@@ -240,9 +252,11 @@ class SpeedHead:
 
     def _set_point_then(self, now_s: float) -> tuple[Pair, Pair, Pair]:
         """The set-points, their rates and rates' change when a command sent now acts, for
-        where they could come to rest: moved on at their rate and its change until the rate
-        reaches rest or the head's limit. A set-point older than the command timeout stands
-        still."""
+        where they could come to rest: as the generator plans them; without one, moved on at
+        their rate and its change until the rate reaches rest or the head's limit, and a
+        set-point older than the command timeout standing still."""
+        if self._setpoints is not None:
+            return planned(self._setpoints, self._head, now_s + self.latency_s)
         assert self._setpoint is not None
         set_point, rates, accels, set_s = self._setpoint
         if now_s - set_s > self.command_timeout_s:  # the set-points have stopped coming
