@@ -3,13 +3,14 @@ Pelco-D drives) follows the same set-points as a head driven by position.
 
 The head is predicted by a model of the device: its last position reading moved on at each rate
 it was told, from `latency_s` after the command was sent, reached at the `[head]` acceleration
-limit. Each set-point the writer sends, and each poll of the position, then sets the rate: the
-set-points' own rate (the demand's feed-forward, as the set-point generator shapes it) plus the
-gap between the set-point and the predicted head at the moment a command sent now would act,
-closed over the horizon (the time until the loop can next change the step, longer on a busy
-host, plus the latency: the gain of a dead-beat loop on the prediction, kept stable on a head
-slower to act than the rig says). The closing rate is no more than the head gains or sheds in
-a horizon. The rate is then
+limit. The set-points are known ahead from the generator that makes them (`follow`; without one,
+extrapolated from the last three written). Each set-point the writer sends, and each poll of the
+position, then sets the rate: the set-points' own rate (the demand's feed-forward, as the
+set-point generator shapes it) plus the gap between the set-point and the predicted head at the
+moment a command sent now would act, closed over the horizon (the time until the loop can next
+change the step, longer on a busy host, plus the latency: the gain of a dead-beat loop on the
+prediction, kept stable on a head slower to act than the rig says). The closing rate is no more
+than the head gains or sheds in a horizon. The rate is then
 
 - capped, on the way to a joint limit, to what the head can still brake from before it
   (sqrt(2·a·d) over the distance left once it has run one poll period at its present rate), and

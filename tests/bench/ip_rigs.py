@@ -6,9 +6,10 @@ VISCA rig on the same seed: `configs/sim-onvif.toml` and `configs/sim-visca-ip.t
     python tests/bench/ip_rigs.py [--seconds 20] [--scenario oval] [--seed 1] [--rounds 3]
                                   [--only onvif-speed]
 
-The runs alternate (one of each rig per round), so a busy spell on a shared machine falls on
-all of them alike; each line gives a run's gaze error RMS and fovea, the last lines each
-rig's median over the rounds and its ratio to the serial VISCA rig's median RMS.
+The runs alternate (one of each rig per round, the serial VISCA rig first), so a busy spell on
+a shared machine falls on all of them alike. Each line gives a run's gaze error RMS and fovea,
+and for an IP rig its RMS over the serial VISCA rig's in the same round; the last lines give
+each rig's median RMS, its lowest fovea and the median of its ratios over the rounds.
 """
 
 from __future__ import annotations
@@ -69,6 +70,7 @@ def main() -> None:
     names = [REFERENCE, *(args.only or IP_RIGS)]
     rms: dict[str, list[float]] = {name: [] for name in names}
     fovea: dict[str, list[float]] = {name: [] for name in names}
+    ratios: dict[str, list[float]] = {name: [] for name in names}
     with tempfile.TemporaryDirectory(prefix="gazed-ip-rigs-") as tmp:
         rigs = {REFERENCE: Path(tmp) / f"{REFERENCE}.toml"}
         rigs[REFERENCE].write_text(rig_text("visca", Path(tmp) / "visca-pty", {}))
@@ -76,28 +78,41 @@ def main() -> None:
             rigs[name] = Path(tmp) / f"{name}.toml"
             rigs[name].write_text(ip_rig_text(*IP_RIGS[name]))
         for round_ in range(args.rounds):
+            reference = None
             for name in names:
                 result = run(rigs[name], args)
                 error = (result["gaze_error_deg"] or {}).get("rms")
+                fovea[name].append(result["fovea_fraction"] or 0.0)
+                ratio = ""
                 if error is not None:
                     rms[name].append(error)
-                fovea[name].append(result["fovea_fraction"] or 0.0)
+                    if name == REFERENCE:
+                        reference = error
+                    elif reference:
+                        ratios[name].append(error / reference)
+                        ratio = f" ({error / reference:.2f} of {REFERENCE}'s this round)"
+                servo = result["servo"]
                 print(
-                    f"round {round_ + 1} {name:<18} gaze error RMS {error} deg, fovea "
+                    f"round {round_ + 1} {name:<18} RMS {error} deg{ratio}, fovea "
                     f"{result['fovea_fraction']}, acquired after {result['acquired_after_s']} s, "
-                    f"polls timed out {result['servo']['timeouts']}, CPU {result['cpu_percent']}",
+                    f"polls timed out {servo['timeouts']}, line load {servo['line_load_mean']}, "
+                    f"response lag {servo['response_lag_ms']} ms, CPU {result['cpu_percent']}",
                     flush=True,
                 )
-    reference = statistics.median(rms[REFERENCE]) if rms[REFERENCE] else None
     for name in names:
         if not rms[name]:
             print(f"{name:<18} never acquired")
             continue
-        median = statistics.median(rms[name])
-        ratio = f"{median / reference:.2f}" if reference else "-"
+        ratio = (
+            f", ratio to {REFERENCE} median {statistics.median(ratios[name]):.2f} "
+            f"(rounds {min(ratios[name]):.2f}-{max(ratios[name]):.2f})"
+            if ratios[name]
+            else ""
+        )
         print(
-            f"{name:<18} median RMS {median:.3f} deg ({ratio} of {REFERENCE}), "
-            f"fovea min {min(fovea[name]):.3f}"
+            f"{name:<18} RMS median {statistics.median(rms[name]):.3f} deg "
+            f"(rounds {min(rms[name]):.3f}-{max(rms[name]):.3f}), fovea min "
+            f"{min(fovea[name]):.3f}{ratio}"
         )
 
 
