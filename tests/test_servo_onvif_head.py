@@ -6,6 +6,7 @@ camera a link down and a reconnect); and a head link on it never leaves its limi
 
 from __future__ import annotations
 
+import logging
 import math
 import time
 from pathlib import Path
@@ -55,6 +56,15 @@ def test_connect_reads_the_spaces_and_moves_map_to_degrees(tmp_path: Path) -> No
         port = rig.servo.port.rsplit(":", 1)[1]
         assert head.stream_uri() == f"rtsp://admin:{PASSWORD}@127.0.0.1:{port}/gazed"
         assert camera_stream_uri(rig) == head.stream_uri()  # [camera] source = "onvif"
+
+
+def test_the_http_client_logs_no_line_per_request(caplog: pytest.LogCaptureFixture) -> None:
+    # at the odometry and command rates that would be a log line every few ms, in the loop
+    with caplog.at_level(logging.INFO):
+        transport = httpx.MockTransport(lambda _request: httpx.Response(200, text="ok"))
+        with httpx.Client(transport=transport) as client:
+            client.post("http://camera/onvif/ptz_service")
+    assert not [r for r in caplog.records if r.name.startswith("httpx")]
 
 
 def test_continuous_move_runs_until_its_timeout(tmp_path: Path) -> None:

@@ -19,6 +19,7 @@ a reply that is not the expected XML a `CodecError` (counted as a bad frame).
 
 from __future__ import annotations
 
+import logging
 import math
 import os
 import time
@@ -48,6 +49,10 @@ from gazed.servo.onvif_ptz import AxisSpace
 from gazed.servo.transport import LinkError, NotConnectedError
 
 SCHEME = "onvif"
+
+# httpx logs every request at INFO: at the odometry and command rates, lines every few ms in
+# the servo's log, each written in the loop
+logging.getLogger("httpx").setLevel(logging.WARNING)
 
 
 class PasswordError(RuntimeError):
