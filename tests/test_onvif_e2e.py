@@ -27,8 +27,8 @@ from servo_link_support import demand
 
 from gazed.bus import Bus
 from gazed.config import load_rig
-from gazed.eval.loop import private_rig
 from gazed.eval.loop_metrics import LoopRecord, score
+from gazed.eval.private_rig import private_rig
 from gazed.geometry.pose import CameraPose
 from gazed.servo.onvif_ptz import get_status, parse_status
 from gazed.topics import (
