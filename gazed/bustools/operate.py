@@ -16,11 +16,12 @@ import time
 import uuid
 from pathlib import Path
 
-from gazed.bus import Bus, BusError, Subscription
+from gazed.bus import Bus, BusError
+from gazed.bustools.gaze_answer import gaze_answer, gaze_listens
 from gazed.config import load_rig_or_exit
 from gazed.gaze.operator import OPERATOR_COMMANDS
 from gazed.gaze.target_choice import OPERATOR
-from gazed.messages import GazeCommand, GazeState
+from gazed.messages import GazeCommand
 from gazed.topics import GAZE_COMMAND, GAZE_STATE
 from gazed.wakeup import Wakeup
 
@@ -51,13 +52,12 @@ def operate_command(args: argparse.Namespace) -> int:
             answers = bus.subscribe(GAZE_STATE, capacity=64)
             publisher = bus.publisher(GAZE_COMMAND)
             deadline = time.monotonic() + args.timeout_s
-            while not publisher.matched():
-                if time.monotonic() > deadline:
-                    print(f"gazed operate: no gaze process of rig '{rig.name}'", file=sys.stderr)
-                    return 1
-                wakeup.wait(0.05)
+            if not gaze_listens(publisher, wakeup, deadline):
+                print(f"gazed operate: no gaze process of rig '{rig.name}'", file=sys.stderr)
+                return 1
             publisher.put(request)
-            answer = _answer(answers, f"{OPERATOR}: {args.command}", wakeup, deadline)
+            reason = f"{OPERATOR}: {args.command}"  # the gaze took the command
+            answer = gaze_answer(answers, lambda s: s.reason == reason, wakeup, deadline)
     except BusError as exc:
         print(f"gazed operate: no bus answers: {exc} (is `gazed run` running?)", file=sys.stderr)
         return 1
@@ -68,15 +68,3 @@ def operate_command(args: argparse.Namespace) -> int:
         return 1
     print(f"{answer.previous} -> {answer.state}: {answer.reason}")
     return 0
-
-
-def _answer(
-    answers: Subscription[GazeState], reason: str, wakeup: Wakeup, deadline: float
-) -> GazeState | None:
-    """The gaze's gaze/state with `reason`: it took the command."""
-    while time.monotonic() < deadline:
-        for state in answers.take():
-            if state.reason == reason:
-                return state
-        wakeup.wait(0.05)
-    return None
