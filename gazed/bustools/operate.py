@@ -16,14 +16,14 @@ import time
 import uuid
 from pathlib import Path
 
-from gazed.bus import Bus, BusError
+from gazed.bus import BusError
 from gazed.bustools.gaze_answer import gaze_answer, gaze_listens
+from gazed.bustools.tool_session import tool_session
 from gazed.config import load_rig_or_exit
 from gazed.gaze.operator import OPERATOR_COMMANDS
 from gazed.gaze.target_choice import OPERATOR
 from gazed.messages import GazeCommand
 from gazed.topics import GAZE_COMMAND, GAZE_STATE
-from gazed.wakeup import Wakeup
 
 
 def operate_arguments(parser: argparse.ArgumentParser) -> None:
@@ -47,8 +47,7 @@ def operate_command(args: argparse.Namespace) -> int:
         request_id=f"operate-{uuid.uuid4().hex[:8]}",
     )
     try:
-        with Bus(rig, "operate") as bus, Wakeup() as wakeup:
-            bus.on_arrival(wakeup.notify)
+        with tool_session(rig, "operate") as (bus, wakeup):
             answers = bus.subscribe(GAZE_STATE, capacity=64)
             publisher = bus.publisher(GAZE_COMMAND)
             deadline = time.monotonic() + args.timeout_s
@@ -58,8 +57,8 @@ def operate_command(args: argparse.Namespace) -> int:
             publisher.put(request)
             reason = f"{OPERATOR}: {args.command}"  # the gaze took the command
             answer = gaze_answer(answers, lambda s: s.reason == reason, wakeup, deadline)
-    except BusError as exc:
-        print(f"gazed operate: no bus answers: {exc} (is `gazed run` running?)", file=sys.stderr)
+    except BusError as exc:  # NoRunningRig says which rig and what to check
+        print(f"gazed operate: {exc}", file=sys.stderr)
         return 1
     if answer is None:
         print(

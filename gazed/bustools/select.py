@@ -17,8 +17,9 @@ import sys
 import time
 from pathlib import Path
 
-from gazed.bus import Bus, BusError, Subscription
+from gazed.bus import BusError, Subscription
 from gazed.bustools.gaze_answer import POLL_S, gaze_answer, gaze_listens
+from gazed.bustools.tool_session import tool_session
 from gazed.config import load_rig_or_exit
 from gazed.gaze.target_choice import OPERATOR, REFUSED
 from gazed.messages import GazeSelect, GazeState, HeadPose, Odometry
@@ -56,8 +57,7 @@ def select_command(args: argparse.Namespace) -> int:
         print("gazed select: the track id, point, pixel and pose must be finite", file=sys.stderr)
         return 2
     try:
-        with Bus(rig, "select") as bus, Wakeup() as wakeup:
-            bus.on_arrival(wakeup.notify)
+        with tool_session(rig, "select") as (bus, wakeup):
             answers = bus.subscribe(GAZE_STATE, capacity=64)
             odometry = bus.subscribe(SERVO_ODOMETRY, capacity=4)
             publisher = bus.publisher(GAZE_SELECT)
@@ -71,8 +71,8 @@ def select_command(args: argparse.Namespace) -> int:
                 return 1
             publisher.put(request)
             answer = gaze_answer(answers, _about_a_choice, wakeup, deadline)
-    except BusError as exc:
-        print(f"gazed select: no bus answers: {exc} (is `gazed run` running?)", file=sys.stderr)
+    except BusError as exc:  # NoRunningRig says which rig and what to check
+        print(f"gazed select: {exc}", file=sys.stderr)
         return 1
     if answer is None:
         print(f"gazed select: the gaze did not answer within {args.timeout_s:g} s", file=sys.stderr)
