@@ -166,3 +166,6 @@ def test_a_half_is_scored_with_cv_ml_fitted_to_the_other(capsys, tmp_path: Path)
     assert first["baselines"]["cv-ml"]["r"] > 100 * second["baselines"]["cv-ml"]["r"]
     assert main(["eval", "estimator", "--scenario", "kelly", "--half", "1"]) == 2
     assert "--half goes with --data" in capsys.readouterr().err
+    plot = ["eval", "estimator", "--data", str(path), "--half", "1", "--plot", str(tmp_path)]
+    assert main(plot) == 2
+    assert "without --plot" in capsys.readouterr().err

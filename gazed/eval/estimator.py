@@ -94,8 +94,8 @@ def estimator_command(args: argparse.Namespace) -> int:
             return _refuse(f"{option} must be a finite number {least}, got {value}")
     if args.velocity_noise_m_s is not None and args.scenario != "rounded-square":
         return _refuse("--velocity-noise-m-s goes with --scenario rounded-square")
-    if args.half is not None and args.data is None:
-        return _refuse("--half goes with --data")
+    if args.half is not None and (args.data is None or args.plot is not None):
+        return _refuse("--half goes with --data, and without --plot (which draws the whole file)")
     if args.scenario == "rounded-square":
         report = rounded_square_report(section, args.seed, args.noise_m, args.velocity_noise_m_s)
     elif args.scenario == "kelly":
