@@ -20,7 +20,7 @@ from gazed.calibrate.camera_latency import (
     summary,
 )
 from gazed.cli import main as cli_main
-from gazed.eval.loop import private_rig
+from gazed.eval.private_rig import private_rig
 
 FRAME_PERIOD_S = 0.04
 HOLD_S = 1.0

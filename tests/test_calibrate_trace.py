@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 from conftest import PYTHON, REPO, RunningSupervisor, child_env
 
-from gazed.eval.loop import private_rig
+from gazed.eval.private_rig import private_rig
 from gazed.gaze.trace_cli import read_trace_file
 from gazed.geometry.calibration_file import CalibrationFileError
 

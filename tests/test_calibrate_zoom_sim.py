@@ -14,7 +14,7 @@ import tomlkit
 from conftest import PYTHON, REPO, RunningSupervisor, child_env
 
 from gazed.config import load_rig
-from gazed.eval.loop import private_rig
+from gazed.eval.private_rig import private_rig
 
 pytestmark = pytest.mark.e2e  # starts the real processes
 

@@ -10,7 +10,7 @@ import pytest
 import tomlkit
 from conftest import REPO, RunningSupervisor, poll_until
 
-from gazed.eval.loop import private_rig
+from gazed.eval.private_rig import private_rig
 from gazed.messages import Health
 from gazed.topics import PROCESSES, health
 

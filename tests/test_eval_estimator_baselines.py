@@ -143,3 +143,29 @@ def test_pets_truth_is_read_as_tracks(shared_data: Path) -> None:
         frames = tr.t_s * 7
         np.testing.assert_allclose(frames, np.round(frames), atol=1e-3)
         assert np.all(np.isfinite(tr.xy_m))
+
+
+def test_a_half_is_scored_with_cv_ml_fitted_to_the_other(capsys, tmp_path: Path) -> None:
+    """Walker 1 walks cleanly, walker 2 with a ±5 cm zig-zag: half 1 (walker 1) is scored
+    with cv-ml fitted to walker 2, so its r is the zig-zag's, and half 2 the other way round."""
+    lines = []
+    for k in range(25):
+        t = 0.4 * k
+        lines.append(f"{10 * k}\t1\t{1.5 * t:.6f}\t0.000000")
+        lines.append(f"{10 * k}\t2\t{3 - 0.5 * t:.6f}\t{2 + 0.05 * (-1) ** k:.6f}")
+    path = tmp_path / "halves.txt"
+    path.write_text("\n".join(lines) + "\n")
+    first = run_json(capsys, path, "--filter", "cv", "--horizons", "0.4", "--half", "1")
+    second = run_json(capsys, path, "--filter", "cv", "--horizons", "0.4", "--half", "2")
+    # constant position is off by the walker's own step (and zig-zag): only that walker is scored
+    for report, step_m in ((first, 0.6), (second, np.hypot(0.2, 0.1))):
+        assert report["tracks"] == 1
+        held = report["baselines"]["constant-position"]["error_m"]["0.4"]
+        assert held["mean"] == pytest.approx(step_m, rel=1e-5)
+        assert report["baselines"]["cv-ml"]["fitted_on"] == "the other half"
+    assert first["baselines"]["cv-ml"]["r"] > 100 * second["baselines"]["cv-ml"]["r"]
+    assert main(["eval", "estimator", "--scenario", "kelly", "--half", "1"]) == 2
+    assert "--half goes with --data" in capsys.readouterr().err
+    plot = ["eval", "estimator", "--data", str(path), "--half", "1", "--plot", str(tmp_path)]
+    assert main(plot) == 2
+    assert "without --plot" in capsys.readouterr().err

@@ -12,7 +12,7 @@ import pytest
 
 from gazed import cli
 from gazed.eval.footage_loop import LEFT_FRAMES, Selection, table, view_frames
-from gazed.eval.loop import private_document
+from gazed.eval.private_rig import private_document
 from gazed.eval.truth import COLUMNS, Person
 from gazed.messages import Detection, GazeSelect, GazeState, HeadPose
 from gazed.topics import GAZE_SELECT, VISION_DETECTION

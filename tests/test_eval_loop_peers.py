@@ -8,7 +8,8 @@ from pathlib import Path
 import pytest
 
 from gazed.config import load_rig
-from gazed.eval.loop import COMPARED, loop_arguments, private_rig
+from gazed.eval.loop import COMPARED, loop_arguments
+from gazed.eval.private_rig import private_rig
 
 REPO = Path(__file__).resolve().parents[1]
 

@@ -17,8 +17,8 @@ import numpy as np
 import pytest
 from conftest import REPO, RunningSupervisor, poll_until
 
-from gazed.eval.loop import private_rig
 from gazed.eval.loop_metrics import gaze_errors_rad
+from gazed.eval.private_rig import private_rig
 from gazed.geometry.pose import CameraPose
 from gazed.messages import GazeStateName, SimTruth
 from gazed.topics import GAZE_STATE, SERVO_STATUS, SIM_TRUTH

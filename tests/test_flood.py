@@ -38,8 +38,8 @@ from pydantic import BaseModel
 
 from gazed.bus import Bus, Stats, decode_sample
 from gazed.config import SERVICE_NAMES
-from gazed.eval.loop import private_rig
 from gazed.eval.loop_metrics import gaze_errors_rad
+from gazed.eval.private_rig import private_rig
 from gazed.geometry.pose import CameraPose
 from gazed.messages import FrameHeader, GazeDemand, GazeState, Health, Message, SimTruth
 from gazed.topics import (

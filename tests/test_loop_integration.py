@@ -15,8 +15,8 @@ import psutil
 import pytest
 from conftest import PYTHON, REPO, RunningSupervisor, child_env, pid_alive, poll_until
 
-from gazed.eval.loop import private_rig
 from gazed.eval.loop_metrics import LoopRecord, score
+from gazed.eval.private_rig import private_rig
 from gazed.geometry.pose import CameraPose
 from gazed.topics import ESTIMATOR_STATE, GAZE_STATE, SERVO_COMMAND, SIM_TRUTH
 

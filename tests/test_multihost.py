@@ -120,7 +120,7 @@ def host_rig(directory: Path, name: str, rig_name: str, enabled: tuple[str, ...]
     import tomlkit
 
     from gazed.config import SERVICE_NAMES
-    from gazed.eval.loop import private_rig
+    from gazed.eval.private_rig import private_rig
 
     path = private_rig(REPO / "configs" / "sim.toml", directory, "oval", None, None, 6, None)
     document = tomlkit.parse(path.read_text())

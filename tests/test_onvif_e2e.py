@@ -31,8 +31,8 @@ from servo_link_support import demand
 
 from gazed.bus import Bus
 from gazed.config import load_rig
-from gazed.eval.loop import private_rig
 from gazed.eval.loop_metrics import LoopRecord, score
+from gazed.eval.private_rig import private_rig
 from gazed.geometry.pose import CameraPose
 from gazed.topics import (
     ESTIMATOR_STATE,

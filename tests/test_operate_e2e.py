@@ -11,7 +11,7 @@ import pytest
 from conftest import PYTHON, REPO, RunningSupervisor, child_env, poll_until
 
 from gazed.bus import Subscription
-from gazed.eval.loop import private_rig
+from gazed.eval.private_rig import private_rig
 from gazed.messages import GazeDemand, GazeState
 from gazed.topics import GAZE_DEMAND, GAZE_STATE, SERVO_COMMAND
 

@@ -16,7 +16,7 @@ import zenoh
 from conftest import PYTHON, REPO, RunningSupervisor, child_env, poll_until, write_rig
 from test_record_replay import Router
 
-from gazed.eval.loop import private_rig
+from gazed.eval.private_rig import private_rig
 from gazed.record.mcap_reader import read_recording
 
 pytestmark = pytest.mark.e2e

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 from conftest import PYTHON, REPO, RunningSupervisor, child_env
 
-from gazed.eval.loop import private_rig
+from gazed.eval.private_rig import private_rig
 
 pytestmark = pytest.mark.e2e
 

@@ -33,7 +33,7 @@ from conftest import REPO, RunningSupervisor, poll_until, write_rig
 
 from gazed.bus import Bus, Subscription
 from gazed.config import SERVICE_NAMES, BusSection, load_rig
-from gazed.eval.loop import private_rig
+from gazed.eval.private_rig import private_rig
 from gazed.messages import Detection, GazeDemand, Health, Odometry
 from gazed.session import TOOLS_IDENTITY, BusError, identity_of, open_session, session_config
 from gazed.topics import (

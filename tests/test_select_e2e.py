@@ -13,7 +13,7 @@ import pytest
 import tomlkit
 from conftest import PYTHON, REPO, RunningSupervisor, child_env, poll_until
 
-from gazed.eval.loop import private_rig
+from gazed.eval.private_rig import private_rig
 from gazed.messages import EstimatorState, GazeState, Track
 from gazed.topics import ESTIMATOR_STATE, GAZE_STATE
 

@@ -15,7 +15,7 @@ from typing import Any
 import pytest
 from conftest import REPO, RunningSupervisor, free_tcp_port, poll_until
 
-from gazed.eval.loop import private_rig
+from gazed.eval.private_rig import private_rig
 from gazed.messages import GazeCommand, GazeSelect, GazeState
 from gazed.topics import GAZE_COMMAND, GAZE_SELECT, GAZE_STATE
 

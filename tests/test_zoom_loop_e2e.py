@@ -10,7 +10,7 @@ import pytest
 from conftest import REPO, RunningSupervisor, poll_until
 
 from gazed.config import load_rig
-from gazed.eval.loop import private_rig
+from gazed.eval.private_rig import private_rig
 from gazed.eval.zoom_score import TOLERANCE, zoom_scoring
 from gazed.messages import SimTruth
 from gazed.topics import SIM_TRUTH

@@ -16,13 +16,14 @@ import time
 import uuid
 from pathlib import Path
 
-from gazed.bus import Bus, BusError, Subscription
+from gazed.bus import BusError
+from gazed.bustools.gaze_answer import gaze_answer, gaze_listens
+from gazed.bustools.tool_session import tool_session
 from gazed.config import load_rig_or_exit
 from gazed.gaze.operator import OPERATOR_COMMANDS
 from gazed.gaze.target_choice import OPERATOR
-from gazed.messages import GazeCommand, GazeState
+from gazed.messages import GazeCommand
 from gazed.topics import GAZE_COMMAND, GAZE_STATE
-from gazed.wakeup import Wakeup
 
 
 def operate_arguments(parser: argparse.ArgumentParser) -> None:
@@ -46,20 +47,18 @@ def operate_command(args: argparse.Namespace) -> int:
         request_id=f"operate-{uuid.uuid4().hex[:8]}",
     )
     try:
-        with Bus(rig, "operate") as bus, Wakeup() as wakeup:
-            bus.on_arrival(wakeup.notify)
+        with tool_session(rig, "operate") as (bus, wakeup):
             answers = bus.subscribe(GAZE_STATE, capacity=64)
             publisher = bus.publisher(GAZE_COMMAND)
             deadline = time.monotonic() + args.timeout_s
-            while not publisher.matched():
-                if time.monotonic() > deadline:
-                    print(f"gazed operate: no gaze process of rig '{rig.name}'", file=sys.stderr)
-                    return 1
-                wakeup.wait(0.05)
+            if not gaze_listens(publisher, wakeup, deadline):
+                print(f"gazed operate: no gaze process of rig '{rig.name}'", file=sys.stderr)
+                return 1
             publisher.put(request)
-            answer = _answer(answers, f"{OPERATOR}: {args.command}", wakeup, deadline)
-    except BusError as exc:
-        print(f"gazed operate: no bus answers: {exc} (is `gazed run` running?)", file=sys.stderr)
+            reason = f"{OPERATOR}: {args.command}"  # the gaze took the command
+            answer = gaze_answer(answers, lambda s: s.reason == reason, wakeup, deadline)
+    except BusError as exc:  # NoRunningRig says which rig and what to check
+        print(f"gazed operate: {exc}", file=sys.stderr)
         return 1
     if answer is None:
         print(
@@ -68,15 +67,3 @@ def operate_command(args: argparse.Namespace) -> int:
         return 1
     print(f"{answer.previous} -> {answer.state}: {answer.reason}")
     return 0
-
-
-def _answer(
-    answers: Subscription[GazeState], reason: str, wakeup: Wakeup, deadline: float
-) -> GazeState | None:
-    """The gaze's gaze/state with `reason`: it took the command."""
-    while time.monotonic() < deadline:
-        for state in answers.take():
-            if state.reason == reason:
-                return state
-        wakeup.wait(0.05)
-    return None

@@ -17,7 +17,9 @@ import sys
 import time
 from pathlib import Path
 
-from gazed.bus import Bus, BusError, Subscription
+from gazed.bus import BusError, Subscription
+from gazed.bustools.gaze_answer import POLL_S, gaze_answer, gaze_listens
+from gazed.bustools.tool_session import tool_session
 from gazed.config import load_rig_or_exit
 from gazed.gaze.target_choice import OPERATOR, REFUSED
 from gazed.messages import GazeSelect, GazeState, HeadPose, Odometry
@@ -55,25 +57,22 @@ def select_command(args: argparse.Namespace) -> int:
         print("gazed select: the track id, point, pixel and pose must be finite", file=sys.stderr)
         return 2
     try:
-        with Bus(rig, "select") as bus, Wakeup() as wakeup:
-            bus.on_arrival(wakeup.notify)
+        with tool_session(rig, "select") as (bus, wakeup):
             answers = bus.subscribe(GAZE_STATE, capacity=64)
             odometry = bus.subscribe(SERVO_ODOMETRY, capacity=4)
             publisher = bus.publisher(GAZE_SELECT)
             deadline = time.monotonic() + args.timeout_s
-            while not publisher.matched():
-                if time.monotonic() > deadline:
-                    print(f"gazed select: no gaze process of rig '{rig.name}'", file=sys.stderr)
-                    return 1
-                wakeup.wait(0.05)
+            if not gaze_listens(publisher, wakeup, deadline):
+                print(f"gazed select: no gaze process of rig '{rig.name}'", file=sys.stderr)
+                return 1
             request = _request(args, odometry, wakeup, deadline)
             if request is None:
                 print("gazed select: no head pose on servo/odometry; give --pose", file=sys.stderr)
                 return 1
             publisher.put(request)
-            answer = _answer(answers, wakeup, deadline)
-    except BusError as exc:
-        print(f"gazed select: no bus answers: {exc} (is `gazed run` running?)", file=sys.stderr)
+            answer = gaze_answer(answers, _about_a_choice, wakeup, deadline)
+    except BusError as exc:  # NoRunningRig says which rig and what to check
+        print(f"gazed select: {exc}", file=sys.stderr)
         return 1
     if answer is None:
         print(f"gazed select: the gaze did not answer within {args.timeout_s:g} s", file=sys.stderr)
@@ -100,18 +99,13 @@ def _request(
         latest = None
         while latest is None and time.monotonic() < deadline:
             latest = odometry.latest()
-            wakeup.wait(0.05)
+            wakeup.wait(POLL_S)
         if latest is None:
             return None
         head = HeadPose(pan_rad=latest.pan_rad, tilt_rad=latest.tilt_rad)
     return GazeSelect(t_capture_ns=now_ns, pixel_px=tuple(args.pixel), head=head)
 
 
-def _answer(answers: Subscription[GazeState], wakeup: Wakeup, deadline: float) -> GazeState | None:
-    """The gaze's first gaze/state about an operator's request."""
-    while time.monotonic() < deadline:
-        for state in answers.take():
-            if state.reason.startswith(OPERATOR):
-                return state
-        wakeup.wait(0.05)
-    return None
+def _about_a_choice(state: GazeState) -> bool:
+    """The gaze's gaze/state about an operator's request."""
+    return state.reason.startswith(OPERATOR)

@@ -14,7 +14,8 @@ import contextlib
 import time
 from collections.abc import Callable, Iterator
 
-from gazed.bus import Bus, BusError
+from gazed.bus import Bus
+from gazed.bustools.tool_session import NoRunningRig, tool_session
 from gazed.config import Rig
 from gazed.messages import GazeDemand, Odometry
 from gazed.topics import GAZE_DEMAND, SERVO_ODOMETRY
@@ -54,23 +55,15 @@ def open_frames(rig: Rig, bus: Bus) -> FrameSource:
 def head_session(rig: Rig) -> Iterator[HeadSession]:
     """A session on the running rig's bus and camera for the `with` block."""
     try:
-        bus = Bus(rig, "calibrate")
-        bus.open()
-    except BusError as exc:
-        raise CalibrationError(
-            f"no bus answers for rig '{rig.name}': {exc} (is `gazed run` running?)"
-        ) from exc
-    try:
-        with Wakeup() as wakeup:
-            bus.on_arrival(wakeup.notify)
+        with tool_session(rig, "calibrate") as (bus, wakeup):
             frames = open_frames(rig, bus)
             frames.connect()
             try:
                 yield HeadSession(rig, bus, wakeup, frames)
             finally:
                 frames.disconnect()
-    finally:
-        bus.close()
+    except NoRunningRig as exc:
+        raise CalibrationError(str(exc)) from exc
 
 
 class HeadSession:

@@ -32,11 +32,10 @@ from typing import Any
 import numpy as np
 
 from gazed.config import Rig
-from gazed.estimation.events import ManeuverEvent as ModelChange
+from gazed.estimation.estimator_messages import EstimatorMessages, maneuver_message
 from gazed.estimation.loop_latency import LoopLatency
 from gazed.estimation.measurement import Measurement
 from gazed.estimation.observation import gaze_measurement, ground_measurement
-from gazed.estimation.results import PredictedState
 from gazed.estimation.tracks import PersonTrack, Sighting, TrackSet
 from gazed.geometry.ground import GroundGeometry, MeasurementNoise
 from gazed.geometry.homography import HorizonError
@@ -49,7 +48,6 @@ from gazed.messages import (
     Mover,
     Prediction,
     Stamp,
-    Track,
 )
 
 IDLE_S = 1.0  # how long to wait when there is nothing to predict
@@ -98,6 +96,7 @@ class TargetTracker:
             rig.head, section.pixel_noise_px, section.pixel_rate_noise_px_s
         )
         self.latency = LoopLatency(stage, section.actuation_latency_default_ms / 1000.0)
+        self.messages = EstimatorMessages(self.filter, self.geometry, self.latency)
         self.counts = {
             "detections": 0,
             "measured": 0,
@@ -171,7 +170,7 @@ class TargetTracker:
         track_id = track.id if track is not None else None
         prediction = None
         if predicted is not None:
-            prediction = self._prediction(
+            prediction = self.messages.prediction(
                 predicted, t_capture_ns, stamps, t_effect_ns, t_ns, coasting, track_id
             )
         return TrackUpdate(detection.seq, t_capture_ns, stamps, coasting, prediction, track_id)
@@ -190,7 +189,7 @@ class TargetTracker:
         chosen, now_state, tracks, events = None, None, [], []
         for track, state in states:
             assert state is not None  # an ended track is removed at once
-            tracks.append(self._track(track, state, t_s))
+            tracks.append(self.messages.track(track, state, t_s))
             drained = track.estimator.drain_events()
             if track.id == update.track_id:
                 chosen, now_state, events = track, state, drained
@@ -216,7 +215,7 @@ class TargetTracker:
             tracks=tuple(tracks),
             **fields,
         )
-        return state, [self._event(event, update) for event in events]
+        return state, [maneuver_message(e, update.t_capture_ns, update.stamps) for e in events]
 
     # ---------------------------------------------------------------------------------- silence
 
@@ -247,7 +246,7 @@ class TargetTracker:
             predicted = track.estimator.predict(t_effect_ns / 1e9)
             if predicted is not None:
                 stamps = ((self.stage, wall_ns),)
-                prediction = self._prediction(
+                prediction = self.messages.prediction(
                     predicted, wall_ns, stamps, t_effect_ns, wall_ns, True, track.id
                 )
                 self.counts["silent_predictions"] += 1
@@ -304,85 +303,9 @@ class TargetTracker:
             self.counts["above_horizon"] += 1
             return None
 
-    def _track(self, track: PersonTrack, state: PredictedState, t_s: float) -> Track:
-        """One track's message: its state at the frame's capture."""
-        if self.geometry is None:  # image-cv: the state is the gaze itself
-            pan, tilt = state.position.tolist()
-            ground = velocity = cov = None
-        else:
-            x, y = state.position.tolist()
-            pan, tilt = self.geometry.gaze_from_ground(x, y)
-            ground, velocity = (x, y), tuple(state.velocity.tolist())
-            cov = tuple(map(tuple, state.covariance[:2, :2].tolist()))
-        return Track(
-            id=track.id,
-            confirmed=track.confirmed,
-            pan_rad=pan,
-            tilt_rad=tilt,
-            ground_xy_m=ground,
-            ground_velocity_m_s=velocity,
-            ground_cov_m2=cov,
-            age_s=max(0.0, t_s - track.first_s),
-            hits=track.hits,
-            coasting=track.coasting,
-            box_height_px=track.box_height_px,
-            most_likely=track.estimator.most_likely(),
-        )
-
-    def _event(self, event: ModelChange, update: TrackUpdate) -> ManeuverEvent:
-        return ManeuverEvent(
-            t_capture_ns=update.t_capture_ns,
-            stamps=update.stamps,
-            model=event.model,
-            previous_model=event.previous_model,
-            t_start_ns=round(event.t_start_s * 1e9),
-            previous_duration_s=event.previous_duration_s,
-            mean_s_dot_m_s2=event.mean_s_dot_m_s2,
-            mean_theta_dot_rad_s=event.mean_theta_dot_rad_s,
-        )
-
     def _reject(self, seq: int, exc: ValueError) -> None:
         self.counts["rejected"] += 1
         log.debug("detection %d rejected: %s", seq, exc)
-
-    def _prediction(
-        self,
-        predicted: PredictedState,
-        t_capture_ns: int,
-        stamps: tuple[Stamp, ...],
-        t_effect_ns: int,
-        t_ns: int,
-        coasting: bool,
-        track_id: int | None,
-    ) -> Prediction:
-        if self.geometry is None:  # image-cv: the state is the gaze itself
-            pan, tilt = predicted.position.tolist()
-            pan_rate, tilt_rate = predicted.velocity.tolist()
-            ground = velocity = cov = None
-        else:
-            x, y = predicted.position.tolist()
-            vx, vy = predicted.velocity.tolist()
-            pan, tilt, pan_rate, tilt_rate = self.geometry.gaze_motion_from_ground(x, y, vx, vy)
-            ground, velocity = (x, y), (vx, vy)
-            cov = tuple(map(tuple, predicted.covariance[:2, :2].tolist()))
-        return Prediction(
-            t_capture_ns=t_capture_ns,
-            stamps=stamps,
-            filter=self.filter,
-            t_effect_ns=t_effect_ns,
-            horizon_s=(t_effect_ns - t_capture_ns) / 1e9,
-            pan_rad=pan,
-            tilt_rad=tilt,
-            pan_rate_rad_s=pan_rate,
-            tilt_rate_rad_s=tilt_rate,
-            ground_xy_m=ground,
-            ground_velocity_m_s=velocity,
-            position_cov_m2=cov,
-            visual_latency_s=(t_ns - t_capture_ns) / 1e9,
-            actuation_latency_s=self.latency.actuation_s,
-            coasting=coasting,
-            track_id=track_id,
-        )
 
 
 def _target_fields(mover: Mover) -> dict[str, float]:

@@ -57,6 +57,13 @@ def estimator_arguments(parser: argparse.ArgumentParser) -> None:
         help="with --scenario rounded-square: the velocity measurements' noise std (m/s; "
         "default 0.2)",
     )
+    parser.add_argument(
+        "--half",
+        type=int,
+        choices=(1, 2),
+        help="with --data: score half of the tracks (alternate walkers in order of appearance) "
+        "and fit cv-ml to the other half",
+    )
     parser.add_argument("--seed", type=int, default=0, help="seed of the simulated noise")
     parser.add_argument("--rig", type=Path, help="take the [estimator] settings from this rig file")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
@@ -87,6 +94,8 @@ def estimator_command(args: argparse.Namespace) -> int:
             return _refuse(f"{option} must be a finite number {least}, got {value}")
     if args.velocity_noise_m_s is not None and args.scenario != "rounded-square":
         return _refuse("--velocity-noise-m-s goes with --scenario rounded-square")
+    if args.half is not None and (args.data is None or args.plot is not None):
+        return _refuse("--half goes with --data, and without --plot (which draws the whole file)")
     if args.scenario == "rounded-square":
         report = rounded_square_report(section, args.seed, args.noise_m, args.velocity_noise_m_s)
     elif args.scenario == "kelly":
@@ -107,7 +116,14 @@ def estimator_command(args: argparse.Namespace) -> int:
             with EvalProgress(len(BASELINES) + filters, args.json) as progress:
                 noise_m = args.noise_m or 0.0
                 report = data_report(
-                    section, args.data, args.filter, horizons, noise_m, args.seed, progress.steps
+                    section,
+                    args.data,
+                    args.filter,
+                    horizons,
+                    noise_m,
+                    args.seed,
+                    progress.steps,
+                    args.half,
                 )
         except TrackFileError as exc:
             print(f"gazed eval estimator: {exc}", file=sys.stderr)
@@ -160,8 +176,9 @@ def format_report(report: dict[str, Any]) -> str:
     else:
         results = report["filters"] if "filters" in report else {report["filter"]: report}
         results = {**results, **report["baselines"]}
+        half = f" (half {report['half']})" if "half" in report else ""
         lines.append(
-            f"{report['data']}: {report['tracks']} tracks, added noise {report['noise_m']} m"
+            f"{report['data']}{half}: {report['tracks']} tracks, added noise {report['noise_m']} m"
         )
         lines.append(
             f"{'predictor':<18}{'horizon s':>10}{'mean m':>9}{'median m':>10}{'p90 m':>8}{'n':>7}"
@@ -173,7 +190,8 @@ def format_report(report: dict[str, Any]) -> str:
                 )
         fit = report["baselines"]["cv-ml"]
         lines.append(
-            f"cv-ml: q = {fit['q']:.3g} m²/s³, r = {fit['r']:.3g} m² (maximum likelihood on the file)"
+            f"cv-ml: q = {fit['q']:.3g} m²/s³, r = {fit['r']:.3g} m² (maximum likelihood on "
+            f"{fit['fitted_on']})"
         )
     return "\n".join(lines)
 

@@ -1,7 +1,7 @@
 """`gazed eval loop --truth FILE.csv`: run a digital head's rig over its footage on a private bus
 and score it against the annotated people (`person_score`).
 
-The rig file is copied as for the simulator (`loop.private_document`) with the footage's first
+The rig file is copied as for the simulator (`private_rig.private_document`) with the footage's first
 frame (`[wide] start_frame`) and the frames' delay (`[wide] frame_delay_ms`, from
 `--latency-ms`). Each view the head renders carries its footage frame as its sequence number and
 the pose it was rendered at, so every detection names both. With `--select-id`, the person's
@@ -24,11 +24,9 @@ from gazed.config import Rig, RigError, load_rig
 from gazed.eval.loop import (
     DEFAULT_SECONDS,
     print_results,
-    private_document,
     record_run,
     running,
     servo_summary,
-    write_rig,
 )
 from gazed.eval.loop_metrics import latencies_ms
 from gazed.eval.person_score import (
@@ -39,6 +37,7 @@ from gazed.eval.person_score import (
     reach_scores,
     score_person,
 )
+from gazed.eval.private_rig import private_document, write_rig
 from gazed.eval.progress import EvalProgress
 from gazed.eval.truth import Person, TruthFileError, read_truth
 from gazed.eval.view_people import ViewPeople

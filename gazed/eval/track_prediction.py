@@ -23,7 +23,7 @@ from gazed.eval.baselines import (
     fit_constant_velocity,
 )
 from gazed.eval.metrics import error_summary
-from gazed.eval.pedestrians import Track, read_tracks
+from gazed.eval.pedestrians import Track, TrackFileError, read_tracks
 from gazed.eval.progress import Steps, no_progress
 
 DATA_FILTERS = ("imm", "cv", "ca", "alphabeta", "innovation")
@@ -149,12 +149,15 @@ def baseline_errors(
     noise_m: float,
     seed: int,
     steps: Steps = no_progress,
+    fit_tracks: list[Track] | None = None,
 ) -> dict[str, dict[str, Any]]:
     """The baselines on the same measurements, horizons and errors as the filters; `cv-ml`
-    carries the q (m²/s³) and r (m²) fitted to the file."""
+    carries the q (m²/s³) and r (m²) fitted to `fit_tracks` (default: the scored tracks), with
+    the same added noise."""
     data = _align(tracks, noise_m, seed)
     n = len(tracks)
-    q, r = fit_constant_velocity(data.t, np.nan_to_num(data.z), data.length)
+    fit = data if fit_tracks is None else _align(fit_tracks, noise_m, seed + 1)
+    q, r = fit_constant_velocity(fit.t, np.nan_to_num(fit.z), fit.length)
     predictors: dict[str, Predictor] = {
         "constant-position": ConstantPosition(n),
         "two-point": TwoPoint(n),
@@ -187,6 +190,15 @@ def _recorded(
     return (1.0 - w) * xy[rows, before] + w * xy[rows, after], known
 
 
+def halves(tracks: list[Track], half: int) -> tuple[list[Track], list[Track]]:
+    """(half 1 or 2 of the tracks, the other half): the file's tracks in their order of first
+    appearance taken alternately, so that both halves span the whole recording and share no
+    walker."""
+    if half not in (1, 2):
+        raise ValueError(f"half must be 1 or 2, got {half}")
+    return tracks[half - 1 :: 2], tracks[2 - half :: 2]
+
+
 def data_report(
     section: EstimatorSection,
     path: Path,
@@ -195,12 +207,23 @@ def data_report(
     noise_m: float,
     seed: int,
     steps: Steps = no_progress,
+    half: int | None = None,
 ) -> dict[str, Any]:
     """The filter (or all of them, under "filters") scored on a file, with the baselines beside
-    them under "baselines"; `steps` counts each predictor's steps (`progress`)."""
+    them under "baselines"; `steps` counts each predictor's steps (`progress`). With `half`
+    (1 or 2) only that half of the tracks (`halves`) is scored and cv-ml is fitted to the other
+    half: nothing fitted has seen the walkers scored."""
     tracks = read_tracks(path)
-    head = {"data": str(path), "noise_m": noise_m}
-    baselines = {"baselines": baseline_errors(tracks, horizons_s, noise_m, seed, steps)}
+    head: dict[str, Any] = {"data": str(path), "noise_m": noise_m}
+    fit_tracks = None
+    if half is not None:
+        tracks, fit_tracks = halves(tracks, half)
+        if not tracks or not fit_tracks:
+            raise TrackFileError(f"{path}: {len(tracks) + len(fit_tracks)} track(s), no halves")
+        head["half"] = half
+    fitted = baseline_errors(tracks, horizons_s, noise_m, seed, steps, fit_tracks)
+    fitted["cv-ml"]["fitted_on"] = "the file" if half is None else "the other half"
+    baselines = {"baselines": fitted}
     modes = DATA_FILTERS if mode == "all" else (mode,)
     results = {m: track_errors(section, tracks, m, horizons_s, noise_m, seed, steps) for m in modes}
     if mode == "all":

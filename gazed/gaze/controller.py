@@ -17,18 +17,10 @@ States and transitions (each published with its reason):
             --an operator's park, search or hold (`operator`)---> park, search, hold
     trace   --corner, lost edge, enough samples, joint limit, stop--> search
 
-- park and search take up a target in view (`sightings`); search holds the head and watches
-  the motion candidates of frames taken at rest;
-- saccade is a ballistic move to where the target will be when the move ends (`move`,
-  `aim.arrival_aim`); detections are ignored until the head has settled;
-- pursuit demands the prediction for the instant the demand acts, with feedback on the
-  residual (`pursuit`);
-- lost coasts on the prediction and searches a growing region around it (`lost_search`);
-- trace follows a ground line's edge for the line calibration (`trace`);
-- `look-and-move` control replaces continuous pursuit by move, settle, look
-  (`look_and_move`); the peers' laws replace it too, to compare with: `move-wait-move` is the
-  same cycle aimed where the target was seen, without prediction, and `pid` a PID on the pixel
-  error (`pixel_pid`).
+Each state's behaviour lives in its part: taking a target up (`sightings`), the saccade's
+ballistic move (`move`, `aim.arrival_aim`), pursuit with feedback on the residual (`pursuit`),
+the lost state's coasting search (`lost_search`), the line trace (`trace`), and the
+look-and-move and peer control laws (`look_and_move`, `pixel_pid`); docs/gaze.md describes each.
 
 Which of the estimator's tracks is the target is `target_choice` (the rig's rule or an
 operator's `gaze/select`); only the chosen track's predictions are used, of a frame's movers

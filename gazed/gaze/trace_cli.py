@@ -31,7 +31,9 @@ from pathlib import Path
 
 import numpy as np
 
-from gazed.bus import Bus, BusError, Subscription
+from gazed.bus import Subscription
+from gazed.bustools.gaze_answer import gaze_listens
+from gazed.bustools.tool_session import NoRunningRig, tool_session
 from gazed.config import Rig
 from gazed.geometry.calibrate_cli import Solved, calibrate, calibrate_options
 from gazed.geometry.calibration import CalibrationError
@@ -105,24 +107,13 @@ def read_trace_file(path: Path) -> list[TraceLine]:
 def trace_lines(rig: Rig, lines: list[TraceLine]) -> list[tuple[TraceLine, TraceResult]]:
     """Have the rig's gaze process trace each line; its samples and why each trace ended."""
     try:
-        bus = Bus(rig, "calibrate")
-        bus.open()
-    except BusError as exc:
-        raise CalibrationFileError(
-            f"no bus answers for rig '{rig.name}': {exc} (is `gazed run` running?)"
-        ) from exc
-    try:
-        with Wakeup() as wakeup:
-            bus.on_arrival(wakeup.notify)
+        with tool_session(rig, "calibrate") as (bus, wakeup):
             commands = bus.publisher(GAZE_COMMAND)
             results = bus.subscribe(GAZE_TRACE)
-            deadline = time.monotonic() + GAZE_WAIT_S
-            while not commands.matched():
-                if time.monotonic() > deadline:
-                    raise CalibrationFileError(
-                        f"rig '{rig.name}': no gaze process reads {GAZE_COMMAND.suffix}"
-                    )
-                wakeup.wait(0.1)
+            if not gaze_listens(commands, wakeup, time.monotonic() + GAZE_WAIT_S):
+                raise CalibrationFileError(
+                    f"rig '{rig.name}': no gaze process reads {GAZE_COMMAND.suffix}"
+                )
             traced = []
             for k, line in enumerate(lines):
                 request_id = f"trace-{k + 1}-{time.time_ns()}"
@@ -140,8 +131,8 @@ def trace_lines(rig: Rig, lines: list[TraceLine]) -> list[tuple[TraceLine, Trace
                 print(f"tracing {line.label} ...", file=sys.stderr, flush=True)
                 traced.append((line, _wait_result(wakeup, results, request_id, line)))
             return traced
-    finally:
-        bus.close()
+    except NoRunningRig as exc:
+        raise CalibrationFileError(str(exc)) from exc
 
 
 def _wait_result(

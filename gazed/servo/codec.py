@@ -79,6 +79,14 @@ class Reply:
         return " ".join(parts)
 
 
+def handshake_reply(replies: list[Reply], device: str, what: str) -> Reply:
+    """The first reply to a start-up request; HandshakeError when none came or it is an error."""
+    if not replies or replies[0].kind == "error":
+        got = replies[0].describe() if replies else "nothing"
+        raise HandshakeError(f"{device} answered {what} with {got}")
+    return replies[0]
+
+
 Exchange = Callable[[bytes], list[Reply]]
 """Send one frame and return its synchronous replies (raises on timeout): the driver's half of a
 handshake."""

@@ -13,7 +13,14 @@ import math
 from collections import deque
 from typing import ClassVar
 
-from gazed.servo.codec import Codec, CodecError, Exchange, HandshakeError, Reply, nearest
+from gazed.servo.codec import (
+    Codec,
+    CodecError,
+    Exchange,
+    Reply,
+    handshake_reply,
+    nearest,
+)
 from gazed.servo.dynamixel_packets import (
     BROADCAST_ID,
     STATUS,
@@ -219,24 +226,19 @@ class DynamixelCodec(Codec):
         modes = []
         for device_id in self.ids:
             self.model_numbers[device_id] = (
-                int(
-                    self._require(exchange(self.encode_ping(device_id)), "ping", device_id).value
-                    or 0
-                )
+                int(_answer(exchange(self.encode_ping(device_id)), "ping", device_id).value or 0)
                 & 0xFFFF
             )
-            mode_reply = self._require(
+            mode_reply = _answer(
                 exchange(self.encode_read(device_id, "operating_mode")), "read mode", device_id
             )
             mode = int(mode_reply.value or 0)
             if mode not in POSITION_MODES:
                 for item, value in (("torque_enable", 0), ("operating_mode", POSITION_MODES[0])):
-                    self._require(
-                        exchange(self.encode_write(device_id, item, value)), item, device_id
-                    )
+                    _answer(exchange(self.encode_write(device_id, item, value)), item, device_id)
                 mode = POSITION_MODES[0]
             modes.append(mode)
-            self._require(
+            _answer(
                 exchange(self.encode_write(device_id, "torque_enable", 1)), "torque on", device_id
             )
         self.position_mode = (
@@ -245,13 +247,6 @@ class DynamixelCodec(Codec):
             else OPERATING_MODE["position"]
         )
         self._velocity_mode = False
-
-    @staticmethod
-    def _require(replies: list[Reply], what: str, device_id: int) -> Reply:
-        if not replies or replies[0].kind == "error":
-            got = replies[0].describe() if replies else "nothing"
-            raise HandshakeError(f"Dynamixel id {device_id}: {what} answered {got}")
-        return replies[0]
 
     def reset(self) -> None:
         super().reset()
@@ -290,3 +285,7 @@ class DynamixelCodec(Codec):
             return Reply("ack", device_id=p.device_id, raw=p.raw)
         value = int.from_bytes(data, "little") if data else None
         return Reply("ok", value=value, device_id=p.device_id, raw=p.raw)
+
+
+def _answer(replies: list[Reply], what: str, device_id: int) -> Reply:
+    return handshake_reply(replies, f"Dynamixel id {device_id}", what)

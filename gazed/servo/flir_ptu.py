@@ -25,7 +25,15 @@ import re
 from collections import deque
 from typing import ClassVar
 
-from gazed.servo.codec import Codec, CodecError, Exchange, HandshakeError, Reply, nearest
+from gazed.servo.codec import (
+    Codec,
+    CodecError,
+    Exchange,
+    HandshakeError,
+    Reply,
+    handshake_reply,
+    nearest,
+)
 from gazed.servo.resync import Cut, Skip, Split, Take, resync
 
 DELIMITER = " "
@@ -207,7 +215,7 @@ class FlirPtuCodec(Codec):
         """Echo off, terse feedback, independent mode; read resolutions, limits and move speeds
         (PROTOCOLS §3: query the resolution at start-up instead of hard-coding it)."""
         for op in (OPS["echo_off"], OPS["feedback_terse"], OPS["independent_mode"]):
-            self._query(exchange, op, self._frames((op, None, "ack"))[0])
+            handshake_reply(exchange(self._frames((op, None, "ack"))[0]), "PTU", op)
         values = {name: self._value(exchange, OPS[name]) for name in HANDSHAKE_QUERIES}
         if values["pan_resolution"] <= 0 or values["tilt_resolution"] <= 0:
             raise HandshakeError(
@@ -223,18 +231,10 @@ class FlirPtuCodec(Codec):
         self._velocity_mode = False
 
     def _value(self, exchange: Exchange, op: str) -> float:
-        reply = self._query(exchange, op, self.encode_query(op)[0])
+        reply = handshake_reply(exchange(self.encode_query(op)[0]), "PTU", op)
         if reply.value is None:
             raise HandshakeError(f"PTU answered {op} without a number: {reply.describe()}")
         return reply.value
-
-    @staticmethod
-    def _query(exchange: Exchange, op: str, frame_bytes: bytes) -> Reply:
-        replies = exchange(frame_bytes)
-        if not replies or replies[0].kind == "error":
-            got = replies[0].describe() if replies else "nothing"
-            raise HandshakeError(f"PTU answered {op} with {got}")
-        return replies[0]
 
     def reset(self) -> None:
         super().reset()

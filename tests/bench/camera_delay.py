@@ -41,8 +41,9 @@ sys.path.insert(0, str(REPO / "tests" / "bench"))
 
 from random_sweep import seeds  # noqa: E402
 
-from gazed.eval.loop import observed, private_rig  # noqa: E402
+from gazed.eval.loop import observed  # noqa: E402
 from gazed.eval.loop_metrics import LoopRecord, score  # noqa: E402
+from gazed.eval.private_rig import private_rig  # noqa: E402
 from gazed.geometry.pose import CameraPose  # noqa: E402
 from gazed.messages import Detection, Health  # noqa: E402
 from gazed.sim.reach import FieldOfRegard  # noqa: E402

@@ -20,7 +20,8 @@ from pathlib import Path
 import numpy as np
 
 from gazed.estimation.observation import ground_measurement
-from gazed.eval.loop import observed, private_rig
+from gazed.eval.loop import observed
+from gazed.eval.private_rig import private_rig
 from gazed.geometry.ground import GroundGeometry, MeasurementNoise
 from gazed.topics import SIM_TRUTH, VISION_DETECTION
 

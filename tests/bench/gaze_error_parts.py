@@ -26,7 +26,8 @@ REPO = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(REPO))
 
 from gazed.config import Rig  # noqa: E402
-from gazed.eval.loop import START_TIMEOUT_S, observed, private_rig  # noqa: E402
+from gazed.eval.loop import START_TIMEOUT_S, observed  # noqa: E402
+from gazed.eval.private_rig import private_rig  # noqa: E402
 from gazed.geometry.camera import CameraModel  # noqa: E402
 from gazed.geometry.kinematics import HeadKinematics  # noqa: E402
 from gazed.geometry.pose import CameraPose  # noqa: E402

@@ -26,8 +26,9 @@ from typing import Any
 REPO = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(REPO))
 
-from gazed.eval.loop import observed, private_rig  # noqa: E402
+from gazed.eval.loop import observed  # noqa: E402
 from gazed.eval.loop_metrics import gaze_errors_rad  # noqa: E402
+from gazed.eval.private_rig import private_rig  # noqa: E402
 from gazed.geometry.pose import CameraPose  # noqa: E402
 from gazed.messages import GazeState, SimTruth, SupervisorStatus  # noqa: E402
 from gazed.topics import GAZE_STATE, SIM_TRUTH, SUPERVISOR_STATUS  # noqa: E402

@@ -24,8 +24,9 @@ REPO = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(REPO))
 
 from gazed.config import SERVICE_NAMES  # noqa: E402
-from gazed.eval.loop import observed, private_rig  # noqa: E402
+from gazed.eval.loop import observed  # noqa: E402
 from gazed.eval.loop_record import cpu_seconds  # noqa: E402
+from gazed.eval.private_rig import private_rig  # noqa: E402
 from gazed.latency import processing_s  # noqa: E402
 from gazed.topics import SERVO_COMMAND, SUPERVISOR_STATUS  # noqa: E402
 

@@ -27,7 +27,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from gaze_error_parts import Truth  # noqa: E402
 
-from gazed.eval.loop import START_TIMEOUT_S, observed, private_rig  # noqa: E402
+from gazed.eval.loop import START_TIMEOUT_S, observed  # noqa: E402
+from gazed.eval.private_rig import private_rig  # noqa: E402
 from gazed.geometry.camera import CameraModel  # noqa: E402
 from gazed.geometry.target_angles import target_angles  # noqa: E402
 from gazed.topics import GAZE_STATE, SIM_TRUTH, VISION_CANDIDATES  # noqa: E402

@@ -34,9 +34,10 @@ sys.path.insert(0, str(REPO))
 
 from gazed.bus import Bus  # noqa: E402
 from gazed.config import SERVICE_NAMES, Rig  # noqa: E402
-from gazed.eval.loop import open_observer, private_rig, running  # noqa: E402
+from gazed.eval.loop import open_observer, running  # noqa: E402
 from gazed.eval.loop_metrics import LoopRecord, score  # noqa: E402
 from gazed.eval.loop_record import cpu_seconds  # noqa: E402
+from gazed.eval.private_rig import private_rig  # noqa: E402
 from gazed.geometry.pose import CameraPose  # noqa: E402
 from gazed.messages import Health, SupervisorStatus  # noqa: E402
 from gazed.topics import (  # noqa: E402
