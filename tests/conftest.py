@@ -167,7 +167,12 @@ class RunningSupervisor:
         self.bus = Bus(self.rig, "observer")
         self.wakeup = Wakeup()  # every arrival on the observer's bus wakes it
         self.bus.on_arrival(self.wakeup.notify)
-        poll_until(self._connect, 20.0, 0.05)
+        try:
+            poll_until(self._connect, 20.0, 0.05)
+        except BaseException:  # no caller holds us to stop: leave no `gazed run` behind
+            self.process.kill()
+            self.stop()
+            raise
         self.bus.watch_alive(
             lambda name, alive: self.alive_events.append((time.monotonic(), name, alive))
         )
