@@ -10,13 +10,29 @@ hands the choice back to the rule at once.
 The estimator keeps a track's id through short losses (it coasts), so a target lost and
 reacquired keeps its id and the choice holds; the gaze uses only the predictions of its chosen
 track (one with no `track_id` is the estimator's only track).
+
+Where the estimator could not keep the id (the person was missed long enough, or their
+detections fell outside the track's gate), the person comes back as a new track while the
+chosen one coasts, and ending the choice with the coasting track would hand it to the rule:
+someone else. So a choice follows its person to their new track (track continuation, as in
+track-segment association: Blackman & Popoli, "Design and Analysis of Modern Tracking Systems",
+1999, §7.4): while the chosen track coasts, or once it has ended, a confirmed track that did not
+exist when the chosen one last took a detection, and that takes detections now, continues it
+where the two ground positions agree within `CONTINUATION_GATE_PROBABILITY`'s χ² gate of two
+dimensions against the sum of their covariances (the coasting track's grows with the time it
+has coasted, so the gate widens as the person could have walked further). Of several, the
+nearest (in that distance) continues it. Tracks without a ground position (image-cv) are not
+continued.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
+
 from gazed.config import GazeSection
+from gazed.estimation.chi_square import chi2_quantile
 from gazed.gaze.target_rule import (
     GroundZone,
     nearest_by_angle,
@@ -30,6 +46,7 @@ from gazed.messages import EstimatorState, GazeSelect, Prediction, Track
 
 OPERATOR = "operator"  # how every gaze/state reason about an operator's request begins
 REFUSED = "operator refused"  # ... and one that changed nothing
+CONTINUATION_GATE_PROBABILITY = 0.999  # the estimator's own default gate for a detection
 
 
 @dataclass(frozen=True)
@@ -52,7 +69,10 @@ class TargetChoice:
         self.target_id: int | None = None
         self.by_operator = False
         self.tracks: tuple[Track, ...] = ()
-        self.counts = dict.fromkeys(("other_tracks", "refused_selections"), 0)
+        self.counts = dict.fromkeys(("other_tracks", "refused_selections", "continued"), 0)
+        self.continuation_d2 = chi2_quantile(CONTINUATION_GATE_PROBABILITY, 2)
+        self._chosen: Track | None = None  # the chosen track in the last state that held it
+        self._known: frozenset[int] = frozenset()  # the ids when it last took a detection
 
     def accepts(self, prediction: Prediction) -> bool:
         """A prediction of the chosen track (or of the only track, or before any choice);
@@ -71,6 +91,9 @@ class TargetChoice:
     ) -> ChoiceChange | None:
         """The estimator's tracks at a frame: the chosen one ended, or the rule picks one."""
         self.tracks = state.tracks
+        continued = self._continuation(state.tracks)
+        if continued is not None:
+            return continued
         ended = None
         if self.target_id is not None and not any(t.id == self.target_id for t in state.tracks):
             ended, self.target_id, self.by_operator = self.target_id, None, False
@@ -83,6 +106,34 @@ class TargetChoice:
         if ended is not None:
             return ChoiceChange(None, f"track {ended} ended; rule {self.rule} has no track")
         return None
+
+    def _continuation(self, tracks: tuple[Track, ...]) -> ChoiceChange | None:
+        """The chosen track handed to the new track of its person (module docstring), or
+        None."""
+        chosen = next((t for t in tracks if t.id == self.target_id), None)
+        if chosen is not None:
+            newly = self._chosen is None or self._chosen.id != chosen.id
+            if newly or not chosen.coasting:
+                self._known = frozenset(t.id for t in tracks)
+            self._chosen = chosen
+            if not chosen.coasting:
+                return None
+        lost = self._chosen
+        if self.target_id is None or lost is None or lost.id != self.target_id:
+            return None
+        best, best_d2 = None, self.continuation_d2
+        for track in tracks:
+            if track.id in self._known or not track.confirmed or track.coasting:
+                continue
+            d2 = _ground_distance2(lost, track)
+            if d2 is not None and d2 <= best_d2:
+                best, best_d2 = track, d2
+        if best is None:
+            return None
+        self.target_id, self._chosen = best.id, best
+        self._known = frozenset(t.id for t in tracks)
+        self.counts["continued"] += 1
+        return ChoiceChange(best.id, f"track {lost.id} lost; its person continues as {best.id}")
 
     def on_select(self, select: GazeSelect, head_rad: tuple[float, float] | None) -> ChoiceChange:
         """An operator's request: a track by id, or the nearest to a ground point or a pixel;
@@ -116,3 +167,18 @@ class TargetChoice:
         angles = target_angles(camera, self.kinematics, head.pan_rad, head.tilt_rad, u, v)
         found = nearest_by_angle(self.tracks, angles.pan_rad, angles.tilt_rad, self.kinematics)
         return found, f"nearest pixel ({u:g}, {v:g})" if found else "no tracks"
+
+
+def _ground_distance2(a: Track, b: Track) -> float | None:
+    """Δᵀ (Pa + Pb)⁻¹ Δ of two tracks' ground positions; None without both positions and
+    covariances (or a singular sum)."""
+    if a.ground_xy_m is None or b.ground_xy_m is None or a.ground_cov_m2 is None:
+        return None
+    if b.ground_cov_m2 is None:
+        return None
+    delta = np.subtract(a.ground_xy_m, b.ground_xy_m)
+    C = np.add(a.ground_cov_m2, b.ground_cov_m2)
+    try:
+        return float(delta @ np.linalg.solve(C, delta))
+    except np.linalg.LinAlgError:
+        return None

@@ -53,7 +53,7 @@ MATCH_M = 1.0  # a track this near a person's ground point is theirs (matched on
 REST = HeadPose(pan_rad=0.0, tilt_rad=0.0)
 
 
-def replay(rig_path: Path, frames: range, mode: str | None) -> list[dict]:
+def replay(rig_path: Path, frames: range, mode: str | None, point: str) -> list[dict]:
     """Per frame: the movers' wide points and the confirmed tracks' ids and ground points."""
     rig = load_rig(rig_path)
     if mode is not None:
@@ -64,7 +64,7 @@ def replay(rig_path: Path, frames: range, mode: str | None) -> list[dict]:
         HeadKinematics.from_section(rig.head),
         ZoomLens.from_section(rig.camera),
     )
-    movers = WideMovers(view, rig.vision, "centroid")
+    movers = WideMovers(view, rig.vision, point)  # type: ignore[arg-type]
     tracker = TargetTracker(rig, "estimator")
     capture = cv2.VideoCapture(str(rig.wide_source))
     capture.set(cv2.CAP_PROP_POS_FRAMES, frames.start)
@@ -83,6 +83,7 @@ def replay(rig_path: Path, frames: range, mode: str | None) -> list[dict]:
             seq=frame,
             detector="flow",
             found=False,
+            point=point,
             width_px=rig.camera.width_px,
             height_px=rig.camera.height_px,
             head=REST,
@@ -106,11 +107,14 @@ def main() -> None:
     parser.add_argument("--filter", default=None, help="estimation mode (default: the rig's)")
     parser.add_argument("--min-seconds", type=float, default=10.0)
     parser.add_argument("--rig", type=Path, default=RIG)
+    parser.add_argument(
+        "--point", default="centroid", help="the movers' point: centroid or ground-contact"
+    )
     args = parser.parse_args()
     first, last = (int(x) for x in args.frames.split("-"))
     rig = load_rig(args.rig)
     people = read_truth(TRUTH)
-    replayed = replay(args.rig, range(first, last + 1), args.filter)
+    replayed = replay(args.rig, range(first, last + 1), args.filter, args.point)
     geometry = ViewPeople(
         DigitalView(
             wide_camera(rig.wide),
@@ -166,7 +170,7 @@ def main() -> None:
                 )
             held[pid] = track
             owner[track] = pid
-    print(f"frames {first}-{last}, filter {args.filter or rig.estimator.filter}")
+    print(f"frames {first}-{last}, filter {args.filter or rig.estimator.filter}, {args.point}")
     print(
         f"  {'person':>6} {'frames':>6} {'out of reach':>12} {'missed':>6} {'lost':>5} "
         f"{'restarts':>8} {'swaps':>5}"
