@@ -57,7 +57,9 @@ def replay(rig_path: Path, frames: range, mode: str | None, point: str) -> list[
     """Per frame: the movers' wide points and the confirmed tracks' ids and ground points."""
     rig = load_rig(rig_path)
     if mode is not None:
-        rig = rig.model_copy(update={"estimator": rig.estimator.model_copy(update={"filter": mode})})
+        rig = rig.model_copy(
+            update={"estimator": rig.estimator.model_copy(update={"filter": mode})}
+        )
     view = DigitalView(
         wide_camera(rig.wide),
         CameraModel.from_section(rig.camera),
