@@ -189,6 +189,28 @@ def test_a_new_track_far_from_the_lost_one_does_not_continue_it() -> None:
     assert change is not None and change.reason == "track 1 ended; rule first chose track 2"
 
 
+def test_a_ground_point_before_any_track_is_held_for_the_track_of_its_person() -> None:
+    c = choice(select_rule="first")
+    held = c.on_select(GazeSelect(t_capture_ns=1_000_000_000, ground_xy_m=(0.0, 5.0)), None)
+    assert not held.changed and held.reason == "operator: no track yet; held for one at (0, 5) m"
+    assert c.counts["refused_selections"] == 0
+
+    def at(t_s: float, *tracks: Track) -> EstimatorState:
+        return EstimatorState(
+            t_capture_ns=round(t_s * 1e9), filter="imm", x=(), P=(), tracks=tracks
+        )
+
+    walker = placed(5, (1.5, 5.0), 0.01).model_copy(update={"ground_velocity_m_s": (1.0, 0.0)})
+    other = placed(4, (-4.0, 5.0), 0.01)  # confirmed first, but too far to have been there
+    assert c.on_state(at(1.5, other, walker.model_copy(update={"confirmed": False})), None) is None
+    assert c.target_id is None  # the rule waits while the operator's point is held
+    # 1.5 s after the request: 5 walked 1.5 m at 1 m/s from the point
+    change = c.on_state(at(2.5, other, walker), None)
+    assert change is not None and change.target_id == 5 and c.by_operator
+    assert change.reason == "operator chose track 5 at (0, 5) m"
+    assert c.pending is None
+
+
 def test_only_the_chosen_tracks_predictions_reach_pursuit() -> None:
     clock = Clock()
     controller = GazeController(RIG, clock.mono_s)

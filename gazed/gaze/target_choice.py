@@ -23,10 +23,20 @@ dimensions against the sum of their covariances (the coasting track's grows with
 has coasted, so the gate widens as the person could have walked further). Of several, the
 nearest (in that distance) continues it. Tracks without a ground position (image-cv) are not
 continued.
+
+An operator points at a person the moment they see them, often before the estimator has a
+track of them (a person who has just walked in needs a few detections to be confirmed). A
+ground point that no track is near yet is held rather than refused, and taken by the first
+confirmed track whose person can have been at that point when it was chosen: its ground
+position taken back along its velocity to the request's capture time lies within the reach of
+that point — as far as a person walks in the time between (`WALK_MAX_M_S` for the error of the
+velocity over that time), plus half a person's width (the point may be anywhere on them) and
+three standard deviations of the track's position. While it is held, the rule does not pick.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -47,6 +57,9 @@ from gazed.messages import EstimatorState, GazeSelect, Prediction, Track
 OPERATOR = "operator"  # how every gaze/state reason about an operator's request begins
 REFUSED = "operator refused"  # ... and one that changed nothing
 CONTINUATION_GATE_PROBABILITY = 0.999  # the estimator's own default gate for a detection
+WALK_MAX_M_S = 2.5  # the upper end of walking speeds: how far a person gets in a given time
+PERSON_RADIUS_M = 0.25  # half a shoulder width: a point chosen anywhere on a person
+POSITION_SIGMAS = 3.0  # a track's position is taken as known to within this many std
 
 
 @dataclass(frozen=True)
@@ -73,6 +86,7 @@ class TargetChoice:
         self.continuation_d2 = chi2_quantile(CONTINUATION_GATE_PROBABILITY, 2)
         self._chosen: Track | None = None  # the chosen track in the last state that held it
         self._known: frozenset[int] = frozenset()  # the ids when it last took a detection
+        self.pending: GazeSelect | None = None  # an operator's point no track was near yet
 
     def accepts(self, prediction: Prediction) -> bool:
         """A prediction of the chosen track (or of the only track, or before any choice);
@@ -91,6 +105,8 @@ class TargetChoice:
     ) -> ChoiceChange | None:
         """The estimator's tracks at a frame: the chosen one ended, or the rule picks one."""
         self.tracks = state.tracks
+        if self.pending is not None:
+            return self._take_pending(state)
         continued = self._continuation(state.tracks)
         if continued is not None:
             return continued
@@ -135,9 +151,40 @@ class TargetChoice:
         self.counts["continued"] += 1
         return ChoiceChange(best.id, f"track {lost.id} lost; its person continues as {best.id}")
 
+    def _take_pending(self, state: EstimatorState) -> ChoiceChange | None:
+        """The held ground point taken by the track whose person was there (module docstring),
+        or None while none can have been."""
+        assert self.pending is not None and self.pending.ground_xy_m is not None
+        point = np.asarray(self.pending.ground_xy_m)
+        dt_s = max(0.0, (state.t_capture_ns - self.pending.t_capture_ns) * 1e-9)
+        best, best_m = None, math.inf
+        for track in state.tracks:
+            if not track.confirmed or track.ground_xy_m is None:
+                continue
+            velocity = np.asarray(track.ground_velocity_m_s or (0.0, 0.0))
+            then = np.asarray(track.ground_xy_m) - velocity * dt_s
+            spread = np.linalg.eigvalsh(track.ground_cov_m2)[-1] if track.ground_cov_m2 else 0.0
+            reach = WALK_MAX_M_S * dt_s + PERSON_RADIUS_M + POSITION_SIGMAS * math.sqrt(spread)
+            distance = float(np.linalg.norm(then - point))
+            if distance <= reach and distance < best_m:
+                best, best_m = track, distance
+        if best is None:
+            return None
+        x, y = point
+        self.pending, self.target_id, self.by_operator = None, best.id, True
+        return ChoiceChange(best.id, f"{OPERATOR} chose track {best.id} at ({x:g}, {y:g}) m")
+
     def on_select(self, select: GazeSelect, head_rad: tuple[float, float] | None) -> ChoiceChange:
         """An operator's request: a track by id, or the nearest to a ground point or a pixel;
-        an empty request hands the choice back to the rule."""
+        an empty request hands the choice back to the rule. A ground point with no track on the
+        ground yet is held (module docstring)."""
+        self.pending = None
+        if select.ground_xy_m is not None and not any(t.ground_xy_m for t in self.tracks):
+            self.pending = select
+            x, y = select.ground_xy_m
+            return ChoiceChange(
+                self.target_id, f"{OPERATOR}: no track yet; held for one at ({x:g}, {y:g}) m", False
+            )
         if select.track_id is None and select.ground_xy_m is None and select.pixel_px is None:
             self.target_id, self.by_operator = None, False
             picked = rule_pick(self.rule, self.tracks, self.kinematics, head_rad, self.zone)
