@@ -170,6 +170,15 @@ def test_a_choice_follows_its_person_to_their_new_track() -> None:
     assert c.counts["continued"] == 1
 
 
+def test_a_chosen_track_merged_into_an_older_one_continues_as_it() -> None:
+    c = choice(select_rule="first")
+    c.on_state(state(placed(1, (0.0, 5.0), 0.05), placed(2, (0.3, 5.0), 0.05)), None)
+    c.on_select(GazeSelect(t_capture_ns=1, track_id=2), None)
+    change = c.on_state(state(placed(1, (0.2, 5.0), 0.05), placed(3, (5.0, 5.0), 0.01)), None)
+    assert change is not None and change.target_id == 1 and c.by_operator
+    assert change.reason == "track 2 lost; its person continues as 1"
+
+
 def test_a_new_track_far_from_the_lost_one_does_not_continue_it() -> None:
     c = choice(select_rule="first")
     c.on_state(state(placed(1, (0.0, 5.0), 0.01), placed(2, (4.0, 5.0), 0.01)), None)

@@ -21,7 +21,9 @@ exist when the chosen one last took a detection, and that takes detections now, 
 where the two ground positions agree within `CONTINUATION_GATE_PROBABILITY`'s χ² gate of two
 dimensions against the sum of their covariances (the coasting track's grows with the time it
 has coasted, so the gate widens as the person could have walked further). Of several, the
-nearest (in that distance) continues it. Tracks without a ground position (image-cv) are not
+nearest (in that distance) continues it. A chosen track that ends without having coasted was
+merged by the estimator with another track of its person (a track ends by coasting otherwise),
+so any track within that gate continues it, however old. Tracks without a ground position (image-cv) are not
 continued.
 
 An operator points at a person the moment they see them, often before the estimator has a
@@ -137,9 +139,10 @@ class TargetChoice:
         lost = self._chosen
         if self.target_id is None or lost is None or lost.id != self.target_id:
             return None
+        merged = chosen is None and not lost.coasting  # ended at once: merged (docstring)
         best, best_d2 = None, self.continuation_d2
         for track in tracks:
-            if track.id in self._known or not track.confirmed or track.coasting:
+            if (track.id in self._known and not merged) or not track.confirmed or track.coasting:
                 continue
             d2 = _ground_distance2(lost, track)
             if d2 is not None and d2 <= best_d2:
@@ -196,6 +199,7 @@ class TargetChoice:
             return ChoiceChange(self.target_id, f"{REFUSED}: {how}; target unchanged", False)
         changed = track.id != self.target_id
         self.target_id, self.by_operator = track.id, True
+        self._chosen, self._known = track, frozenset(t.id for t in self.tracks)
         return ChoiceChange(track.id, f"{OPERATOR} chose track {track.id} {how}", changed)
 
     def _resolve(self, select: GazeSelect) -> tuple[Track | None, str]:
