@@ -184,7 +184,7 @@ def test_a_file_starts_at_its_start_frame_and_each_frame_is_numbered_by_its_inde
     tmp_path: Path,
 ) -> None:
     """Frame i of the file is grey 20·i; from start frame 8 of 12 the capture plays 8…11, then
-    loops to 0…, and `frame_index` names each frame's index in the file."""
+    loops to 0…, each frame numbered by its index in the file."""
     path = tmp_path / "counted.avi"
     writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 7.0, (64, 48))
     for i in range(12):
@@ -211,7 +211,7 @@ def test_a_file_starts_at_its_start_frame_and_each_frame_is_numbered_by_its_inde
 
     with source:
         poll_until(take, 5.0)
-    indices = [source.frame_index(f.seq) for f in taken]
+    indices = [f.seq for f in taken]
     assert indices == [round(float(f.pixels.mean()) / 20) for f in taken]
     assert 8 <= indices[0] <= 11 and min(indices) < 8  # the newest is taken: some are passed
 
@@ -225,12 +225,11 @@ def test_the_view_carries_its_footage_frame_and_a_start_past_the_end_is_refused(
         view,
         stage.history.pose_at,
         clock_ns=lambda: clock["ns"],
-        frame_index=lambda s: s + 40,
     )
     camera.connect()
     stage.add_odometry(odometry(0, 0.0, 0.0, 0.0), 0)
     stage.add_odometry(odometry(200 * MS, 0.0, 0.0, 0.0), 0)
-    wide.waiting.append(wide_frame(100 * MS, 2))
+    wide.waiting.append(wide_frame(100 * MS, 42))  # its index in the file (`WideCapture`)
     clock["ns"] = 150 * MS
     rendered = camera.read()
     assert rendered is not None and rendered.seq == 42

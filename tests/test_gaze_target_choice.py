@@ -136,6 +136,90 @@ def test_an_operators_choice_ends_with_its_track() -> None:
     assert change.reason == "track 4 ended; rule first chose track 1"
 
 
+def placed(id: int, xy: tuple[float, float], var_m2: float, *, coasting: bool = False) -> Track:
+    """A confirmed track at ground point `xy` with covariance `var_m2` on each axis."""
+    return track(id, 0.0, xy).model_copy(
+        update={"ground_cov_m2": ((var_m2, 0.0), (0.0, var_m2)), "coasting": coasting}
+    )
+
+
+def test_a_choice_follows_its_person_to_their_new_track() -> None:
+    c = choice(select_rule="first")
+    c.on_state(state(placed(1, (0.0, 5.0), 0.01), placed(2, (1.0, 5.0), 0.01)), None)
+    c.on_select(GazeSelect(t_capture_ns=1, track_id=2), None)
+    # 2 is lost and coasts; 1, which existed all along, is beside it: not its person
+    assert (
+        c.on_state(
+            state(placed(1, (1.2, 5.0), 0.01), placed(2, (1.3, 5.0), 0.2, coasting=True)), None
+        )
+        is None
+    )
+    assert c.target_id == 2
+    # a new track where 2's person could be by now continues it, an operator's choice still
+    change = c.on_state(
+        state(
+            placed(1, (1.2, 5.0), 0.01),
+            placed(2, (1.4, 5.0), 0.3, coasting=True),
+            placed(7, (2.0, 5.2), 0.05),
+            placed(8, (6.0, 5.0), 0.05),  # new too, but too far for 2's person to have walked
+        ),
+        None,
+    )
+    assert change is not None and change.target_id == 7 and c.by_operator
+    assert change.reason == "track 2 lost; its person continues as 7"
+    assert c.counts["continued"] == 1
+
+
+def test_a_chosen_track_merged_into_an_older_one_continues_as_it() -> None:
+    c = choice(select_rule="first")
+    c.on_state(state(placed(1, (0.0, 5.0), 0.05), placed(2, (0.3, 5.0), 0.05)), None)
+    c.on_select(GazeSelect(t_capture_ns=1, track_id=2), None)
+    change = c.on_state(state(placed(1, (0.2, 5.0), 0.05), placed(3, (5.0, 5.0), 0.01)), None)
+    assert change is not None and change.target_id == 1 and c.by_operator
+    assert change.reason == "track 2 lost; its person continues as 1"
+
+
+def test_a_new_track_far_from_the_lost_one_does_not_continue_it() -> None:
+    c = choice(select_rule="first")
+    c.on_state(state(placed(1, (0.0, 5.0), 0.01), placed(2, (4.0, 5.0), 0.01)), None)
+    c.on_state(state(placed(1, (0.0, 5.0), 0.01, coasting=True), placed(2, (4.0, 5.0), 0.01)), None)
+    assert (
+        c.on_state(
+            state(
+                placed(1, (0.1, 5.0), 0.05, coasting=True),
+                placed(2, (4.0, 5.0), 0.01),
+                placed(3, (3.0, 5.0), 0.02),
+            ),
+            None,
+        )
+        is None
+    )
+    change = c.on_state(state(placed(2, (4.0, 5.0), 0.01), placed(3, (3.0, 5.0), 0.02)), None)
+    assert change is not None and change.reason == "track 1 ended; rule first chose track 2"
+
+
+def test_a_ground_point_before_any_track_is_held_for_the_track_of_its_person() -> None:
+    c = choice(select_rule="first")
+    held = c.on_select(GazeSelect(t_capture_ns=1_000_000_000, ground_xy_m=(0.0, 5.0)), None)
+    assert not held.changed and held.reason == "operator: no track yet; held for one at (0, 5) m"
+    assert c.counts["refused_selections"] == 0
+
+    def at(t_s: float, *tracks: Track) -> EstimatorState:
+        return EstimatorState(
+            t_capture_ns=round(t_s * 1e9), filter="imm", x=(), P=(), tracks=tracks
+        )
+
+    walker = placed(5, (1.5, 5.0), 0.01).model_copy(update={"ground_velocity_m_s": (1.0, 0.0)})
+    other = placed(4, (-4.0, 5.0), 0.01)  # confirmed first, but too far to have been there
+    assert c.on_state(at(1.5, other, walker.model_copy(update={"confirmed": False})), None) is None
+    assert c.target_id is None  # the rule waits while the operator's point is held
+    # 1.5 s after the request: 5 walked 1.5 m at 1 m/s from the point
+    change = c.on_state(at(2.5, other, walker), None)
+    assert change is not None and change.target_id == 5 and c.by_operator
+    assert change.reason == "operator chose track 5 at (0, 5) m"
+    assert c.pending is None
+
+
 def test_only_the_chosen_tracks_predictions_reach_pursuit() -> None:
     clock = Clock()
     controller = GazeController(RIG, clock.mono_s)

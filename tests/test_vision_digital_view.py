@@ -107,3 +107,37 @@ def test_a_zoomed_view_agrees_with_opencvs_projection_through_the_zoomed_lens(
     assert seen.sum() > 500
     got = view.source_pixels(pan, tilt, zoom)[v, u]
     assert np.abs(got[seen] - expected[seen]).max() < 0.1
+
+
+def test_the_angles_of_a_wide_pixel_centre_the_view_on_it(views: dict[str, DigitalView]) -> None:
+    for kinematics, view in views.items():
+        for u, v in [(0.0, 0.0), (959.0, 270.0), (300.0, 539.0), (700.0, 100.0)]:
+            pan, tilt = view.angles_of(np.array([u]), np.array([v]))
+            ideal = view.homography(float(pan[0]), float(tilt[0])) @ VIEW.K[:, 2]
+            centre = WIDE.pixel(WIDE.K_inv @ (ideal / ideal[2]))  # the view's principal point
+            assert np.abs(np.ravel(centre) - [u, v]).max() < 1e-6, kinematics
+
+
+def test_the_wide_field_of_a_pinhole_is_its_frames_half_angles() -> None:
+    wide = CameraModel.from_intrinsics(960, 540, 750.0, 752.0, 480.0, 268.0)
+    pan_min, pan_max, tilt_min, tilt_max = DigitalView(wide, VIEW).wide_field_rad()
+    assert pan_min == pytest.approx(-math.atan(480.0 / 750.0))
+    assert pan_max == pytest.approx(math.atan(479.0 / 750.0))
+    assert tilt_max == pytest.approx(math.atan(268.0 / 752.0))  # up: the top row's middle
+    assert tilt_min == pytest.approx(-math.atan(271.0 / 752.0))
+
+
+def test_the_pets_rigs_head_reaches_the_wide_cameras_field_and_no_further() -> None:
+    from conftest import REPO
+
+    from gazed.config import load_rig
+    from gazed.vision.digital_camera import wide_camera
+
+    rig = load_rig(REPO / "configs" / "pets.toml")
+    view = DigitalView(wide_camera(rig.wide), VIEW, HeadKinematics.from_section(rig.head))
+    field = np.degrees(view.wide_field_rad())
+    head = rig.head
+    limits = np.array([head.pan_min_deg, head.pan_max_deg, head.tilt_min_deg, head.tilt_max_deg])
+    outwards = limits - field
+    outwards[[0, 2]] *= -1
+    assert np.all(outwards >= 0.0) and np.all(outwards < 0.1)  # rounded outwards to 0.1 deg

@@ -7,8 +7,8 @@ For one rendered frame and the people annotated in its footage frame it tells, p
 - the angle between the view's optical axis and the ray through the box centre (the gaze error);
 - held: the box, in the wide frame, holds the pixel the view's centre sees;
 - reachable: the joint angles that centre the box centre lie within the head's field of regard
-  (`FieldOfRegard.for_scoring`: its limits widened by the fovea; the wide camera's ray in
-  gazed's base frame, y up, gives the angles, as the view's rotation does).
+  (`FieldOfRegard.for_scoring`: its limits widened by the fovea; `DigitalView.angles_of`
+  gives the angles).
 The person the gaze is on is the held one nearest the optical axis.
 """
 
@@ -19,7 +19,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from gazed.geometry.camera import CameraModel
-from gazed.geometry.kinematics import FLIP_Y
 from gazed.sim.reach import FieldOfRegard
 from gazed.vision.digital_view import DigitalView
 
@@ -70,10 +69,7 @@ class ViewPeople:
         held = (np.abs(centre_u - u) <= boxes[:, 2] / 2) & (np.abs(centre_v - v) <= boxes[:, 3] / 2)
         reachable = np.ones(len(boxes), bool)
         if self.reach is not None:
-            base = FLIP_Y @ wide.K_inv @ ideal  # the rays in gazed's base frame, y up
-            reachable = self.reach.contains_angles(
-                *self.view.kinematics.angles_from_direction(base.T)
-            )
+            reachable = self.reach.contains_angles(*self.view.angles_of(u, v))
         return PeopleInView(in_wide, error, held, reachable)
 
     def _centre_in_wide(self, H: np.ndarray, camera: CameraModel) -> tuple[float, float]:

@@ -10,13 +10,41 @@ hands the choice back to the rule at once.
 The estimator keeps a track's id through short losses (it coasts), so a target lost and
 reacquired keeps its id and the choice holds; the gaze uses only the predictions of its chosen
 track (one with no `track_id` is the estimator's only track).
+
+Where the estimator could not keep the id (the person was missed long enough, or their
+detections fell outside the track's gate), the person comes back as a new track while the
+chosen one coasts, and ending the choice with the coasting track would hand it to the rule:
+someone else. So a choice follows its person to their new track (track continuation, as in
+track-segment association: Blackman & Popoli, "Design and Analysis of Modern Tracking Systems",
+1999, §7.4): while the chosen track coasts, or once it has ended, a confirmed track that did not
+exist when the chosen one last took a detection, and that takes detections now, continues it
+where the two ground positions agree within `CONTINUATION_GATE_PROBABILITY`'s χ² gate of two
+dimensions against the sum of their covariances (the coasting track's grows with the time it
+has coasted, so the gate widens as the person could have walked further). Of several, the
+nearest (in that distance) continues it. A chosen track that ends without having coasted was
+merged by the estimator with another track of its person (a track ends by coasting otherwise),
+so any track within that gate continues it, however old. Tracks without a ground position (image-cv) are not
+continued.
+
+An operator points at a person the moment they see them, often before the estimator has a
+track of them (a person who has just walked in needs a few detections to be confirmed). A
+ground point that no track is near yet is held rather than refused, and taken by the first
+confirmed track whose person can have been at that point when it was chosen: its ground
+position taken back along its velocity to the request's capture time lies within the reach of
+that point — as far as a person walks in the time between (`WALK_MAX_M_S` for the error of the
+velocity over that time), plus half a person's width (the point may be anywhere on them) and
+three standard deviations of the track's position. While it is held, the rule does not pick.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from gazed.config import GazeSection
+from gazed.estimation.chi_square import chi2_quantile
 from gazed.gaze.target_rule import (
     GroundZone,
     nearest_by_angle,
@@ -30,6 +58,10 @@ from gazed.messages import EstimatorState, GazeSelect, Prediction, Track
 
 OPERATOR = "operator"  # how every gaze/state reason about an operator's request begins
 REFUSED = "operator refused"  # ... and one that changed nothing
+CONTINUATION_GATE_PROBABILITY = 0.999  # the estimator's own default gate for a detection
+WALK_MAX_M_S = 2.5  # the upper end of walking speeds: how far a person gets in a given time
+PERSON_RADIUS_M = 0.25  # half a shoulder width: a point chosen anywhere on a person
+POSITION_SIGMAS = 3.0  # a track's position is taken as known to within this many std
 
 
 @dataclass(frozen=True)
@@ -52,7 +84,11 @@ class TargetChoice:
         self.target_id: int | None = None
         self.by_operator = False
         self.tracks: tuple[Track, ...] = ()
-        self.counts = dict.fromkeys(("other_tracks", "refused_selections"), 0)
+        self.counts = dict.fromkeys(("other_tracks", "refused_selections", "continued"), 0)
+        self.continuation_d2 = chi2_quantile(CONTINUATION_GATE_PROBABILITY, 2)
+        self._chosen: Track | None = None  # the chosen track in the last state that held it
+        self._known: frozenset[int] = frozenset()  # the ids when it last took a detection
+        self.pending: GazeSelect | None = None  # an operator's point no track was near yet
 
     def accepts(self, prediction: Prediction) -> bool:
         """A prediction of the chosen track (or of the only track, or before any choice);
@@ -71,6 +107,11 @@ class TargetChoice:
     ) -> ChoiceChange | None:
         """The estimator's tracks at a frame: the chosen one ended, or the rule picks one."""
         self.tracks = state.tracks
+        if self.pending is not None:
+            return self._take_pending(state)
+        continued = self._continuation(state.tracks)
+        if continued is not None:
+            return continued
         ended = None
         if self.target_id is not None and not any(t.id == self.target_id for t in state.tracks):
             ended, self.target_id, self.by_operator = self.target_id, None, False
@@ -84,9 +125,69 @@ class TargetChoice:
             return ChoiceChange(None, f"track {ended} ended; rule {self.rule} has no track")
         return None
 
+    def _continuation(self, tracks: tuple[Track, ...]) -> ChoiceChange | None:
+        """The chosen track handed to the new track of its person (module docstring), or
+        None."""
+        chosen = next((t for t in tracks if t.id == self.target_id), None)
+        if chosen is not None:
+            newly = self._chosen is None or self._chosen.id != chosen.id
+            if newly or not chosen.coasting:
+                self._known = frozenset(t.id for t in tracks)
+            self._chosen = chosen
+            if not chosen.coasting:
+                return None
+        lost = self._chosen
+        if self.target_id is None or lost is None or lost.id != self.target_id:
+            return None
+        merged = chosen is None and not lost.coasting  # ended at once: merged (docstring)
+        best, best_d2 = None, self.continuation_d2
+        for track in tracks:
+            if (track.id in self._known and not merged) or not track.confirmed or track.coasting:
+                continue
+            d2 = _ground_distance2(lost, track)
+            if d2 is not None and d2 <= best_d2:
+                best, best_d2 = track, d2
+        if best is None:
+            return None
+        self.target_id, self._chosen = best.id, best
+        self._known = frozenset(t.id for t in tracks)
+        self.counts["continued"] += 1
+        return ChoiceChange(best.id, f"track {lost.id} lost; its person continues as {best.id}")
+
+    def _take_pending(self, state: EstimatorState) -> ChoiceChange | None:
+        """The held ground point taken by the track whose person was there (module docstring),
+        or None while none can have been."""
+        assert self.pending is not None and self.pending.ground_xy_m is not None
+        point = np.asarray(self.pending.ground_xy_m)
+        dt_s = max(0.0, (state.t_capture_ns - self.pending.t_capture_ns) * 1e-9)
+        best, best_m = None, math.inf
+        for track in state.tracks:
+            if not track.confirmed or track.ground_xy_m is None:
+                continue
+            velocity = np.asarray(track.ground_velocity_m_s or (0.0, 0.0))
+            then = np.asarray(track.ground_xy_m) - velocity * dt_s
+            spread = np.linalg.eigvalsh(track.ground_cov_m2)[-1] if track.ground_cov_m2 else 0.0
+            reach = WALK_MAX_M_S * dt_s + PERSON_RADIUS_M + POSITION_SIGMAS * math.sqrt(spread)
+            distance = float(np.linalg.norm(then - point))
+            if distance <= reach and distance < best_m:
+                best, best_m = track, distance
+        if best is None:
+            return None
+        x, y = point
+        self.pending, self.target_id, self.by_operator = None, best.id, True
+        return ChoiceChange(best.id, f"{OPERATOR} chose track {best.id} at ({x:g}, {y:g}) m")
+
     def on_select(self, select: GazeSelect, head_rad: tuple[float, float] | None) -> ChoiceChange:
         """An operator's request: a track by id, or the nearest to a ground point or a pixel;
-        an empty request hands the choice back to the rule."""
+        an empty request hands the choice back to the rule. A ground point with no track on the
+        ground yet is held (module docstring)."""
+        self.pending = None
+        if select.ground_xy_m is not None and not any(t.ground_xy_m for t in self.tracks):
+            self.pending = select
+            x, y = select.ground_xy_m
+            return ChoiceChange(
+                self.target_id, f"{OPERATOR}: no track yet; held for one at ({x:g}, {y:g}) m", False
+            )
         if select.track_id is None and select.ground_xy_m is None and select.pixel_px is None:
             self.target_id, self.by_operator = None, False
             picked = rule_pick(self.rule, self.tracks, self.kinematics, head_rad, self.zone)
@@ -98,6 +199,7 @@ class TargetChoice:
             return ChoiceChange(self.target_id, f"{REFUSED}: {how}; target unchanged", False)
         changed = track.id != self.target_id
         self.target_id, self.by_operator = track.id, True
+        self._chosen, self._known = track, frozenset(t.id for t in self.tracks)
         return ChoiceChange(track.id, f"{OPERATOR} chose track {track.id} {how}", changed)
 
     def _resolve(self, select: GazeSelect) -> tuple[Track | None, str]:
@@ -116,3 +218,18 @@ class TargetChoice:
         angles = target_angles(camera, self.kinematics, head.pan_rad, head.tilt_rad, u, v)
         found = nearest_by_angle(self.tracks, angles.pan_rad, angles.tilt_rad, self.kinematics)
         return found, f"nearest pixel ({u:g}, {v:g})" if found else "no tracks"
+
+
+def _ground_distance2(a: Track, b: Track) -> float | None:
+    """Δᵀ (Pa + Pb)⁻¹ Δ of two tracks' ground positions; None without both positions and
+    covariances (or a singular sum)."""
+    if a.ground_xy_m is None or b.ground_xy_m is None or a.ground_cov_m2 is None:
+        return None
+    if b.ground_cov_m2 is None:
+        return None
+    delta = np.subtract(a.ground_xy_m, b.ground_xy_m)
+    C = np.add(a.ground_cov_m2, b.ground_cov_m2)
+    try:
+        return float(delta @ np.linalg.solve(C, delta))
+    except np.linalg.LinAlgError:
+        return None

@@ -12,10 +12,12 @@ whose capture instant odometry does not cover yet (before the servo's first read
 stalled servo) cannot be rendered: it is dropped and counted. Of the frames due at once only
 the newest is rendered. Every rendered view goes to `on_view` (the MJPEG stream).
 
-A video file plays from `[wide] start_frame` and loops from its first frame (`WideCapture`);
-each view's sequence number is then its wide frame's index in the file, which is how a score
-against the footage's annotations (`gazed eval loop --truth`) knows the frame it was rendered
-from.
+A video file plays from `[wide] start_frame` and loops from its first frame (`WideCapture`),
+and each of its frames is numbered by its index in the file, so a view's sequence number is its
+wide frame's index: that is how a score against the footage's annotations (`gazed eval loop
+--truth`) knows the frame it was rendered from, and how the wide frame's movers
+(`wide_movers`, which see the frames as they are read) are found for the view rendered from
+it.
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ import threading
 import time
 from collections import Counter, deque
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -70,10 +73,8 @@ class DigitalCamera(FrameSource):
         frame_delay_s: float = 0.0,
         on_view: Callable[[np.ndarray], None] | None = None,
         clock_ns: Callable[[], int] = time.time_ns,
-        frame_index: Callable[[int], int] | None = None,
     ) -> None:
         self.wide = wide
-        self.frame_index = frame_index
         self.view = view
         self.pose_at = pose_at
         self.frame_delay_ns = round(frame_delay_s * 1e9)
@@ -126,16 +127,15 @@ class DigitalCamera(FrameSource):
         if self.on_view is not None:
             self.on_view(pixels)
         self.counters["views_rendered"] += 1
-        seq = frame.seq if self.frame_index is None else self.frame_index(frame.seq)
         return CapturedFrame(
-            pixels, frame.encoding, frame.t_capture_ns, seq, frame.stamps, head=pose
+            pixels, frame.encoding, frame.t_capture_ns, frame.seq, frame.stamps, head=pose
         )
 
 
 class WideCapture(OpenCvCamera):
     """The wide camera, read as `OpenCvCamera` reads it; a video file's first pass starts at
-    `start_frame` and the file loops from its first frame. `frame_index` gives the file's frame
-    index of a sequence number the capture handed out (a camera's or stream's: the number).
+    `start_frame` and the file loops from its first frame. Each frame read is numbered by its
+    index in the file (a camera's or stream's: the capture's own count).
 
     The capture numbers frames as it reads them, across passes; each opening of a file notes the
     number its pass begins at and the file frame it begins with."""
@@ -146,7 +146,12 @@ class WideCapture(OpenCvCamera):
         self._passes: deque[tuple[int, int]] = deque(maxlen=PASSES_KEPT)
         self._passes_lock = threading.Lock()
 
-    def frame_index(self, seq: int) -> int:
+    def read(self) -> CapturedFrame | None:
+        frame = super().read()
+        return None if frame is None else replace(frame, seq=self._frame_index(frame.seq))
+
+    def _frame_index(self, seq: int) -> int:
+        """The file's frame index of a number the capture handed out."""
         with self._passes_lock:
             for first_seq, first_index in reversed(self._passes):
                 if seq >= first_seq:
@@ -218,5 +223,4 @@ def open_digital_camera(
         pose_at,
         frame_delay_s=wide.frame_delay_ms * 1e-3,
         on_view=on_view,
-        frame_index=source.frame_index,
     )

@@ -18,6 +18,11 @@ rig's `[camera] zoom_focal_px`), so the same view pixels span a smaller angle of
 At rest (pan = tilt = 0) the view looks along the wide camera's optical axis, so the head's
 joint angles are the wide camera's own pan and tilt, and a ground homography for the wide
 camera (`gazed.geometry.tsai`) is the head's.
+
+The wide camera's field, as joint angles (`wide_field_rad`), is where the head must be able to
+turn to centre anything the wide camera sees: the extremes of the angles that centre the pixels
+of the frame's border. A head with those limits sees past the frame's edge near them, and the
+render fills what lies past it (black).
 """
 
 from __future__ import annotations
@@ -72,6 +77,22 @@ class DigitalView:
         """View pixel -> the wide camera's ideal pixel, 3x3, at zoom position `zoom`."""
         R = self.kinematics.rotation(pan_rad, tilt_rad)
         return self.wide.K @ FLIP_Y @ R @ FLIP_Y @ self.lens.camera_at(zoom).K_inv
+
+    def angles_of(self, u_px: np.ndarray, v_px: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The joint angles (pan, tilt) that centre the view on the wide frame's pixels (u, v)
+        (through its lens)."""
+        ideal_u, ideal_v = self.wide.undistort(np.asarray(u_px, float), np.asarray(v_px, float))
+        rays = self.wide.K_inv @ np.stack([ideal_u, ideal_v, np.ones_like(ideal_u)])
+        return self.kinematics.angles_from_direction((FLIP_Y @ rays).T)
+
+    def wide_field_rad(self) -> tuple[float, float, float, float]:
+        """pan min, pan max, tilt min, tilt max: the extremes of the joint angles that centre
+        the wide frame's border pixels (the module docstring)."""
+        w, h = self.wide.width_px, self.wide.height_px
+        u = np.concatenate([np.arange(w), np.arange(w), np.zeros(h), np.full(h, w - 1)])
+        v = np.concatenate([np.zeros(w), np.full(w, h - 1), np.arange(h), np.arange(h)])
+        pan, tilt = self.angles_of(u, v)
+        return float(pan.min()), float(pan.max()), float(tilt.min()), float(tilt.max())
 
     def source_pixels(
         self, pan_rad: float, tilt_rad: float, zoom: float | None = None

@@ -1,0 +1,191 @@
+"""Why a person of PETS 2009 S2.L1 is not held: the digital head's wide movers and the
+estimator's tracks over the footage, offline (no loop, no clock), against the annotated people.
+
+    python tests/bench/pets_tracks.py [--frames 0-399] [--filter imm]
+
+Each footage frame is segmented as the vision process segments the wide frame (`WideMovers`,
+the rig's `[vision]` settings), its movers are mapped into the view at rest and handed to the
+estimator (`TargetTracker.update`) as one detection, in the frame's own time (`frame / rate`).
+Per person visible for at least `--min-seconds`:
+
+- out of reach: frames whose box centre the head cannot foveate within its limits
+  (`ViewPeople`, `FieldOfRegard.for_scoring`);
+- missed: frames in which no mover's point lies within the person's box (the detector);
+- lost: frames in which no confirmed track is within `MATCH_M` of the person's ground point
+  (matched one to one, nearest first);
+- changes of the person's track: `restart` (a new id, after a loss or a merge), `swap` (an id
+  that was on another person before), each with the nearest other person's distance then.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from collections import Counter
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(ROOT))
+
+from gazed.config import load_rig  # noqa: E402
+from gazed.estimation.target_tracker import TargetTracker  # noqa: E402
+from gazed.eval.person_score import people_at  # noqa: E402
+from gazed.eval.truth import read_truth  # noqa: E402
+from gazed.eval.view_people import ViewPeople  # noqa: E402
+from gazed.geometry.camera import CameraModel  # noqa: E402
+from gazed.geometry.kinematics import HeadKinematics  # noqa: E402
+from gazed.geometry.zoom import ZoomLens  # noqa: E402
+from gazed.messages import Detection, HeadPose  # noqa: E402
+from gazed.sim.reach import FieldOfRegard  # noqa: E402
+from gazed.vision.digital_camera import wide_camera  # noqa: E402
+from gazed.vision.digital_view import DigitalView  # noqa: E402
+from gazed.vision.frames import CapturedFrame  # noqa: E402
+from gazed.vision.stage import mover_message  # noqa: E402
+from gazed.vision.wide_movers import WideMovers  # noqa: E402
+
+RIG = ROOT / "configs" / "pets.toml"
+TRUTH = ROOT.parent / "shared" / "data" / "footage" / "pets09-s2l1" / "truth_frames_0000-0399.csv"
+MATCH_M = 1.0  # a track this near a person's ground point is theirs (matched one to one)
+REST = HeadPose(pan_rad=0.0, tilt_rad=0.0)
+
+
+def replay(rig_path: Path, frames: range, mode: str | None, point: str) -> list[dict]:
+    """Per frame: the movers' wide points and the confirmed tracks' ids and ground points."""
+    rig = load_rig(rig_path)
+    if mode is not None:
+        rig = rig.model_copy(
+            update={"estimator": rig.estimator.model_copy(update={"filter": mode})}
+        )
+    view = DigitalView(
+        wide_camera(rig.wide),
+        CameraModel.from_section(rig.camera),
+        HeadKinematics.from_section(rig.head),
+        ZoomLens.from_section(rig.camera),
+    )
+    movers = WideMovers(view, rig.vision, point)  # type: ignore[arg-type]
+    tracker = TargetTracker(rig, "estimator")
+    capture = cv2.VideoCapture(str(rig.wide_source))
+    capture.set(cv2.CAP_PROP_POS_FRAMES, frames.start)
+    t0_ns = time.time_ns()  # the frames are dated on this clock, so the tracker takes them
+    out = []
+    for frame in frames:
+        ok, pixels = capture.read()
+        if not ok:
+            break
+        t_ns = t0_ns + round(frame / rig.wide.rate_hz * 1e9)
+        movers.observe(CapturedFrame(pixels, "bgr8", t_ns, frame))
+        wide = movers._movers[frame]
+        seen = movers.in_view(frame, REST) or ()
+        detection = Detection(
+            t_capture_ns=t_ns,
+            seq=frame,
+            detector="flow",
+            found=False,
+            point=point,
+            width_px=rig.camera.width_px,
+            height_px=rig.camera.height_px,
+            head=REST,
+            movers=tuple(mover_message(m) for m in seen),
+        )
+        update = tracker.update(detection, t_ns)
+        if update is not None:
+            tracker.settle(update)
+        tracks = {}
+        for track in tracker.tracks.tracks:
+            state = track.estimator.predict(t_ns / 1e9)
+            if track.confirmed and state is not None and not track.coasting:
+                tracks[track.id] = np.asarray(state.position[:2])
+        out.append({"frame": frame, "wide": [(m.u_px, m.v_px) for m in wide], "tracks": tracks})
+    return out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--frames", default="0-399")
+    parser.add_argument("--filter", default=None, help="estimation mode (default: the rig's)")
+    parser.add_argument("--min-seconds", type=float, default=10.0)
+    parser.add_argument("--rig", type=Path, default=RIG)
+    parser.add_argument(
+        "--point", default="centroid", help="the movers' point: centroid or ground-contact"
+    )
+    args = parser.parse_args()
+    first, last = (int(x) for x in args.frames.split("-"))
+    rig = load_rig(args.rig)
+    people = read_truth(TRUTH)
+    replayed = replay(args.rig, range(first, last + 1), args.filter, args.point)
+    geometry = ViewPeople(
+        DigitalView(
+            wide_camera(rig.wide),
+            CameraModel.from_section(rig.camera),
+            HeadKinematics.from_section(rig.head),
+        ),
+        FieldOfRegard.for_scoring(rig),
+    )
+    scored = sorted(p.id for p in people.values() if p.seconds_visible >= args.min_seconds)
+    stats = {pid: Counter() for pid in scored}
+    owner: dict[int, int] = {}  # track id -> the person it was last on
+    held: dict[int, int | None] = {}
+    changes: list[str] = []
+    for row in replayed:
+        frame = row["frame"]
+        ids, boxes = people_at(people, frame)
+        if not ids:
+            continue
+        here = geometry.at_pose(boxes, 0.0, 0.0)
+        ground = np.array([people[i].ground_m[people[i].at_frame(frame)] for i in ids])
+        wide = np.array(row["wide"]).reshape(-1, 2)
+        track_ids = list(row["tracks"])
+        track_xy = np.array([row["tracks"][t] for t in track_ids]).reshape(-1, 2)
+        distance = np.linalg.norm(ground[:, None] - track_xy[None], axis=-1)
+        matched: dict[int, int] = {}
+        for k in np.argsort(distance, axis=None):
+            p, t = divmod(int(k), len(track_ids))
+            if distance[p, t] > MATCH_M:
+                break
+            if p not in matched and track_ids[t] not in matched.values():
+                matched[p] = track_ids[t]
+        for p, pid in enumerate(ids):
+            u, v, w, h = boxes[p]
+            others = np.delete(np.linalg.norm(ground - ground[p], axis=1), p)
+            nearest = float(others.min()) if len(others) else np.inf
+            if pid in stats:
+                s = stats[pid]
+                s["frames"] += 1
+                s["out_of_reach"] += int(not here.reachable[p])
+                inside = (np.abs(wide[:, 0] - u) <= w / 2) & (np.abs(wide[:, 1] - v) <= h / 2)
+                s["missed"] += int(not inside.any())
+                s["lost"] += int(p not in matched)
+            track = matched.get(p)
+            if track is None:
+                continue
+            before = held.get(pid)
+            if before is not None and before != track and pid in stats:
+                kind = "swap" if owner.get(track, pid) != pid else "restart"
+                stats[pid][kind] += 1
+                changes.append(
+                    f"  frame {frame}: person {pid} {before} -> {track} ({kind}; "
+                    f"was on {owner.get(track)}), nearest other {nearest:.2f} m"
+                )
+            held[pid] = track
+            owner[track] = pid
+    print(f"frames {first}-{last}, filter {args.filter or rig.estimator.filter}, {args.point}")
+    print(
+        f"  {'person':>6} {'frames':>6} {'out of reach':>12} {'missed':>6} {'lost':>5} "
+        f"{'restarts':>8} {'swaps':>5}"
+    )
+    for pid in scored:
+        s = stats[pid]
+        print(
+            f"  {pid:>6} {s['frames']:>6} {s['out_of_reach']:>12} {s['missed']:>6} "
+            f"{s['lost']:>5} {s['restart']:>8} {s['swap']:>5}"
+        )
+    print("changes of a person's track:")
+    print("\n".join(changes))
+
+
+if __name__ == "__main__":
+    main()
