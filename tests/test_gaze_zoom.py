@@ -151,6 +151,26 @@ def test_an_escaping_target_is_zoomed_out_and_zoom_in_waits_until_it_is_steady(
     assert run(zc, "pursuit", 4.8, zoom_now=0.1) > 0.1
 
 
+@pytest.mark.parametrize(
+    ("uv", "velocity_px_s", "room"),
+    [((320.0, 240.0), (600.0, 0.0), 0.8), ((32.0, 240.0), (0.0, 0.0), 224.0 / 287.5)],
+    ids=["fast", "near the edge"],
+)
+def test_an_escaping_target_is_zoomed_out_just_enough_for_the_frame_to_hold_it(
+    uv: tuple[float, float], velocity_px_s: tuple[float, float], room: float
+) -> None:
+    """At zoom 0.5 (f = 2750) and on the setpoint: 1.25 frame heights a second where 1.0 is
+    allowed, or 288 px from the centre where 224 are (0.5 - 0.15 of 640): the focal length
+    shrinks by that room, not to the widest."""
+    zc = control(zoom_target_height=0.25, zoom_out_rate_s=10.0, zoom_deadband=0.05)
+    zc.sightings.found = seen(0.0, 0.25 * H, zoom=0.5, uv=uv, velocity_px_s=velocity_px_s)
+    run(zc, "pursuit", 0.0, zoom_now=0.5)
+    for k in range(1, 6):
+        zc.sightings.found = seen(0.1 * k, 0.25 * H, zoom=0.5, uv=uv, velocity_px_s=velocity_px_s)
+        zoom = run(zc, "pursuit", 0.1 * k, zoom_now=0.5)
+    assert zoom == pytest.approx((2750.0 * room - 500.0) / 4500.0)
+
+
 @pytest.mark.parametrize("state", ["search", "saccade", "lost", "park"])
 def test_reacquiring_zooms_out_first(state: str) -> None:
     zc = control(zoom_out_rate_s=0.5, zoom_min=0.05)

@@ -75,6 +75,26 @@ def test_the_emulated_camera_moves_its_lens_and_answers_the_inquiry() -> None:
     assert error.kind == "error" and error.reason == "syntax error"  # past the tele end
 
 
+def test_a_command_takes_its_mechanism_over_so_a_zoom_never_fills_the_buffer() -> None:
+    """Sony's two sockets: a pan-tilt move executing in one and a zoom in the other; a new
+    command for either mechanism supersedes the one there instead of finding the buffer full."""
+    servo = ViscaServo(protocol="visca", port="unused")
+    mechanics = HeadMechanics(HeadSection(zoom_rate_max_s=0.5), SimSection(), t0_s=0.0)
+    device = ViscaDevice(servo, mechanics)
+    codec = ViscaCodec()
+    far = codec.encode_set_position(math.radians(60.0), 0.0)[0]
+    back = codec.encode_set_position(0.0, 0.0)[0]
+    assert device.receive(far, 0.0) == bytes.fromhex("9041FF")
+    assert device.receive(codec.encode_set_zoom(0.5)[0], 0.0) == bytes.fromhex("9042FF")
+    # socket 1's move is superseded: its completion comes before the ACK that reuses socket 1
+    assert device.receive(back, 0.001) == bytes.fromhex("9051FF 9041FF")
+    assert device.receive(codec.encode_set_zoom(0.6)[0], 0.002) == bytes.fromhex("9052FF 9042FF")
+    # a cancelled zoom stops the lens, not the pan-tilt move
+    assert device.receive(bytes.fromhex("8122FF"), 0.003) == bytes.fromhex("906204FF")
+    device.poll(1.0)
+    assert mechanics.zoom.velocity_rad_s == 0.0 and mechanics.pan.target_rad == 0.0
+
+
 def test_the_link_drives_the_zoom_within_its_rate_and_reports_it_in_odometry() -> None:
     link = Link(baud=115200, protocol="visca", sections=ZOOM_LENS)
     assert link.link.zoom is not None

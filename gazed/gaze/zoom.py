@@ -11,15 +11,22 @@ target does not move the zoom) gives the focal length that shows the target at t
 h*, h* / a: a goal that does not depend on how far the zoom has moved since the frames were
 taken, so the loop's latency does not make it overshoot.
 
+The frame must also hold the target: its centre at least `zoom_out_edge` of the frame's size
+from the edge, and its independent image velocity at most `zoom_out_speed` frame heights per
+second. Both scale with the focal length (a pixel offset and an image velocity are angles times
+f), so each sighting gives the longest focal length that keeps them, its `room` times the focal
+length it was seen at. The goal is the shorter of the two focal lengths, the setpoint's and
+the room's: an escaping target is zoomed out just enough to keep it in the frame, not to the
+widest, and the height is held again as soon as it is steady.
+
 Each tick, the zoom demand moves towards a goal, at most `zoom_in_rate_s` or `zoom_out_rate_s`
 (of the zoom range per second) from the last demand, within `zoom_min`..`zoom_max`:
 - in any state but pursuit (and line tracing, which leaves the zoom alone), to the widest:
   a target is reacquired (search, saccade, lost) with the widest view first;
-- in pursuit, while the target's centre is within `zoom_out_edge` of the frame's edge, or it
-  moves faster than `zoom_out_speed` frame heights per second: out, to the widest;
-- in pursuit, with the target taller than the deadband allows: out, to the setpoint's focal
-  length; shorter: in, to it, but only once the target has been steady (neither near the edge
-  nor fast) for `zoom_in_steady_ms`, and never on a detection older than `lost_after_ms`;
+- in pursuit, with the focal length of the latest frame longer than the goal's by more than
+  the deadband: out, to the goal; shorter: in, to it, but only once the target has been
+  steady (its room at least 1) for `zoom_in_steady_ms`, and never on a detection older than
+  `lost_after_ms`;
 - otherwise the demand stays.
 
 Off (`zoom_control = false`, or a fixed lens) every demand goes out unchanged: no zoom.
@@ -45,11 +52,12 @@ SIZE_SAMPLES = 15  # the target's size is the median of this many sightings' (ab
 @dataclass(frozen=True)
 class ZoomSighting:
     """What one detection says for the zoom: when it was taken, the focal length it was seen
-    at, and whether the target is escaping the frame."""
+    at, and by how much that focal length may grow (or must shrink, below 1) for the frame to
+    hold the target (inside the edge margin, no faster than `zoom_out_speed`)."""
 
     t_capture_ns: int
     focal_px: float
-    escaping: bool
+    room: float
 
 
 def target_height_px(detection: Detection) -> float | None:
@@ -87,16 +95,20 @@ class ZoomControl:
         ):
             return
         u, v, w, h = detection.u_px, detection.v_px, self.width_px, self.height_px
-        edge = min(u / w, (w - 1 - u) / w, v / h, (h - 1 - v) / h)
+        inside = 0.5 - self.gaze.zoom_out_edge  # of the frame's size, from its centre
         speed = math.hypot(detection.du_px_s, detection.dv_px_s) / h
-        escaping = edge < self.gaze.zoom_out_edge or speed > self.gaze.zoom_out_speed
+        room = min(
+            _room(inside * w, abs(u - (w - 1) / 2.0)),
+            _room(inside * h, abs(v - (h - 1) / 2.0)),
+            _room(self.gaze.zoom_out_speed, speed),
+        )
         focal_px = self.lens.focal_px(detection.head.zoom)
-        self.seen = ZoomSighting(detection.t_capture_ns, focal_px, escaping)
+        self.seen = ZoomSighting(detection.t_capture_ns, focal_px, room)
         height_px = target_height_px(detection)
         if height_px is not None:
             height = max(height_px - self.gaze.zoom_box_margin_px, 1.0) / h
             self.sizes.append(height / focal_px)
-        if escaping:
+        if room < 1.0:
             self.unsteady_ns = detection.t_capture_ns
 
     def apply(
@@ -149,16 +161,20 @@ class ZoomControl:
         seen = self.seen
         if seen is None or wall_ns - seen.t_capture_ns > self.stale_ns:
             return None, 0.0
-        if seen.escaping:
-            return widest
-        if not self.sizes:
-            return None, 0.0
-        size = statistics.median(self.sizes)
-        ratio = size * seen.focal_px / gaze.zoom_target_height  # the height it has now
+        goal_px = seen.focal_px * seen.room  # the longest focal length the frame allows
+        # and the setpoint's; with no size yet, only out
+        size_px = gaze.zoom_target_height / statistics.median(self.sizes) if self.sizes else 0.0
+        goal_px = min(goal_px, size_px or seen.focal_px)
+        ratio = seen.focal_px / goal_px  # the height it has now, of the goal's
         if abs(ratio - 1.0) <= gaze.zoom_deadband:
             return None, 0.0
-        goal = self.lens.zoom_for_focal(gaze.zoom_target_height / size)
+        goal = self.lens.zoom_for_focal(goal_px)
         if ratio > 1.0:
             return goal, gaze.zoom_out_rate_s
         steady = self.unsteady_ns is None or seen.t_capture_ns - self.unsteady_ns >= self.steady_ns
         return (goal, gaze.zoom_in_rate_s) if steady else (None, 0.0)
+
+
+def _room(allowed: float, now: float) -> float:
+    """How much a quantity that scales with the focal length may grow to reach `allowed`."""
+    return math.inf if now <= 0.0 else allowed / now

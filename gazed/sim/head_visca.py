@@ -1,17 +1,23 @@
 """The device side of Sony VISCA pan-tilt (PROTOCOLS.md §2), for the head emulator.
 
 Two command sockets, as on Sony cameras (SRG-300H technical manual p.28): a command is accepted
-into a free socket and answered `z0 4y FF` at once; its completion `z0 5y FF` follows when it
-has been executed — for Pan-tiltDrive and stop at once, for absolute/relative moves, Home and
-Reset when the head has settled on the target. With both sockets busy the answer is
-`z0 60 03 FF` (buffer full). A pan-tilt move that arrives while another is executing takes over
-the axes; the superseded move is reported complete at that moment (the emulator's reading of
-"executed": its motion has ended). Cancel `8x 2y FF` answers `z0 6y 04 FF` (no completion
-follows) or `z0 6y 05 FF`. Inquiries are answered directly; IF_Clear empties the sockets and
-answers `z0 50 FF`. CAM_Zoom Direct moves the mechanism's zoom axis (position 0 .. the rig's
-`zoom_max_units`, the lens's zoom 0 .. 1) and completes on arrival, like a drive; the zoom
-position inquiry reads it. Anything else, or a parameter out of range, is a syntax error
-`z0 60 02 FF`. Packets for another address are not for this camera and get nothing.
+into a socket and answered `z0 4y FF` at once; its completion `z0 5y FF` follows when it has
+been executed — for Pan-tiltDrive, stop and CAM_Zoom Direct once they take effect (the zoom
+then runs to its position, as a drive runs at its speed), for absolute/relative moves, Home and
+Reset when pan and tilt have settled on the target.
+Each command drives one mechanism, pan-tilt or the zoom, and a new command for a mechanism takes
+it over from the one executing there, as a Sony camera follows a new pan-tilt or zoom command
+without waiting for the last to end: the superseded command is reported complete at that
+moment (its motion has ended), and its socket is free for the new one. So a pan-tilt move and a
+zoom execute side by side, and only a third command while both sockets hold commands of the
+other mechanism would find the buffer full (`z0 60 03 FF`). A completion always precedes the
+ACK of a command that takes over its socket, so each socket's replies stay in order. Cancel
+`8x 2y FF` answers `z0 6y 04 FF` (no completion follows) or `z0 6y 05 FF`. Inquiries are
+answered directly and use no socket; IF_Clear empties the sockets and answers `z0 50 FF`.
+CAM_Zoom Direct moves the mechanism's zoom axis (position 0 .. the rig's `zoom_max_units`, the
+lens's zoom 0 .. 1); the zoom position inquiry reads it. Anything else, or a parameter out of
+range, is a syntax error `z0 60 02 FF`. Packets for another address are not for this camera
+and get nothing.
 """
 
 from __future__ import annotations
@@ -47,10 +53,12 @@ ERROR_CODE = {"syntax": 0x02, "buffer_full": 0x03, "cancelled": 0x04, "no_socket
 
 @dataclass
 class _Job:
-    """A command in a socket: complete once the axes settle after `t_effect_s`."""
+    """A command in a socket for `mechanism` ("pan_tilt" or "zoom"): complete at `t_effect_s`,
+    or once that mechanism has settled after it when the command `moves` to a target."""
 
     t_effect_s: float
     moves: bool
+    mechanism: str
 
 
 def _command(packet: bytes) -> bytes | None:
@@ -98,10 +106,14 @@ class ViscaDevice:
         out = bytearray()
         self.mechanics.advance(t_s)
         for socket, job in sorted(self._sockets.items()):
-            if t_s >= job.t_effect_s and (not job.moves or self.mechanics.settled):
+            if t_s >= job.t_effect_s and (not job.moves or self._settled(job.mechanism)):
                 del self._sockets[socket]
                 out += self._reply(REPLY["completion"] | socket)
         return bytes(out)
+
+    def _settled(self, mechanism: str) -> bool:
+        m = self.mechanics
+        return m.zoom.settled if mechanism == "zoom" else m.pan.settled and m.tilt.settled
 
     def _handle(self, payload: bytes, t_s: float) -> bytes:
         if tuple(payload) == IF_CLEAR:
@@ -109,9 +121,13 @@ class ViscaDevice:
             return self._reply(REPLY["completion"])
         if len(payload) == 1 and payload[0] & 0xF0 == CANCEL:
             socket = payload[0] & 0x0F
-            if self._sockets.pop(socket, None) is None:
+            job = self._sockets.pop(socket, None)
+            if job is None:
                 return self._error(socket, "no_socket")
-            self.mechanics.schedule(t_s, lambda m: (m.pan.hold(), m.tilt.hold()))
+            if job.mechanism == "zoom":
+                self.mechanics.schedule(t_s, lambda m: m.zoom.hold())
+            else:
+                self.mechanics.schedule(t_s, lambda m: (m.pan.hold(), m.tilt.hold()))
             return self._error(socket, "cancelled")
         if tuple(payload) == (CATEGORY["inquiry"], CATEGORY["pan_tilt"], PAN_TILT_POSITION_INQUIRY):
             self.mechanics.advance(t_s)
@@ -141,7 +157,7 @@ class ViscaDevice:
         if units > self.zoom_max_units:
             return self._error(0, "syntax")
         zoom = units / self.zoom_max_units
-        return self._accept((lambda m: m.zoom.move_to(zoom)), False, t_s, supersedes=False)
+        return self._accept((lambda m: m.zoom.move_to(zoom)), False, t_s, mechanism="zoom")
 
     def _pan_tilt(self, kind: int, args: bytes, t_s: float) -> bytes:
         action = self._decode(kind, args)
@@ -149,21 +165,21 @@ class ViscaDevice:
             return self._error(0, "syntax")
         return self._accept(*action, t_s)
 
-    def _accept(self, run: Action, moves: bool, t_s: float, supersedes: bool = True) -> bytes:
-        """Into a free socket; a pan-tilt command (`supersedes`) takes over from the move
-        executing. `moves`: it completes when the axes settle, not on arrival."""
+    def _accept(self, run: Action, moves: bool, t_s: float, mechanism: str = "pan_tilt") -> bytes:
+        """Into a socket, taking `mechanism` over from the command executing there. `moves`: it
+        completes when the mechanism settles, not on arrival."""
+        superseded = sorted(s for s, job in self._sockets.items() if job.mechanism == mechanism)
         free = [s for s in SOCKETS if s not in self._sockets]
-        if not free:
+        if not free and not superseded:
             return self._error(0, "buffer_full")
-        superseded = sorted(s for s, job in self._sockets.items() if job.moves and supersedes)
+        socket = free[0] if free else superseded[0]
         for old in superseded:
             del self._sockets[old]
         self.mechanics.schedule(t_s, run)
-        self._sockets[free[0]] = _Job(t_s + self.mechanics.latency_s, moves)
-        out = self._reply(REPLY["ack"] | free[0])
-        for old in superseded:
-            out += self._reply(REPLY["completion"] | old)
-        return out
+        self._sockets[socket] = _Job(t_s + self.mechanics.latency_s, moves, mechanism)
+        before = b"".join(self._reply(REPLY["completion"] | s) for s in superseded if s == socket)
+        after = b"".join(self._reply(REPLY["completion"] | s) for s in superseded if s != socket)
+        return before + self._reply(REPLY["ack"] | socket) + after
 
     def _decode(self, kind: int, args: bytes) -> tuple[Action, bool] | None:
         """The action of a pan-tilt command and whether it is a move that completes on arrival."""

@@ -11,32 +11,13 @@ the other).
 from __future__ import annotations
 
 import argparse
-import json
-import subprocess
 import sys
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from loop_runs import ROOT, eval_loop, seeds
+
 TARGET = 0.95
-GAZED = str(Path(sys.executable).parent / "gazed")  # the entry point beside this interpreter
-
-
-def seeds(text: str) -> list[int]:
-    """'1-20' or '4,5,8' (or a mix) as a list of seeds."""
-    chosen: list[int] = []
-    for part in text.split(","):
-        first, _, last = part.partition("-")
-        chosen += range(int(first), int(last or first) + 1)
-    return chosen
-
-
-def run(rig: Path, seed: int, seconds: float) -> dict:
-    command = [GAZED, "eval", "loop", "--rig", str(rig)]
-    command += ["--scenario", "random", "--seconds", f"{seconds:g}", "--seed", str(seed), "--json"]
-    done = subprocess.run(command, capture_output=True, text=True, check=False)
-    if done.returncode != 0:
-        raise SystemExit(f"seed {seed}: gazed eval loop failed:\n{done.stderr}")
-    return json.loads(done.stdout)
 
 
 def main() -> None:
@@ -48,7 +29,7 @@ def main() -> None:
     print(f"{'seed':>4} {'fovea':>7} {'reachable':>9} {'out of reach':>12} {'rms (deg)':>9}")
     foveas = []
     for seed in args.seeds:
-        result = run(args.rig, seed, args.seconds)
+        result = eval_loop(args.rig, "random", seed, args.seconds)
         rms = (result["gaze_error_deg"] or {}).get("rms")
         foveas.append(result["fovea_fraction"])
         print(

@@ -13,32 +13,13 @@ of the frames, and no loss while zooming.
 from __future__ import annotations
 
 import argparse
-import json
-import subprocess
 import sys
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from loop_runs import ROOT, eval_loop, seeds
+
 HELD_TARGET = 0.9
-GAZED = str(Path(sys.executable).parent / "gazed")  # the entry point beside this interpreter
-
-
-def seeds(text: str) -> list[int]:
-    """'1-10' or '4,5,8' (or a mix) as a list of seeds."""
-    chosen: list[int] = []
-    for part in text.split(","):
-        first, _, last = part.partition("-")
-        chosen += range(int(first), int(last or first) + 1)
-    return chosen
-
-
-def run(rig: Path, scenario: str, seed: int, seconds: float) -> dict:
-    command = [GAZED, "eval", "loop", "--rig", str(rig), "--scenario", scenario]
-    command += ["--seconds", f"{seconds:g}", "--seed", str(seed), "--json"]
-    done = subprocess.run(command, capture_output=True, text=True, check=False)
-    if done.returncode != 0:
-        raise SystemExit(f"{scenario} seed {seed}: gazed eval loop failed:\n{done.stderr}")
-    return json.loads(done.stdout)
 
 
 def main() -> None:
@@ -54,7 +35,7 @@ def main() -> None:
     runs = [("oval", 1)] + [("random", seed) for seed in args.seeds]
     held_all, zooming_losses = [], 0
     for scenario, seed in runs:
-        result = run(args.rig, scenario, seed, args.seconds)
+        result = eval_loop(args.rig, scenario, seed, args.seconds)
         zoom = result["zoom"]
         heights = zoom.get("height_fraction", {})
         rms = (result["gaze_error_deg"] or {}).get("rms")
