@@ -126,7 +126,11 @@ class EstimatorSection(Section):
         description="Std of a detection's target pixel (the live measurement's noise).",
     )
     pixel_rate_noise_px_s: float = Field(
-        30.0, gt=0, le=100000, description="Std of a detection's independent image velocity."
+        10.0,
+        gt=0,
+        le=100000,
+        description="Std of a detection's independent image velocity (the flow detector's, "
+        "measured against the truth by tests/bench/detection_noise.py; docs/estimation.md).",
     )
     predict_over_latency: bool = Field(
         True,

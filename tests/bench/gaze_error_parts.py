@@ -9,6 +9,12 @@ All in joint angles (pan scaled by cos tilt), degrees, over the instants the tar
 turns faster than 2°/s. "along" is positive when ahead of the target, so a head that trails it
 shows a negative mean; "head then - command" is where the head was when a command was written,
 and 20 / 40 / 60 ms later, against that command: the head's response lag, seen in angle.
+
+Then the gaze error's RMS split over the walker's motion, from the truth's ground velocity:
+standing, turning (heading rate over 10°/s), changing speed (over 0.2 m/s²), the second after
+any of those ends (the transient), and steady walking; with, for each, the RMS of the
+prediction's error at its instant and of the command's when written, so that the share of the
+error the estimator makes is told from what the head and the latency add.
 """
 
 from __future__ import annotations
@@ -42,6 +48,10 @@ from gazed.topics import (  # noqa: E402
 
 SETTLE_S = 2.0  # after the first pursuit: the track settles
 MIN_RATE_DEG_S = 2.0
+STANDING_M_S = 0.1
+TURNING_RAD_S = np.radians(10.0)
+ACCELERATING_M_S2 = 0.2
+TRANSIENT_S = 1.0
 TOPICS = {
     "truth": SIM_TRUTH,
     "detections": VISION_DETECTION,
@@ -112,6 +122,68 @@ def offsets(truth: Truth, t_s: np.ndarray, angles: np.ndarray, reference: np.nda
     )
 
 
+def phases(truth: Truth, velocity: np.ndarray) -> dict[str, np.ndarray]:
+    """Per truth frame, which part of the walker's motion it is in (module docstring)."""
+    speed = np.linalg.norm(velocity, axis=1)
+    heading = np.unwrap(np.arctan2(velocity[:, 1], velocity[:, 0]))
+    turn_rate = np.abs(np.gradient(heading, truth.t_s))
+    accel = np.abs(np.gradient(speed, truth.t_s))
+    standing = speed < STANDING_M_S
+    turning = ~standing & (turn_rate > TURNING_RAD_S)
+    speeding = ~standing & ~turning & (accel > ACCELERATING_M_S2)
+    maneuver = standing | turning | speeding
+    last_ns = np.maximum.accumulate(np.where(maneuver, truth.t_s, -np.inf))
+    transient = ~maneuver & (truth.t_s - last_ns < TRANSIENT_S)
+    return {
+        "standing": standing,
+        "turning": turning,
+        "speed change": speeding,
+        "transient": transient,
+        "steady": ~maneuver & ~transient,
+    }
+
+
+def error_deg(truth: Truth, t_s: np.ndarray, angles: np.ndarray) -> np.ndarray:
+    """The angle (about) between joint angles and the target's at each instant, degrees."""
+    target = truth.at(t_s, truth.target)
+    error = np.degrees(angles - target)
+    error[:, 0] *= np.cos(target[:, 1])
+    return np.linalg.norm(error, axis=1)
+
+
+def split(truth: Truth, parts: dict[str, np.ndarray], t_s: np.ndarray, errors: np.ndarray) -> dict:
+    """The RMS of `errors` (at `t_s`) in each part of the motion (the truth frame nearest)."""
+    k = np.clip(np.searchsorted(truth.t_s, t_s), 0, len(truth.t_s) - 1)
+    return {
+        name: float(np.sqrt(np.mean(errors[mask[k]] ** 2))) if mask[k].any() else float("nan")
+        for name, mask in parts.items()
+    }
+
+
+def print_phases(truth: Truth, velocity: np.ndarray, predictions: list, commands: list) -> None:
+    parts = phases(truth, velocity)
+    gaze = error_deg(truth, truth.t_s, truth.head)
+    t_p = np.array([p.t_effect_ns for p in predictions]) / 1e9
+    predicted = error_deg(truth, t_p, np.array([[p.pan_rad, p.tilt_rad] for p in predictions]))
+    t_c = np.array([dict(c.stamps)["servo"] for c in commands]) / 1e9
+    commanded = error_deg(truth, t_c, np.array([[c.pan_rad, c.tilt_rad] for c in commands]))
+    rows = {
+        "gaze (head)": split(truth, parts, truth.t_s, gaze),
+        "prediction": split(truth, parts, t_p, predicted),
+        "command": split(truth, parts, t_c, commanded),
+    }
+    print(f"gaze error RMS {np.sqrt(np.mean(gaze**2)):.3f} deg; by the walker's motion:")
+    print(f"  {'':14s}" + "".join(f"{name:>13s}" for name in parts))
+    share = {name: f"{mask.mean():.2f}" for name, mask in parts.items()}
+    print(f"  {'share':14s}" + "".join(f"{share[name]:>13s}" for name in parts))
+    energy = {
+        name: float(np.sum(gaze[mask] ** 2) / np.sum(gaze**2)) for name, mask in parts.items()
+    }
+    print(f"  {'share of MS':14s}" + "".join(f"{energy[name]:>13.2f}" for name in parts))
+    for label, row in rows.items():
+        print(f"  {label:14s}" + "".join(f"{row[name]:>13.3f}" for name in parts))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rig", type=Path, default=REPO / "configs" / "sim.toml")
@@ -149,6 +221,9 @@ def main() -> None:
         head = truth.at(t_s + later_s, truth.head)
         label = f"head +{later_s * 1e3:.0f} ms - cmd"
         print(f"  {label:16s} {offsets(truth, t_s, head, angles)}")
+    ordered = sorted(recorded["truth"], key=lambda t: t.t_capture_ns)
+    velocity = np.array([t.target_velocity_m_s for t in ordered])
+    print_phases(truth, velocity, predictions, commands)
 
 
 if __name__ == "__main__":
