@@ -34,10 +34,9 @@ from gazed.topics import (
     VISION_DETECTION,
     VISION_EDGE,
 )
-from gazed.vision.bus_frames import BusFrameSource
 from gazed.vision.digital_camera import DigitalCamera, open_digital_camera
 from gazed.vision.mjpeg import MjpegServer
-from gazed.vision.opencv_camera import OpenCvCamera, capture_target
+from gazed.vision.rig_camera import rig_camera
 from gazed.vision.source import FrameSource
 from gazed.vision.stage import VisionStage
 from services.runtime import HealthReport, Now, main
@@ -49,7 +48,6 @@ IDLE_WAIT_S = 1.0  # no frame: sleep until one arrives (sources wake the loop) o
 def open_source(rig: Rig, bus: Bus, stage: VisionStage, stream: MjpegServer | None) -> FrameSource:
     """The rig's camera: a digital head's view of the wide camera, the simulator's frames on
     the bus, or an OpenCV capture."""
-    camera = rig.camera
     if rig.servo.protocol == "digital":
         digital = open_digital_camera(
             rig,
@@ -59,22 +57,7 @@ def open_source(rig: Rig, bus: Bus, stage: VisionStage, stream: MjpegServer | No
         )
         stage.watch_wide(digital)
         return digital
-    if camera.source == "sim":
-        return BusFrameSource(bus, silence_s=camera.timeout_ms * 1e-3)
-    source = camera.source
-    if source == "onvif":  # the ONVIF camera's own stream; its client loaded only then
-        from gazed.servo.onvif_driver import camera_stream_uri
-
-        source = camera_stream_uri(rig)
-    return OpenCvCamera(
-        capture_target(source),
-        width_px=camera.width_px,
-        height_px=camera.height_px,
-        rate_hz=camera.rate_hz,
-        reopen_max_s=camera.reopen_max_s,
-        timeout_ms=camera.timeout_ms,
-        on_frame=bus.notify,
-    )
+    return rig_camera(rig, bus)
 
 
 class VisionService:

@@ -19,9 +19,8 @@ from gazed.bustools.tool_session import NoRunningRig, tool_session
 from gazed.config import Rig
 from gazed.messages import GazeDemand, Odometry
 from gazed.topics import GAZE_DEMAND, SERVO_ODOMETRY
-from gazed.vision.bus_frames import BusFrameSource
 from gazed.vision.frames import CapturedFrame
-from gazed.vision.opencv_camera import OpenCvCamera, capture_target
+from gazed.vision.rig_camera import rig_camera
 from gazed.vision.source import FrameSource
 from gazed.wakeup import Wakeup
 
@@ -35,28 +34,12 @@ class CalibrationError(RuntimeError):
     """The measurement cannot be made; the message says why."""
 
 
-def open_frames(rig: Rig, bus: Bus) -> FrameSource:
-    """The rig's camera: the simulator's frames on the bus, or its source opened again."""
-    camera = rig.camera
-    if camera.source == "sim":
-        return BusFrameSource(bus, silence_s=camera.timeout_ms * 1e-3)
-    return OpenCvCamera(
-        capture_target(camera.source),
-        width_px=camera.width_px,
-        height_px=camera.height_px,
-        rate_hz=camera.rate_hz,
-        reopen_max_s=camera.reopen_max_s,
-        timeout_ms=camera.timeout_ms,
-        on_frame=bus.notify,
-    )
-
-
 @contextlib.contextmanager
 def head_session(rig: Rig) -> Iterator[HeadSession]:
     """A session on the running rig's bus and camera for the `with` block."""
     try:
         with tool_session(rig, "calibrate") as (bus, wakeup):
-            frames = open_frames(rig, bus)
+            frames = rig_camera(rig, bus)
             frames.connect()
             try:
                 yield HeadSession(rig, bus, wakeup, frames)
