@@ -17,6 +17,7 @@ its appearance (`gazed.vision.appearance`) is added by the pipeline from the col
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -25,6 +26,7 @@ import numpy as np
 
 PERSON_WIDTH_RATIO = 0.5  # a standing person's width over height, at most
 VALLEY_FRACTION = 0.5  # a column this low against the bodies either side separates them
+SEVERAL_WIDTHS = 2.0  # a blob at least this many people's widths across holds more than one
 BODY_FRACTION = 0.5  # a body's column holds at least this fraction of the blob's height
 FOOT_FRACTION = 0.1  # the bottom tenth of a silhouette gives its ground contact point's u
 MAX_MOVERS = 64  # a Detection carries at most this many, the target's own first
@@ -102,23 +104,36 @@ def trimmed(x: int, y: int, mask: np.ndarray) -> Blob | None:
     return Blob(x + left, y + top, mask[top : rows[-1] + 1, left : columns[-1] + 1])
 
 
-def split_blob(blob: Blob, evidence: np.ndarray | None = None) -> list[Blob]:
+def split_blob(
+    blob: Blob, evidence: np.ndarray | None = None, person_width: float | None = None
+) -> list[Blob]:
     """The blob cut into the bodies it holds side by side (see the module docstring).
     `evidence`: the whole mask before it was closed, where the gaps between bodies show (the
-    blob's own pixels without it)."""
+    blob's own pixels without it). `person_width`: a person's width where the blob stands (mask
+    pixels, `gazed.vision.person_size`), where the camera is calibrated."""
     h, w = blob.height, blob.width
-    if w <= PERSON_WIDTH_RATIO * h or w < 3:
+    if person_width is None:
+        several = w > PERSON_WIDTH_RATIO * h
+    else:
+        several = w > SEVERAL_WIDTHS * person_width
+    if not several or w < 3:
         return [blob]
     pixels = blob.mask
     if evidence is not None:
         pixels = pixels & evidence[blob.y : blob.y + h, blob.x : blob.x + w].astype(bool)
     profile = pixels.sum(axis=0).astype(float)
-    left_peak = np.maximum.accumulate(profile)
-    right_peak = np.maximum.accumulate(profile[::-1])[::-1]
     cuts = np.arange(1, w - 1)
-    bodies = np.minimum(left_peak[cuts - 1], right_peak[cuts + 1])
-    depth = profile[cuts] / np.maximum(bodies, 1e-9)
-    valid = (bodies >= BODY_FRACTION * h) & (depth <= VALLEY_FRACTION)
+    if person_width is None:
+        left_peak = np.maximum.accumulate(profile)
+        right_peak = np.maximum.accumulate(profile[::-1])[::-1]
+        bodies = np.minimum(left_peak[cuts - 1], right_peak[cuts + 1])
+        depth = profile[cuts] / np.maximum(bodies, 1e-9)
+        valid = (bodies >= BODY_FRACTION * h) & (depth <= VALLEY_FRACTION)
+    else:
+        # as wide as several people: cut at the emptiest column that leaves half a person or
+        # more on either side
+        depth = profile[cuts]
+        valid = (cuts >= 0.5 * person_width) & (cuts <= w - 0.5 * person_width)
     if not valid.any():
         return [blob]
     cut = int(cuts[valid][np.argmin(depth[valid])])
@@ -126,16 +141,21 @@ def split_blob(blob: Blob, evidence: np.ndarray | None = None) -> list[Blob]:
     for x0, part in ((0, blob.mask[:, :cut]), (cut, blob.mask[:, cut:])):
         piece = trimmed(blob.x + x0, blob.y, part)
         if piece is not None:
-            parts.extend(split_blob(piece, evidence))
+            parts.extend(split_blob(piece, evidence, person_width))
     return parts
 
 
 def blobs(
-    mask: np.ndarray, min_area: float, *, split: bool, evidence: np.ndarray | None = None
+    mask: np.ndarray,
+    min_area: float,
+    *,
+    split: bool,
+    evidence: np.ndarray | None = None,
+    person_width: Callable[[Blob], float | None] | None = None,
 ) -> list[tuple[Blob, list[Blob]]]:
     """The 8-connected blobs of `mask` (uint8 or bool) of at least `min_area` mask pixels, each
-    with the bodies it holds (`split_blob` with `evidence`; itself alone unless `split`),
-    largest blob first."""
+    with the bodies it holds (`split_blob` with `evidence` and the width of a person where it
+    stands, by `person_width`; itself alone unless `split`), largest blob first."""
     _, labels, stats, _ = cv2.connectedComponentsWithStats(mask.view(np.uint8), connectivity=8)
     found = []
     for i in np.argsort(-stats[1:, cv2.CC_STAT_AREA], kind="stable") + 1:
@@ -143,5 +163,6 @@ def blobs(
             break
         x, y, w, h = (int(stats[i, k]) for k in range(4))
         blob = Blob(x, y, labels[y : y + h, x : x + w] == i)
-        found.append((blob, split_blob(blob, evidence) if split else [blob]))
+        width = None if person_width is None else person_width(blob)
+        found.append((blob, split_blob(blob, evidence, width) if split else [blob]))
     return found

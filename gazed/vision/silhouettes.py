@@ -21,6 +21,7 @@ import numpy as np
 
 from gazed.vision.ego_motion import HeadStep
 from gazed.vision.movers import Blob, MoverRegion, blobs
+from gazed.vision.person_size import PersonSize
 from gazed.vision.region_tracks import RegionTracks
 
 VELOCITY_POINTS = 6  # a mover's recent points its velocity is fitted to
@@ -48,6 +49,7 @@ class SilhouetteModel:
         threshold: float,
         min_area_px: float,
         learning_frames: int,
+        person: PersonSize | None = None,
     ) -> None:
         self.level = level
         self.scale = 1 << level
@@ -55,9 +57,11 @@ class SilhouetteModel:
         self.threshold = threshold
         self.min_area_px = min_area_px
         self.learning_frames = learning_frames
+        self.person = person
         self.resets = 0
         self._model: cv2.BackgroundSubtractorMOG2 | None = None
         self._learned = 0
+        self._held: np.ndarray | None = None  # frames in a row each pixel has been held out
         self._tracks = RegionTracks(VELOCITY_POINTS)
 
     @property
@@ -84,15 +88,49 @@ class SilhouetteModel:
         small = gray
         for _ in range(self.level):
             small = cv2.pyrDown(small)
-        mask = self._model.apply(small)
         self._learned += 1
         if self._learned <= self.learning_frames:
+            self._model.apply(small)
+            self._held = np.zeros(small.shape, np.int32)
             return None
+        # the foreground against the model as it stands, then the model learns the frame with
+        # the held pixels (under this frame's silhouettes) shown as the background it has
+        rate = 1.0 / min(2 * self._learned, self.history_frames)
+        mask = self._model.apply(small, learningRate=0.0)
         opened = cv2.morphologyEx(mask, cv2.MORPH_OPEN, _OPENING_KERNEL)
         mask = cv2.morphologyEx(opened, cv2.MORPH_CLOSE, _CLOSING_KERNEL)
+        self._model.apply(self._held_out(small, mask), learningRate=rate)
         area_scale = self.scale * self.scale
-        found = blobs(mask, self.min_area_px / area_scale, split=True, evidence=opened)
+        found = blobs(
+            mask,
+            self.min_area_px / area_scale,
+            split=True,
+            evidence=opened,
+            person_width=None if self.person is None else self._person_width,
+        )
         return Foreground(found, float(np.count_nonzero(mask)) * area_scale)
+
+    def _person_width(self, blob: Blob) -> float | None:
+        """A person's width (model pixels) at the middle of the blob's bottom edge."""
+        scale = self.scale
+        size = self.person.at((blob.x + blob.width / 2.0) * scale, (blob.y + blob.height) * scale)
+        return None if size is None else size[0] / scale
+
+    def _held_out(self, small: np.ndarray, mask: np.ndarray) -> np.ndarray:
+        """The frame to learn: under the silhouettes (grown by the closing's reach) the model's
+        own background, for at most `history_frames` frames in a row per pixel; then the pixel
+        is learnt as it is, as the model would learn anything that stays for its memory."""
+        silhouettes = cv2.dilate(mask, _CLOSING_KERNEL) > 0
+        if self._held is None or self._held.shape != small.shape:
+            self._held = np.zeros(small.shape, np.int32)
+        self._held = np.where(silhouettes, self._held + 1, 0)
+        hold = self._held <= self.history_frames
+        hold &= silhouettes
+        if not hold.any():
+            return small
+        learnt = small.copy()
+        learnt[hold] = self._model.getBackgroundImage()[hold]
+        return learnt
 
     def point(self, blob: Blob, kind: PointKind) -> tuple[float, float]:
         """A blob's ground contact point or centroid in full-resolution pixels (level-k pixel

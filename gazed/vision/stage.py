@@ -46,6 +46,7 @@ from gazed.vision.edge_trace import EdgePoint, EdgeTracer
 from gazed.vision.frames import CapturedFrame, FrameError, FrameIntake
 from gazed.vision.movers import MAX_MOVERS, MoverRegion
 from gazed.vision.odometry_history import OdometryHistory
+from gazed.vision.person_size import PersonSize
 from gazed.vision.pipeline import VisionPipeline, VisionResult
 from gazed.vision.wide_movers import WideMovers, target_first
 
@@ -74,6 +75,7 @@ class VisionStage:
         self.stage = stage
         self.clock_ns = clock_ns
         self.compensate = vision.compensate_ego_motion
+        self.rig = rig
         self.lens = ZoomLens.from_section(rig.camera)
         self.camera = self.lens.base
         kinematics = HeadKinematics.from_section(rig.head)
@@ -100,10 +102,12 @@ class VisionStage:
 
     def watch_wide(self, camera: DigitalCamera) -> None:
         """Take the movers from a digital head's wide frames (`wide_movers`): its wide camera
-        is still, so it sees every walker; they are segmented as its frames are read."""
+        is still, so it sees every walker; they are segmented as its frames are read, judged
+        against a person's size where the rig's ground geometry gives it (`person_size`)."""
         detector = self.pipeline.detector.name
         point = "ground-contact" if detector == "background" else "centroid"
-        self.wide_movers = WideMovers(camera.view, self.pipeline.vision, point)
+        person = PersonSize.from_rig(self.rig, camera.view.wide)
+        self.wide_movers = WideMovers(camera.view, self.pipeline.vision, point, person)
         camera.wide = self.wide_movers.tap(camera.wide)
 
     def add_odometry(self, odometry: Odometry, now_ns: int) -> None:

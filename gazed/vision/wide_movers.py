@@ -31,6 +31,7 @@ from gazed.vision.digital_view import DigitalView
 from gazed.vision.ego_motion import HeadStep
 from gazed.vision.frames import CapturedFrame, FrameError, gray_frame
 from gazed.vision.movers import MoverRegion
+from gazed.vision.person_size import PersonSize
 from gazed.vision.silhouettes import PointKind, SilhouetteModel
 from gazed.vision.source import FrameSource, SourceStatus
 
@@ -42,7 +43,13 @@ MIN_DEPTH = 1e-6  # a wide ray with less depth along the view's axis is behind i
 class WideMovers:
     """The movers of `view`'s wide camera, as its view sees them; see the module docstring."""
 
-    def __init__(self, view: DigitalView, vision: VisionSection, point: PointKind) -> None:
+    def __init__(
+        self,
+        view: DigitalView,
+        vision: VisionSection,
+        point: PointKind,
+        person: PersonSize | None = None,
+    ) -> None:
         self.view = view
         self.point = point
         self.silhouettes = SilhouetteModel(
@@ -51,6 +58,7 @@ class WideMovers:
             threshold=vision.background_threshold,
             min_area_px=vision.background_min_area_px,
             learning_frames=vision.background_learning_frames,
+            person=person,
         )
         self.frames = 0
         self._last_t_ns: int | None = None

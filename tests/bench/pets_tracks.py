@@ -44,6 +44,7 @@ from gazed.sim.reach import FieldOfRegard  # noqa: E402
 from gazed.vision.digital_camera import wide_camera  # noqa: E402
 from gazed.vision.digital_view import DigitalView  # noqa: E402
 from gazed.vision.frames import CapturedFrame  # noqa: E402
+from gazed.vision.person_size import PersonSize  # noqa: E402
 from gazed.vision.stage import mover_message  # noqa: E402
 from gazed.vision.wide_movers import WideMovers  # noqa: E402
 
@@ -66,7 +67,8 @@ def replay(rig_path: Path, frames: range, mode: str | None, point: str) -> list[
         HeadKinematics.from_section(rig.head),
         ZoomLens.from_section(rig.camera),
     )
-    movers = WideMovers(view, rig.vision, point)  # type: ignore[arg-type]
+    person = PersonSize.from_rig(rig, view.wide)
+    movers = WideMovers(view, rig.vision, point, person)  # type: ignore[arg-type]
     tracker = TargetTracker(rig, "estimator")
     capture = cv2.VideoCapture(str(rig.wide_source))
     capture.set(cv2.CAP_PROP_POS_FRAMES, frames.start)
@@ -183,6 +185,11 @@ def main() -> None:
             f"  {pid:>6} {s['frames']:>6} {s['out_of_reach']:>12} {s['missed']:>6} "
             f"{s['lost']:>5} {s['restart']:>8} {s['swap']:>5}"
         )
+    total = sum(stats.values(), Counter())
+    print(
+        f"  {'all':>6} {total['frames']:>6} {total['out_of_reach']:>12} {total['missed']:>6} "
+        f"{total['lost']:>5} {total['restart']:>8} {total['swap']:>5}"
+    )
     print("changes of a person's track:")
     print("\n".join(changes))
 
