@@ -115,7 +115,7 @@ def split_blob(
     if person_width is None:
         several = w > PERSON_WIDTH_RATIO * h
     else:
-        several = w > SEVERAL_WIDTHS * person_width
+        several = w >= SEVERAL_WIDTHS * person_width
     if not several or w < 3:
         return [blob]
     pixels = blob.mask
@@ -130,10 +130,12 @@ def split_blob(
         depth = profile[cuts] / np.maximum(bodies, 1e-9)
         valid = (bodies >= BODY_FRACTION * h) & (depth <= VALLEY_FRACTION)
     else:
-        # as wide as several people: cut at the emptiest column that leaves half a person or
-        # more on either side
-        depth = profile[cuts]
-        valid = (cuts >= 0.5 * person_width) & (cuts <= w - 0.5 * person_width)
+        # as wide as n people: the first of them ends at the emptiest column within half a
+        # person of w / n, the nearest to it of those equally empty
+        people = round(w / person_width)
+        off = np.abs(cuts - w / people)
+        depth = profile[cuts] + off / (w + 1.0)
+        valid = off <= 0.5 * person_width
     if not valid.any():
         return [blob]
     cut = int(cuts[valid][np.argmin(depth[valid])])
