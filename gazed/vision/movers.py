@@ -8,7 +8,11 @@ Its column profile (the foreground pixels in each column) then shows each body a
 place where they touch as a valley; the blob is cut at the deepest valley that is at most
 `VALLEY_FRACTION` of the lower of the peaks on either side, each peak being a body (at least
 `BODY_FRACTION` of the blob's height), and each side is split again the same way. A blob with no
-such valley — one wide thing, or people one behind the other — stays whole.
+such valley — one wide thing, or people one behind the other — stays whole. Where the camera is
+calibrated, a person's width where the blob stands (`gazed.vision.person_size`) replaces that
+model: a blob at least `SEVERAL_WIDTHS` people across holds n = round(width / person's width)
+side by side, touching or not; the first ends at the emptiest column within half a person of
+width / n, and the rest is split again.
 
 Each mover is reported as a `MoverRegion`: its point (the centroid, or the ground contact point
 at the bottom of its silhouette), its independent image velocity, its box, area and confidence;

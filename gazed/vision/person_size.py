@@ -28,7 +28,11 @@ class PersonSize:
     tilt 0) through the rig's ground geometry."""
 
     def __init__(
-        self, camera: CameraModel, head: HeadKinematics, homography: GroundHomography, camera_xyz_m
+        self,
+        camera: CameraModel,
+        head: HeadKinematics,
+        homography: GroundHomography,
+        camera_xyz_m: tuple[float, float, float],
     ) -> None:
         self.ground = GroundGeometry(camera, head, homography)
         self.camera_xy_m = np.asarray(camera_xyz_m, float)[:2]

@@ -4,7 +4,15 @@ OpenCV's Gaussian-mixture background model (MOG2, seed 003 §IV) learns the stil
 `level` pyramid levels down (level 1: half resolution) to keep within the frame budget. Its
 foreground is cleaned (a 3x3 opening drops speckle, a 5x5 closing joins a silhouette's parts),
 grouped into blobs of at least `min_area_px` full-resolution pixels, and each blob is split into
-the walkers it holds side by side (`gazed.vision.movers.split_blob`).
+the walkers it holds side by side (`gazed.vision.movers.split_blob`), judged against a
+person's size where they stand when the camera is calibrated (`person`, `PersonSize`).
+
+A walker who stops would be learnt into the background within a few seconds. So the foreground
+is taken against the model as it stands, and the model then learns the frame with the pixels
+under the silhouettes shown as its own background image: the walker stays foreground. A pixel
+is held out for at most `history_frames` frames in a row, the model's own memory, and then
+learnt as it is, as the model would learn anything that stays that long (so a ghost, where a
+walker stood when the model started, fades too).
 
 Each walker is a mover: its point (the ground contact point at the bottom of its silhouette, or
 its centroid), box and area in full-resolution pixels, its confidence the share of the frame's
