@@ -1,6 +1,7 @@
 """The camera-delay estimator on synthetic signals: a known lag between the image's shifts and
 the odometry is recovered; a still head or one turning at a constant rate gives no update;
-wrong shifts among the good ones do not move the estimate; the window is fitted on every frame
+wrong shifts among the good ones do not move the estimate; one motion onset identifies the lag,
+a stretch that several lags explain alike is not taken; the window is fitted on every frame
 until the first fit, then every `fit_every_s`. `ImageShift` measures a known translation of a textured image."""
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ import cv2
 import numpy as np
 import pytest
 
+from gazed.vision import camera_delay
 from gazed.vision.camera_delay import CameraDelayEstimator, ImageShift, fit_lag
 
 FOCAL_PX = 550.0
@@ -68,6 +70,18 @@ def test_a_still_head_or_a_constant_rate_gives_no_fit() -> None:
         assert fit_lag(shifts, odometry, LAGS_S, math.radians(2.0), 0.6) is None
 
 
+def test_a_still_head_costs_no_grid(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Before the first fit every frame is fitted: while the head stands still the odometry's
+    rates alone rule every lag out, and the grid is never interpolated."""
+    shifts, odometry = synthetic(0.15, pan=still, tilt=still)
+
+    def no_grid(*_: object) -> np.ndarray:
+        raise AssertionError("the lag grid was interpolated for a still head")
+
+    monkeypatch.setattr(camera_delay, "_rotations", no_grid)
+    assert fit_lag(shifts, odometry, LAGS_S, math.radians(2.0), 0.6) is None
+
+
 def test_wrong_shifts_do_not_move_the_estimate() -> None:
     shifts, odometry = synthetic(0.15)
     rng = np.random.default_rng(7)
@@ -80,7 +94,8 @@ def test_wrong_shifts_do_not_move_the_estimate() -> None:
 
 
 def test_the_estimator_converges_fitting_each_frame_until_its_first_fit() -> None:
-    """The first fit as soon as the window spans the lag grid, right and applied at once."""
+    """The first fit as soon as the shifts identify the lag (well before they span the lag
+    grid), right and applied at once."""
     shifts, odometry = synthetic(0.2, seconds=6.0)
     estimator = CameraDelayEstimator(0.0)
     assert estimator.delay_s == 0.0  # nothing known yet: the stamp as it came
@@ -92,16 +107,53 @@ def test_the_estimator_converges_fitting_each_frame_until_its_first_fit() -> Non
             estimator.add_odometry(*odometry[read])
             read += 1
         estimator.add_shift(a, b, du, dv)
-        if first is None:  # no fit yet: every frame is tried once the window spans the grid
-            assert estimator.fit_due(b) == (b - shifts[0, 0] >= grid_s)
+        if first is None:  # no fit yet: every frame is tried
+            assert estimator.fit_due(b)
         if estimator.update(b) and first is None:
             first = b
             assert estimator.delay_s == pytest.approx(0.2, abs=0.005)  # taken at once
             assert not estimator.fit_due(b + PERIOD_S)  # then every fit_every_s
             assert estimator.fit_due(b + estimator.fit_every_s)
-    assert first is not None and first - shifts[0, 0] < grid_s + PERIOD_S
+    assert first is not None and first - shifts[0, 0] < grid_s - PERIOD_S
     assert estimator.fits >= 5
     assert estimator.delay_s == pytest.approx(0.2, abs=0.005)
+
+
+def onset(t_s: np.ndarray) -> np.ndarray:
+    """A head still until 1.5 s, then one saccade of 0.3 rad over 0.3 s (minimum jerk)."""
+    s = np.clip((t_s - 1.5) / 0.3, 0.0, 1.0)
+    return 0.3 * (10 * s**3 - 15 * s**4 + 6 * s**5)
+
+
+@pytest.mark.parametrize("lag_s", [0.08, 0.2, 0.4])
+def test_one_motion_onset_identifies_the_lag(lag_s: float) -> None:
+    """The head's first saccade, seen in the image a lag later, is enough: the lags that
+    explain the shifts as well lie within a few milliseconds of the fit."""
+    shifts, odometry = synthetic(lag_s, seconds=1.0, pan=onset, tilt=still)
+    fit = fit_lag(shifts, odometry, LAGS_S, math.radians(2.0), 0.6)
+    assert fit is not None
+    assert fit.lag_s == pytest.approx(lag_s, abs=0.004)
+    assert fit.spread_s < 0.005
+
+
+def slow(t_s: np.ndarray) -> np.ndarray:
+    return 0.05 * np.sin(1.3 * t_s)
+
+
+def test_a_lag_that_others_explain_as_well_is_not_taken() -> None:
+    """A slow pan under noisy shifts: the best lag's neighbours a frame and more away explain
+    the shifts as well, so the fit's spread says so and the estimator keeps its estimate."""
+    shifts, odometry = synthetic(0.2, seconds=2.0, noise_px=0.5, pan=slow, tilt=still)
+    rate_std_rad_s = math.radians(0.5)
+    fit = fit_lag(shifts, odometry, LAGS_S, rate_std_rad_s, 0.6)
+    assert fit is not None and fit.spread_s > PERIOD_S
+    estimator = CameraDelayEstimator(0.12, min_rate_std_rad_s=rate_std_rad_s)
+    for t_s, pan, tilt in odometry:
+        estimator.add_odometry(t_s, pan, tilt)
+    for a, b, du, dv in shifts:
+        estimator.add_shift(a, b, du, dv)
+    assert not estimator.update(shifts[-1, 1])
+    assert estimator.fits == 0 and estimator.delay_s == 0.12
 
 
 def test_no_motion_leaves_the_estimate_where_it_was() -> None:

@@ -8,20 +8,29 @@ small grey copy of each frame. `fit_lag` finds the lag tau for which the odometr
 between (a - tau) and (b - tau), a and b the two frames' arrival stamps, explains the shifts
 best: for each lag on a grid, a least-squares map from the rotation (pan, tilt) to the shift
 (u, v) — sign and scale fitted, so no axis convention or focal length is assumed — and its
-residual; the best grid lag is refined by a parabola through its neighbours. Shifts far from
-the fit (three robust standard deviations, from the median absolute residual) — a failed
-correlation, the target filling the frame — are dropped and the fit repeated. A residual under
+residual; the best grid lag is refined by a parabola through its neighbours, and the lags
+whose residual exceeds the best one's by less than a likelihood-ratio test's threshold (99 %,
+one degree of freedom, the residual's own variance) give the fit's spread: how closely the
+data identify the lag. Shifts far from the fit (three robust standard deviations, from the
+median absolute residual) — a failed correlation, the target filling the frame — are dropped
+and the fit repeated. A residual under
 a fifth of the large shifts never counts as far: with the head still half the time, the median
 residual alone would call every moving frame an outlier. A fit counts only when the head's
-rates varied over the window (a still head, or one turning at a constant rate, shows no lag)
-and the rotation explains most of the shifts.
+rates varied over the window at some lag (a still head, or one turning at a constant rate,
+shows no lag) and the rotation explains most of the shifts.
 
 `CameraDelayEstimator` keeps a sliding window of shifts and odometry and takes the median of
-the recent fits as its estimate. It fits on every frame until the first fit succeeds, then every
-`fit_every_s`: until the first fit the stamps are wrong by the whole delay, and the frames that
-make the first fit possible (the head's first saccade, seen a delay later) are the ones to use
-at once. Each frame's stamp moves back by the estimate as it stands (`correction_s`), with no
-ramp: stamps wrong by an error e pair each frame with the head's pose e later, so the target
+the recent fits whose spread is within `max_spread_s` as its estimate: the window need not span
+the lag grid, since one motion onset seen in both the odometry and the image identifies the lag,
+and a stretch that several lags explain alike (a short, slow or noisy one, where the fitted gain
+trades against the lag) shows as a wide spread. The spread is the least the lag is uncertain by
+(a short window's residuals are not independent: neighbouring shifts share a frame, and the
+model's mismatch lasts), so the gate asks for a fraction of the error the stamps may keep. It
+fits on every frame until the first fit succeeds, then every `fit_every_s`: until the first fit
+the stamps are wrong by the whole delay, and the frames that make the first fit possible (the
+head's first saccade, seen a delay later) are the ones to use at once. Each frame's stamp
+moves back by the estimate as it stands (`correction_s`), with no ramp: stamps wrong by an
+error e pair each frame with the head's pose e later, so the target
 appears displaced along the head's motion and the loop drives the head further that way, and a
 ramp keeps them wrong longer while it also shrinks every frame interval on its way (the
 detectors' velocities and ego-motion). A jump back by more than a frame interval costs instead
@@ -45,6 +54,7 @@ SHIFT_PRECISION_PX = 0.25  # residuals below this are never outliers
 SHIFT_FRACTION = (
     0.2  # nor those below this share of the large shifts (the head still half the time)
 )
+CHI2_1DOF_99 = 6.635  # chi-square, one degree of freedom: a likelihood-ratio test at 99 %
 RIDGE = 1e-9  # keeps the per-lag least squares solvable when one axis does not move
 
 
@@ -75,12 +85,14 @@ class ImageShift:
 
 @dataclass(frozen=True)
 class LagFit:
-    """The lag that explains the shifts best, the share of their energy it explains, and how
-    many shifts it kept."""
+    """The lag that explains the shifts best, the share of their energy it explains, how many
+    shifts it kept, and how far from it the farthest lag that explains them as well lies
+    (`fit_lag`): how closely the data identify the lag."""
 
     lag_s: float
     explained: float
     inliers: int
+    spread_s: float
 
 
 def fit_lag(
@@ -102,11 +114,17 @@ def fit_lag(
     a, b, y = a[covered], b[covered], y[covered]
     if len(a) < 4:
         return None
-    middle = lags_s[len(lags_s) // 2 : len(lags_s) // 2 + 1]
-    rates = _rotations(t, angles, a, b, middle)[0] / (b - a)[:, None]  # (N, 2)
-    if not np.any(rates.std(axis=0) >= min_rate_std_rad_s):
-        return None  # checked before the whole grid: a still head costs little
+    # the odometry's own rates over every time a lag can map a frame to: frame pairs' rates
+    # are averages of them, so where these stay within a band of twice the least deviation
+    # asked for, no lag's pairs deviate that much (a still head costs no grid)
+    reach = (t[1:] >= a.min() - lags_s[-1]) & (t[:-1] <= b.max() - lags_s[0])
+    odometry_rates = np.diff(angles, axis=0)[reach] / np.diff(t)[reach, None]
+    if not np.any(np.ptp(odometry_rates, axis=0) >= 2.0 * min_rate_std_rad_s):
+        return None
     x = _rotations(t, angles, a, b, lags_s)  # (K, N, 2)
+    rates = x / (b - a)[None, :, None]
+    if not np.any(rates.std(axis=1) >= min_rate_std_rad_s):
+        return None  # at no lag did the head's rates vary over the frame pairs
     keep = np.ones(len(a), dtype=bool)
     floor_px = max(
         SHIFT_PRECISION_PX, SHIFT_FRACTION * float(np.percentile(np.linalg.norm(y, axis=1), 90))
@@ -136,7 +154,15 @@ def fit_lag(
     curvature = c0 - 2.0 * c1 + c2
     offset = 0.5 * (c0 - c2) / curvature if curvature > 0 else 0.0
     step_s = float(lags_s[1] - lags_s[0])
-    return LagFit(float(lags_s[k]) + offset * step_s, float(explained), int(keep.sum()))
+    inliers = int(keep.sum())
+    # the residual's variance per component (two per shift, four gains fitted); the lags whose
+    # residual energy exceeds the best one's by less than the test's threshold times it
+    # explain the shifts as well, to the residual's noise
+    variance = costs[k] / max(2 * inliers - 4, 1)
+    lag_s = float(lags_s[k] + offset * step_s)
+    alike = lags_s[costs <= costs[k] + CHI2_1DOF_99 * variance]
+    spread_s = float(np.max(np.abs(alike - lag_s))) if alike.size else 0.0
+    return LagFit(lag_s, float(explained), inliers, spread_s)
 
 
 def _rotations(
@@ -185,6 +211,7 @@ class CameraDelayEstimator:
         min_explained: float = 0.6,
         min_response: float = 0.05,
         max_pair_s: float = 0.25,
+        max_spread_s: float = 0.01,
     ) -> None:
         self.delay_s = initial_s
         self.window_s = window_s
@@ -194,6 +221,7 @@ class CameraDelayEstimator:
         self.min_explained = min_explained
         self.min_response = min_response
         self.max_pair_s = max_pair_s
+        self.max_spread_s = max_spread_s
         self.fits = 0
         self.last_fit: LagFit | None = None
         self._recent: deque[float] = deque(maxlen=fits_kept)
@@ -237,14 +265,10 @@ class CameraDelayEstimator:
         return bool(np.all(np.ptp(angles, axis=0) <= tolerance_rad))
 
     def fit_due(self, now_s: float) -> bool:
-        """Whether `update(now_s)` would fit the window: it spans the lag grid (a shorter one
-        lets the fitted gain trade against the lag: a short stretch of motion looks alike at
-        several lags), and no fit has succeeded yet or `fit_every_s` has passed since the last."""
-        if not self._shifts:
-            return False
-        span_s = self._shifts[-1][1] - self._shifts[0][0]
+        """Whether `update(now_s)` would fit the window: there are shifts, and no fit has
+        succeeded yet or `fit_every_s` has passed since the last."""
         every_s = self.fit_every_s if self.fits else 0.0
-        return span_s >= self.lags_s[-1] - self.lags_s[0] and now_s - self._last_fit_s >= every_s
+        return bool(self._shifts) and now_s - self._last_fit_s >= every_s
 
     def update(self, now_s: float) -> bool:
         """Fit the window if due (`fit_due`); whether the estimate took a new fit."""
@@ -258,8 +282,8 @@ class CameraDelayEstimator:
             self.min_rate_std_rad_s,
             self.min_explained,
         )
-        if fit is None:
-            return False
+        if fit is None or fit.spread_s > self.max_spread_s:
+            return False  # no lag explains the shifts, or several explain them alike
         self.last_fit = fit
         self.fits += 1
         self._recent.append(fit.lag_s)

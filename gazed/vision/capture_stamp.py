@@ -22,12 +22,18 @@ from gazed.vision.camera_delay import CameraDelayEstimator, ImageShift
 from gazed.vision.frames import CapturedFrame
 
 TIMING_WINDOW = 100  # frames over which the shift's cost is reported
+# a fit is taken when the lags that explain the shifts as well lie within this share of a frame
+# period of it: a margin on the stamps' tolerance of a frame, as the spread is the least the
+# lag is uncertain by (camera_delay)
+SPREAD_PER_FRAME = 0.25
 
 
 class CaptureStampCorrection:
     def __init__(self, camera: CameraSection) -> None:
         self.online = camera.delay_estimate
-        self.estimator = CameraDelayEstimator(camera.delay_ms * 1e-3)
+        self.estimator = CameraDelayEstimator(
+            camera.delay_ms * 1e-3, max_spread_s=SPREAD_PER_FRAME * camera.frame_period_s
+        )
         self.shift = ImageShift(camera.width_px, camera.height_px)
         self.shift_time = LatencyWindow(default_s=0.0, size=TIMING_WINDOW)
         self.fit_time = LatencyWindow(default_s=0.0, size=TIMING_WINDOW)

@@ -43,7 +43,7 @@ sys.path.insert(0, str(REPO / "tests" / "bench"))
 from random_sweep import seeds  # noqa: E402
 
 from gazed.eval.loop import observed  # noqa: E402
-from gazed.eval.loop_metrics import LoopRecord, score  # noqa: E402
+from gazed.eval.loop_metrics import LoopRecord, gaze_errors_rad, score  # noqa: E402
 from gazed.eval.private_rig import private_rig  # noqa: E402
 from gazed.geometry.pose import CameraPose  # noqa: E402
 from gazed.messages import Detection, Health  # noqa: E402
@@ -123,6 +123,7 @@ def loop_run(
         rig.gaze.fovea_half_angle_deg,
         FieldOfRegard.for_scoring(rig),
     )
+    result["rms_per_second_deg"] = rms_per_second_deg(record.truth, CameraPose.from_rig(rig))
     period_ms = rig.camera.frame_period_s * 1e3
     result.update(stamp_errors_ms(got["detections"], got["truth"], period_ms))
     notes: list[Health] = got["health"]
@@ -132,6 +133,16 @@ def loop_run(
         result["shift_ms"] = notes[-1].stage_ms.get("camera_delay_shift_median")
         result["fit_ms"] = notes[-1].stage_ms.get("camera_delay_fit_median")
     return {"mode": mode, "seed": seed, **result}
+
+
+def rms_per_second_deg(truth: list[Any], pose: CameraPose) -> list[float]:
+    """The gaze error's RMS in each whole second from the first truth frame: where a run loses."""
+    truth = sorted(truth, key=lambda t: t.t_capture_ns)
+    errors = np.degrees(gaze_errors_rad(truth, pose))
+    second = np.array([(t.t_capture_ns - truth[0].t_capture_ns) // 1_000_000_000 for t in truth])
+    return [
+        round(float(np.sqrt(np.mean(errors[second == k] ** 2))), 2) for k in range(int(second[-1]))
+    ]
 
 
 def stamp_errors_ms(
@@ -227,6 +238,14 @@ def loop(args: argparse.Namespace) -> list[dict[str, Any]]:
                 f"{_rms(r)!s:>11} {r['fovea_fraction']:>6}" for r in by_mode.values()
             )
             print(f"{seed:>4} | {cells} | {_ratio(by_mode, 'online', 'told')!s:>11}", flush=True)
+            if args.per_second:
+                for mode, r in by_mode.items():
+                    print(
+                        f"     {mode:>6} acquired after {r['acquired_after_s']} s, stamps within"
+                        f" a frame after {r['converged_after_s']} s, rms per second (deg):"
+                        f" {' '.join(map(str, r['rms_per_second_deg']))}",
+                        flush=True,
+                    )
         means = {}
         for mode in args.modes:
             mine = [r for r in runs if r["mode"] == mode]
@@ -276,6 +295,9 @@ def main() -> int:
     part.add_argument("--seconds", type=float, default=MANEUVER_SECONDS)
     part.add_argument("--delay-ms", type=float, default=200.0)
     part.add_argument("--modes", nargs="+", choices=tuple(MODES), default=["online", "told"])
+    part.add_argument(
+        "--per-second", action="store_true", help="each run's gaze error RMS per second"
+    )
     args = parser.parse_args()
     results = convergence(args) if args.part == "convergence" else loop(args)
     if args.json:
