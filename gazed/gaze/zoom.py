@@ -207,7 +207,7 @@ class ZoomControl:
         if seen.focal_px / out_px > 1.0 + band:
             return self.lens.zoom_for_focal(out_px), gaze.zoom_out_rate_s
         began = self.unsteady_ns is None or seen.t_capture_ns - self.unsteady_ns >= self.steady_ns
-        if not size_px or not began:
+        if not size_px or not began or not self.rooms:
             return None, 0.0
         # in: to the shorter of the setpoint's and the longest every recent frame allows
         in_px = min(size_px, min(room_px for _, room_px in self.rooms))
