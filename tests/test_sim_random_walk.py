@@ -30,18 +30,26 @@ def sampled(seed: int, reach: FieldOfRegard | None) -> tuple[np.ndarray, list]:
     return np.array([s.xy_m for s in states]), states
 
 
-def test_the_walk_never_leaves_the_heads_reach(reach: FieldOfRegard) -> None:
+@pytest.fixture(scope="module")
+def walks(reach: FieldOfRegard) -> dict[int, tuple[np.ndarray, list]]:
+    """Each seed's walk within the reach, sampled once for the tests that read it."""
+    return {seed: sampled(seed, reach) for seed in SEEDS}
+
+
+def test_the_walk_never_leaves_the_heads_reach(
+    reach: FieldOfRegard, walks: dict[int, tuple[np.ndarray, list]]
+) -> None:
     for seed in SEEDS:
-        xy, _ = sampled(seed, reach)
+        xy, _ = walks[seed]
         assert reach.contains(xy).all(), f"seed {seed} leaves the head's reach"
     # the same walks without the region: the camera's foot is within the walk's area
     assert not all(reach.contains(sampled(seed, None)[0]).all() for seed in SEEDS)
 
 
-def test_the_walk_keeps_human_maneuvers(reach: FieldOfRegard) -> None:
+def test_the_walk_keeps_human_maneuvers(walks: dict[int, tuple[np.ndarray, list]]) -> None:
     speeds, turns, stops_s = [], [], 0.0
     for seed in SEEDS:
-        _, states = sampled(seed, reach)
+        _, states = walks[seed]
         speeds += [s.speed_m_s for s in states]
         turns += [abs(s.turn_rate_rad_s) for s in states if s.model == "CS"]
         stops_s += STEP_S * sum(s.model == "stop" for s in states)

@@ -190,7 +190,7 @@ class SyntheticScene:
         if truth.target_visible:
             self._paste_target(gray, truth.u_px, truth.v_px)
         rng = np.random.default_rng((self.seed, index))
-        gray += rng.normal(0.0, self.noise_std, gray.shape).astype(np.float32)
+        gray += np.float32(self.noise_std) * rng.standard_normal(gray.shape, dtype=np.float32)
         gray8 = np.clip(gray + 0.5, 0, 255).astype(np.uint8)
         # a colour frame whose grey conversion is the rendered grey
         return cv2.cvtColor(gray8, cv2.COLOR_GRAY2BGR), truth
