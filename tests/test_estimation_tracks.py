@@ -211,3 +211,30 @@ def test_the_tracks_import_the_assignment_solver_as_they_start(
     monkeypatch.setattr(tracks_module, "load_solver", lambda: started.append(True))
     TargetTracker(load_rig(SIM_RIG), "estimator")
     assert started == [True]
+
+
+@pytest.mark.parametrize("apart_m", [0.6, 1.2])
+def test_two_people_seen_as_one_blob_keep_their_tracks(apart_m: float) -> None:
+    tracks = TrackSet(load_rig(SIM_RIG).estimator)
+    for k in range(50):  # side by side, apart_m apart, at 1 m/s along x
+        t = k * 0.04
+        people = [walking(t, (t, 1.0)), walking(t, (t, 1.0 + apart_m))]
+        blob = walking(t, (t, 1.0 + apart_m / 2))  # the detector's one box round both
+        tracks.step(t, people if k < 15 or k >= 45 else [blob])
+    assert [t.id for t in tracks.tracks] == [0, 1]  # neither ended, nobody new
+    assert tracks.counts["group_updates"] == 30 and tracks.counts["tracks_started"] == 2
+    for track, y in zip(tracks.tracks, (1.0, 1.0 + apart_m), strict=True):
+        state = track.estimator.predict(49 * 0.04)
+        assert state is not None and not track.coasting
+        assert state.position == pytest.approx((49 * 0.04, y), abs=0.1)
+
+
+def test_a_person_hidden_behind_another_is_not_pulled_onto_them() -> None:
+    tracks = TrackSet(load_rig(SIM_RIG).estimator)
+    for k in range(40):  # b 1.5 m beside a, hidden from 0.6 s: a's box is a's alone
+        t = k * 0.04
+        a, b = walking(t, (t, 1.0)), walking(t, (t, 2.5))
+        tracks.step(t, [a, b] if k < 15 else [a])
+    assert tracks.counts["group_updates"] == 0
+    hidden = tracks.get(1)
+    assert hidden is not None and hidden.coasting
