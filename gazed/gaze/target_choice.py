@@ -34,6 +34,11 @@ position taken back along its velocity to the request's capture time lies within
 that point — as far as a person walks in the time between (`WALK_MAX_M_S` for the error of the
 velocity over that time), plus half a person's width (the point may be anywhere on them) and
 three standard deviations of the track's position. While it is held, the rule does not pick.
+That reach grows at walking speed, so after long enough any track could take the point: it is
+held for at most `held_max_s`, the time the estimator keeps a track of a person it no longer
+sees (`coast_max_ms`); a person unseen for longer is as lost to the point as to a track. Then
+the point is refused, counted (`expired_selections`) and said on gaze/state, and the rule picks
+again.
 """
 
 from __future__ import annotations
@@ -76,7 +81,9 @@ class ChoiceChange:
 class TargetChoice:
     """Feed it every `EstimatorState` and `GazeSelect`; `target_id` is the chosen track."""
 
-    def __init__(self, gaze: GazeSection, lens: ZoomLens, kinematics: HeadKinematics) -> None:
+    def __init__(
+        self, gaze: GazeSection, lens: ZoomLens, kinematics: HeadKinematics, held_max_s: float
+    ) -> None:
         self.rule = gaze.select_rule
         self.zone = GroundZone(gaze.select_zone_xy_m) if gaze.select_zone_xy_m else None
         self.lens = lens
@@ -84,7 +91,10 @@ class TargetChoice:
         self.target_id: int | None = None
         self.by_operator = False
         self.tracks: tuple[Track, ...] = ()
-        self.counts = dict.fromkeys(("other_tracks", "refused_selections", "continued"), 0)
+        self.counts = dict.fromkeys(
+            ("other_tracks", "refused_selections", "expired_selections", "continued"), 0
+        )
+        self.held_max_s = held_max_s
         self.continuation_d2 = chi2_quantile(CONTINUATION_GATE_PROBABILITY, 2)
         self._chosen: Track | None = None  # the chosen track in the last state that held it
         self._known: frozenset[int] = frozenset()  # the ids when it last took a detection
@@ -159,7 +169,17 @@ class TargetChoice:
         or None while none can have been."""
         assert self.pending is not None and self.pending.ground_xy_m is not None
         point = np.asarray(self.pending.ground_xy_m)
+        x, y = point
         dt_s = max(0.0, (state.t_capture_ns - self.pending.t_capture_ns) * 1e-9)
+        if dt_s > self.held_max_s:
+            self.pending = None
+            self.counts["expired_selections"] += 1
+            return ChoiceChange(
+                self.target_id,
+                f"{REFUSED}: no track came to ({x:g}, {y:g}) m within {self.held_max_s:g} s; "
+                "target unchanged",
+                False,
+            )
         best, best_m = None, math.inf
         for track in state.tracks:
             if not track.confirmed or track.ground_xy_m is None:
@@ -173,7 +193,6 @@ class TargetChoice:
                 best, best_m = track, distance
         if best is None:
             return None
-        x, y = point
         self.pending, self.target_id, self.by_operator = None, best.id, True
         return ChoiceChange(best.id, f"{OPERATOR} chose track {best.id} at ({x:g}, {y:g}) m")
 
