@@ -282,3 +282,15 @@ def test_a_held_ground_point_is_refused_once_held_longer_than_a_track_coasts() -
     assert c.pending is None and c.counts["expired_selections"] == 1
     change = c.on_state(at(3.2, far), None)  # the rule picks again
     assert change is not None and change.target_id == 4 and not c.by_operator
+
+
+def test_a_ground_point_is_not_taken_by_clutter_or_someone_far_from_it() -> None:
+    c = choice(select_rule="first")
+    far = placed(4, (-6.0, 5.0), 0.01)  # a person elsewhere
+    newcomer = placed(7, (0.3, 5.0), 0.01).model_copy(update={"confirmed": False})
+    c.on_state(state(far, newcomer), None)
+    held = c.on_select(GazeSelect(t_capture_ns=1, ground_xy_m=(0.0, 5.0)), None)
+    assert not held.changed and c.pending is not None and c.target_id == 4  # the rule's, so far
+    confirmed = newcomer.model_copy(update={"confirmed": True})
+    change = c.on_state(state(far, confirmed), None)
+    assert change is not None and change.target_id == 7 and c.by_operator
