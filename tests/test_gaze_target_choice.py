@@ -271,16 +271,19 @@ def test_a_held_ground_point_is_refused_once_held_longer_than_a_track_coasts() -
             t_capture_ns=round(t_s * 1e9), filter="imm", x=(), P=(), tracks=tracks
         )
 
-    far = placed(4, (-9.0, 5.0), 0.01)  # too far to have been at the point so soon
-    assert c.on_state(at(2.0, far), None) is None and c.pending is not None
+    # the estimator has just started: its first state comes 4 s after the request, and the
+    # time held counts from there
+    far = placed(4, (-30.0, 5.0), 0.01)  # too far to have been at the point
+    assert c.on_state(at(5.0, far), None) is None and c.pending is not None
+    assert c.on_state(at(5.0 + HELD_MAX_S, far), None) is None and c.pending is not None
     # past HELD_MAX_S its walking reach would take anyone: the point is refused instead
-    change = c.on_state(at(1.0 + HELD_MAX_S + 0.1, far), None)
+    change = c.on_state(at(5.1 + HELD_MAX_S, far), None)
     assert change is not None and not change.changed and change.target_id is None
     assert (
         change.reason == "operator refused: no track came to (0, 5) m within 2 s; target unchanged"
     )
     assert c.pending is None and c.counts["expired_selections"] == 1
-    change = c.on_state(at(3.2, far), None)  # the rule picks again
+    change = c.on_state(at(7.2, far), None)  # the rule picks again
     assert change is not None and change.target_id == 4 and not c.by_operator
 
 

@@ -38,7 +38,9 @@ point. A point no confirmed track can take yet is held rather than refused, and 
 first track that can. While it is held, the rule does not pick.
 That reach grows at walking speed, so after long enough any track could take the point: it is
 held for at most `held_max_s`, the time the estimator keeps a track of a person it no longer
-sees (`coast_max_ms`); a person unseen for longer is as lost to the point as to a track. Then
+sees (`coast_max_ms`); a person unseen for longer is as lost to the point as to a track. The
+time counts from the first estimator state at or after the request: an estimator that has just
+started (a detector still learning the background) reports nothing, and has not yet looked. Then
 the point is refused, counted (`expired_selections`) and said on gaze/state, and the rule picks
 again.
 """
@@ -101,6 +103,7 @@ class TargetChoice:
         self._known: frozenset[int] = frozenset()  # the ids when it last took a detection
         self.pending: GazeSelect | None = None  # an operator's point no track was near yet
         self._t_state_ns = 0  # the capture time of the last estimator state
+        self._watched_ns: int | None = None  # when the estimator first reported on the point
 
     def accepts(self, prediction: Prediction) -> bool:
         """A prediction of the chosen track (or of the only track, or before any choice);
@@ -172,8 +175,9 @@ class TargetChoice:
         or None while none can have been; refused once held past `held_max_s`."""
         assert self.pending is not None and self.pending.ground_xy_m is not None
         x, y = self.pending.ground_xy_m
-        held_s = (state.t_capture_ns - self.pending.t_capture_ns) * 1e-9
-        if held_s > self.held_max_s:
+        if self._watched_ns is None:
+            self._watched_ns = max(state.t_capture_ns, self.pending.t_capture_ns)
+        if (state.t_capture_ns - self._watched_ns) * 1e-9 > self.held_max_s:
             self.pending = None
             self.counts["expired_selections"] += 1
             return ChoiceChange(
@@ -213,7 +217,7 @@ class TargetChoice:
         """An operator's request: a track by id, or the nearest to a ground point or a pixel;
         an empty request hands the choice back to the rule. A ground point with no track on the
         ground yet is held (module docstring)."""
-        self.pending = None
+        self.pending, self._watched_ns = None, None
         if select.ground_xy_m is not None and (
             self._reaching(select, self.tracks, self._t_state_ns) is None
         ):
