@@ -23,7 +23,6 @@ from gazed.messages import EstimatorState, GazeSelect, HeadPose, Mover, Track
 CAMERA = CameraModel.from_section(RIG.camera)
 LENS = ZoomLens.fixed(CAMERA)
 KINEMATICS = HeadKinematics.from_section(RIG.head)
-HELD_MAX_S = 2.0  # an operator's point held for a track this long at most
 
 
 def track(
@@ -62,7 +61,7 @@ def state(*tracks: Track) -> EstimatorState:
 
 
 def choice(**gaze: object) -> TargetChoice:
-    return TargetChoice(GazeSection(**gaze), LENS, KINEMATICS, HELD_MAX_S)
+    return TargetChoice(GazeSection(**gaze), LENS, KINEMATICS)
 
 
 @pytest.mark.parametrize(
@@ -260,31 +259,6 @@ def test_the_gaze_sees_the_chosen_tracks_mover() -> None:
     assert focus(seen, on_near, LENS, KINEMATICS) is seen
     unseen = seen.model_copy(update={"found": False})
     assert focus(unseen, chosen, LENS, KINEMATICS) is unseen  # vision saw no target
-
-
-def test_a_held_ground_point_is_refused_once_held_longer_than_a_track_coasts() -> None:
-    c = choice(select_rule="first")
-    c.on_select(GazeSelect(t_capture_ns=1_000_000_000, ground_xy_m=(0.0, 5.0)), None)
-
-    def at(t_s: float, *tracks: Track) -> EstimatorState:
-        return EstimatorState(
-            t_capture_ns=round(t_s * 1e9), filter="imm", x=(), P=(), tracks=tracks
-        )
-
-    # the estimator has just started: its first state comes 4 s after the request, and the
-    # time held counts from there
-    far = placed(4, (-30.0, 5.0), 0.01)  # too far to have been at the point
-    assert c.on_state(at(5.0, far), None) is None and c.pending is not None
-    assert c.on_state(at(5.0 + HELD_MAX_S, far), None) is None and c.pending is not None
-    # past HELD_MAX_S its walking reach would take anyone: the point is refused instead
-    change = c.on_state(at(5.1 + HELD_MAX_S, far), None)
-    assert change is not None and not change.changed and change.target_id is None
-    assert (
-        change.reason == "operator refused: no track came to (0, 5) m within 2 s; target unchanged"
-    )
-    assert c.pending is None and c.counts["expired_selections"] == 1
-    change = c.on_state(at(7.2, far), None)  # the rule picks again
-    assert change is not None and change.target_id == 4 and not c.by_operator
 
 
 def test_a_ground_point_is_not_taken_by_clutter_or_someone_far_from_it() -> None:

@@ -36,13 +36,6 @@ time), plus a person's width (the point and the track's may each be anywhere on 
 standard deviations of the track's position. Tentative tracks are not people yet and take no
 point. A point no confirmed track can take yet is held rather than refused, and taken by the
 first track that can. While it is held, the rule does not pick.
-That reach grows at walking speed, so after long enough any track could take the point: it is
-held for at most `held_max_s`, the time the estimator keeps a track of a person it no longer
-sees (`coast_max_ms`); a person unseen for longer is as lost to the point as to a track. The
-time counts from the first estimator state at or after the request: an estimator that has just
-started (a detector still learning the background) reports nothing, and has not yet looked. Then
-the point is refused, counted (`expired_selections`) and said on gaze/state, and the rule picks
-again.
 """
 
 from __future__ import annotations
@@ -84,9 +77,7 @@ class ChoiceChange:
 class TargetChoice:
     """Feed it every `EstimatorState` and `GazeSelect`; `target_id` is the chosen track."""
 
-    def __init__(
-        self, gaze: GazeSection, lens: ZoomLens, kinematics: HeadKinematics, held_max_s: float
-    ) -> None:
+    def __init__(self, gaze: GazeSection, lens: ZoomLens, kinematics: HeadKinematics) -> None:
         self.rule = gaze.select_rule
         self.zone = GroundZone(gaze.select_zone_xy_m) if gaze.select_zone_xy_m else None
         self.lens = lens
@@ -94,16 +85,12 @@ class TargetChoice:
         self.target_id: int | None = None
         self.by_operator = False
         self.tracks: tuple[Track, ...] = ()
-        self.counts = dict.fromkeys(
-            ("other_tracks", "refused_selections", "expired_selections", "continued"), 0
-        )
-        self.held_max_s = held_max_s
+        self.counts = dict.fromkeys(("other_tracks", "refused_selections", "continued"), 0)
         self.continuation_d2 = chi2_quantile(CONTINUATION_GATE_PROBABILITY, 2)
         self._chosen: Track | None = None  # the chosen track in the last state that held it
         self._known: frozenset[int] = frozenset()  # the ids when it last took a detection
         self.pending: GazeSelect | None = None  # an operator's point no track was near yet
         self._t_state_ns = 0  # the capture time of the last estimator state
-        self._watched_ns: int | None = None  # when the estimator first reported on the point
 
     def accepts(self, prediction: Prediction) -> bool:
         """A prediction of the chosen track (or of the only track, or before any choice);
@@ -172,20 +159,9 @@ class TargetChoice:
 
     def _take_pending(self, state: EstimatorState) -> ChoiceChange | None:
         """The held ground point taken by the track whose person was there (module docstring),
-        or None while none can have been; refused once held past `held_max_s`."""
+        or None while none can have been."""
         assert self.pending is not None and self.pending.ground_xy_m is not None
         x, y = self.pending.ground_xy_m
-        if self._watched_ns is None:
-            self._watched_ns = max(state.t_capture_ns, self.pending.t_capture_ns)
-        if (state.t_capture_ns - self._watched_ns) * 1e-9 > self.held_max_s:
-            self.pending = None
-            self.counts["expired_selections"] += 1
-            return ChoiceChange(
-                self.target_id,
-                f"{REFUSED}: no track came to ({x:g}, {y:g}) m within {self.held_max_s:g} s; "
-                "target unchanged",
-                False,
-            )
         best = self._reaching(self.pending, state.tracks, state.t_capture_ns)
         if best is None:
             return None
@@ -217,7 +193,7 @@ class TargetChoice:
         """An operator's request: a track by id, or the nearest to a ground point or a pixel;
         an empty request hands the choice back to the rule. A ground point with no track on the
         ground yet is held (module docstring)."""
-        self.pending, self._watched_ns = None, None
+        self.pending = None
         if select.ground_xy_m is not None and (
             self._reaching(select, self.tracks, self._t_state_ns) is None
         ):
