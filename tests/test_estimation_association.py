@@ -13,11 +13,14 @@ from filterpy.kalman import KalmanFilter
 from gazed.estimation.association import (
     associate,
     gate_threshold,
+    group_prediction,
     hellinger_squared,
     load_solver,
+    member_measurement,
     pair_costs,
     same_target,
 )
+from gazed.estimation.measurement import Measurement
 from gazed.estimation.results import PredictedState
 
 RATE_HZ = 7.0
@@ -202,3 +205,25 @@ def test_same_target_is_the_track_to_track_test_with_the_extent() -> None:
     crossing = state((0.0, 1.0), (-1.0, 0.0))  # the same place, the other way
     assert not same_target(walking, crossing, gate, extent)
     assert walking.covariance[0, 0] == pytest.approx(0.03**2)  # the inputs are left alone
+
+
+def test_a_blob_of_two_is_their_centroid_widened_by_their_unknown_shares() -> None:
+    predicted = np.array([[0.0, 0.0], [1.0, 0.0]])
+    P = np.array([np.eye(2) * 0.04, np.eye(2) * 0.01])
+    R = np.eye(2) * 0.0025
+    mean, S = group_prediction(predicted, P, R)
+    delta = predicted[1] - predicted[0]
+    assert mean == pytest.approx([0.5, 0.0])
+    # the share w of a blob, uniform on [0, 1]: var(w Δ) = ΔΔᵀ/12
+    assert pytest.approx(P.sum(axis=0) / 4 + R + np.outer(delta, delta) / 12) == S
+    z = Measurement.ground(1.0, (0.6, 0.1), R)
+    states = [PredictedState(1.0, p, np.zeros(2), np.eye(4) * 0.04) for p in predicted]
+    states[1] = PredictedState(1.0, predicted[1], np.zeros(2), np.diag([0.01, 0.01, 1.0, 1.0]))
+    y = z.position - mean
+    blob_d2 = y @ np.linalg.solve(S, y)
+    for k, state in enumerate(states):  # each member's own d² is the blob's
+        m = member_measurement(z, k, states)
+        own = m.position - state.position
+        d2 = own @ np.linalg.solve(state.covariance[:2, :2] + m.position_cov, own)
+        assert d2 == pytest.approx(blob_d2)
+    assert member_measurement(z, 0, states).position == pytest.approx([0.2, 0.2])

@@ -8,62 +8,24 @@ two are close, the one farther from the camera is hidden and its track coasts.""
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
-from bench.crossing_people import SCENES, SIM_RIG, Scene, walk
+from bench.crossing_people import SCENES, SIM_RIG, follow, walk
 
 from gazed.config import Rig, load_rig
 from gazed.estimation import tracks as tracks_module
 from gazed.estimation.measurement import Measurement
 from gazed.estimation.target_tracker import TargetTracker
 from gazed.estimation.tracks import Sighting, TrackSet
-from gazed.geometry.ground import GroundGeometry
-from gazed.messages import EstimatorState
 
-GEOMETRY = GroundGeometry.from_rig(load_rig(SIM_RIG))
 SECONDS = 4.0
-APART_M = 0.5  # a person's track is read off only where no one else is this near
 
 
 def run(
     scene: str, seed: int, choose_person: int | None = None, rig: Rig | None = None
 ) -> tuple[dict, list]:
     """Each person's track ids where no one else is near, and the states of the run."""
-    rig = rig or load_rig(SIM_RIG)
-    source = Scene(rig, scene, seed)
-    tracker = TargetTracker(rig, "estimator", clock_ns=lambda: clock_ns)
-    ids: dict[int, set[int]] = {i: set() for i in range(len(SCENES[scene]))}
-    states: list[tuple[float, EstimatorState]] = []
-    frames = round(SECONDS / source.period_s)
-    for k in range(frames):
-        detection = source.detection(k)
-        clock_ns = detection.t_capture_ns + 100_000_000
-        update = tracker.update(detection, clock_ns)
-        assert update is not None
-        state, _ = tracker.settle(update)
-        assert state is not None
-        t = k * source.period_s
-        states.append((t, state))
-        truth = walk(scene, t)
-        if choose_person is not None and k == 10:
-            tracker.choose(nearest_track(state, truth[choose_person]))
-        if t < 0.5:
-            continue
-        for i, xy in enumerate(truth):
-            others = np.delete(truth, i, axis=0)
-            if np.min(np.linalg.norm(others - xy, axis=1)) > APART_M:
-                ids[i].add(nearest_track(state, xy))
-    return ids, states
-
-
-def nearest_track(state: EstimatorState, xy: np.ndarray) -> int:
-    confirmed = [t for t in state.tracks if t.confirmed]
-    if state.filter == "image-cv":  # no ground: the head angles that centre each
-        pan, tilt = GEOMETRY.gaze_from_ground(*xy)
-        return min(confirmed, key=lambda t: math.hypot(t.pan_rad - pan, t.tilt_rad - tilt)).id
-    return min(confirmed, key=lambda t: float(np.linalg.norm(np.subtract(t.ground_xy_m, xy)))).id
+    return follow(rig or load_rig(SIM_RIG), scene, SECONDS, seed, choose_person)
 
 
 @pytest.mark.parametrize("scene", SCENES)
@@ -76,7 +38,7 @@ def test_every_person_keeps_one_id(scene: str, seed: int) -> None:
     assert sum(t.confirmed for t in last.tracks) == len(SCENES[scene])  # no clutter confirmed
 
 
-@pytest.mark.parametrize("scene", ["two crossing", "side by side"])
+@pytest.mark.parametrize("scene", ["two crossing", "side by side", "joining, one blob"])
 def test_the_chosen_track_is_predicted_and_kept(scene: str) -> None:
     ids, states = run(scene, 3, choose_person=0)
     (chosen,) = ids[0]
@@ -211,3 +173,30 @@ def test_the_tracks_import_the_assignment_solver_as_they_start(
     monkeypatch.setattr(tracks_module, "load_solver", lambda: started.append(True))
     TargetTracker(load_rig(SIM_RIG), "estimator")
     assert started == [True]
+
+
+@pytest.mark.parametrize("apart_m", [0.6, 1.2])
+def test_two_people_seen_as_one_blob_keep_their_tracks(apart_m: float) -> None:
+    tracks = TrackSet(load_rig(SIM_RIG).estimator)
+    for k in range(50):  # side by side, apart_m apart, at 1 m/s along x
+        t = k * 0.04
+        people = [walking(t, (t, 1.0)), walking(t, (t, 1.0 + apart_m))]
+        blob = walking(t, (t, 1.0 + apart_m / 2))  # the detector's one box round both
+        tracks.step(t, people if k < 15 or k >= 45 else [blob])
+    assert [t.id for t in tracks.tracks] == [0, 1]  # neither ended, nobody new
+    assert tracks.counts["group_updates"] == 30 and tracks.counts["tracks_started"] == 2
+    for track, y in zip(tracks.tracks, (1.0, 1.0 + apart_m), strict=True):
+        state = track.estimator.predict(49 * 0.04)
+        assert state is not None and not track.coasting
+        assert state.position == pytest.approx((49 * 0.04, y), abs=0.1)
+
+
+def test_a_person_hidden_behind_another_is_not_pulled_onto_them() -> None:
+    tracks = TrackSet(load_rig(SIM_RIG).estimator)
+    for k in range(40):  # b 1.5 m beside a, hidden from 0.6 s: a's box is a's alone
+        t = k * 0.04
+        a, b = walking(t, (t, 1.0)), walking(t, (t, 2.5))
+        tracks.step(t, [a, b] if k < 15 else [a])
+    assert tracks.counts["group_updates"] == 0
+    hidden = tracks.get(1)
+    assert hidden is not None and hidden.coasting

@@ -259,3 +259,15 @@ def test_the_gaze_sees_the_chosen_tracks_mover() -> None:
     assert focus(seen, on_near, LENS, KINEMATICS) is seen
     unseen = seen.model_copy(update={"found": False})
     assert focus(unseen, chosen, LENS, KINEMATICS) is unseen  # vision saw no target
+
+
+def test_a_ground_point_is_not_taken_by_clutter_or_someone_far_from_it() -> None:
+    c = choice(select_rule="first")
+    far = placed(4, (-6.0, 5.0), 0.01)  # a person elsewhere
+    newcomer = placed(7, (0.3, 5.0), 0.01).model_copy(update={"confirmed": False})
+    c.on_state(state(far, newcomer), None)
+    held = c.on_select(GazeSelect(t_capture_ns=1, ground_xy_m=(0.0, 5.0)), None)
+    assert not held.changed and c.pending is not None and c.target_id == 4  # the rule's, so far
+    confirmed = newcomer.model_copy(update={"confirmed": True})
+    change = c.on_state(state(far, confirmed), None)
+    assert change is not None and change.target_id == 7 and c.by_operator

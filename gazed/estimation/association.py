@@ -25,6 +25,17 @@ estimates' cross-covariance is left out, which widens the test a little), with t
 extent added to the positions: a detector may report one part of a person to one track and
 another part to the other.
 
+A detector can report people who walk together as one blob, whose point lies between them: in
+no one's gate, or in one's gate at the pair's midpoint. So where a confirmed track is left
+without a detection, the blob hypothesis is tested against the one-person one: the detection as
+the centroid of the two tracks' predictions (`group_prediction`), its covariance widened by the
+unknown share each member has of the blob (its visible area), taken as uniform over the simplex
+(Dirichlet(1, …, 1)). Where that hypothesis costs less, and its d² lies inside the gate, each
+member takes the detection as a measurement of itself (`member_measurement`): the blob's
+centroid less the other members' predictions, with the noise that leaves. Neither track is
+pulled onto the pair's midpoint; both follow the pair's common motion and keep their ids, and
+the separation the predictions carry is kept until the blob splits.
+
 The joint assignment is SciPy's; `scipy.optimize` takes long to import (on a busy machine,
 longer than a bus link's lease), so the estimator imports it beside its start-up
 (`load_solver`) rather than in the step where several tracks first compete: a step that long
@@ -40,6 +51,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from gazed.estimation.chi_square import chi2_quantile
+from gazed.estimation.measurement import Measurement
 from gazed.estimation.results import PredictedState
 
 SOLVER_MODULE = "scipy.optimize"
@@ -104,6 +116,102 @@ def pair_costs(
         h2 = hellinger_squared(track_appearance, detection_appearance)
         costs = costs + np.nan_to_num(h2 / appearance_variance[:, None], nan=0.0)
     return np.where(d2 <= gate_d2, costs, np.inf)
+
+
+def group_prediction(
+    predicted: np.ndarray, P: np.ndarray, R: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Where one blob of n members (predictions (n, m), covariances P (n, m, m)) is measured with
+    noise R (m, m): the centroid `x̄` and its innovation covariance `ΣP / n² + R + W`, where
+    `W` (`weight_spread`) is the spread each member's unknown share of the blob adds."""
+    n = len(predicted)
+    return predicted.mean(axis=0), P.sum(axis=0) / n**2 + R + weight_spread(predicted)
+
+
+def weight_spread(points: np.ndarray) -> np.ndarray:
+    """`W = Σ (x_i - x̄)(x_i - x̄)ᵀ / (n (n + 1))` of n points (n, m): the covariance of
+    `Σ w_i x_i` for weights w uniform over the simplex."""
+    n = len(points)
+    spread = points - points.mean(axis=0)
+    return spread.T @ spread / (n * (n + 1))
+
+
+def member_measurement(z: Measurement, member: int, states: list[PredictedState]) -> Measurement:
+    """A blob's measurement z as one of its members' (`states`, one per member): `n z - Σ x̂_j`
+    over the others, with covariance `n² (R + W) + Σ P_j` (W of the predicted positions,
+    `weight_spread`). Its d² against the member's prediction is the blob's against the
+    group's, so a filter gates it alike. The blob's velocity is left out: it is the pair's
+    mean velocity, not a member's."""
+    n = len(states)
+    predicted = np.array([s.position for s in states])
+    others = [j for j in range(n) if j != member]
+    P_others = sum((states[j].covariance[:2, :2] for j in others), np.zeros((2, 2)))
+    R = z.position_cov + weight_spread(predicted)
+    position = n * z.position - predicted[others].sum(axis=0)
+    return Measurement(z.t_s, position, n**2 * R + P_others)
+
+
+@dataclass(frozen=True)
+class Blob:
+    """One detection (a column) taken as the blob of two tracks (rows)."""
+
+    rows: tuple[int, int]
+    column: int
+
+
+def find_blobs(
+    predicted: np.ndarray,
+    P: np.ndarray,
+    confirmed: np.ndarray,
+    measured: list[Measurement],
+    pairs: dict[int, int],
+    costs: np.ndarray,
+    gate_d2: float,
+    appearance: tuple[np.ndarray, ...] = (),
+) -> list[Blob]:
+    """The detections better taken as the blob of two confirmed tracks than as one person.
+
+    Tried for each confirmed track left without a detection by the assignment `pairs` (row ->
+    column, of `costs`): with the confirmed track that took the detection, or, where a tentative
+    track or none took it, with another such lone track. Kept where its cost (`pair_costs` of
+    the group's centroid, its appearance against the mean of the members' templates) is inside
+    the gate and below the cost of the detection's own pair; the least costly first, each
+    track and detection in one blob at most. predicted (T, m), P (T, m, m), confirmed (T,);
+    `appearance` as `pair_costs` takes it for all tracks and detections, or ()."""
+    lone = [r for r in range(len(predicted)) if confirmed[r] and r not in pairs]
+    holder = {c: r for r, c in pairs.items()}
+    options = []
+    for row in lone:
+        for column, z in enumerate(measured):
+            held = holder.get(column)
+            partners = [held] if held is not None and confirmed[held] else lone
+            single = costs[held, column] if held is not None else np.inf
+            for partner in (p for p in partners if p != row):
+                rows = [row, partner]
+                mean, S = group_prediction(predicted[rows], P[rows], z.position_cov)
+                looks = ()
+                if appearance:
+                    templates, seen, spreads = appearance
+                    looks = (
+                        templates[rows].mean(axis=0)[None],
+                        seen[column][None],
+                        spreads[rows].mean()[None],
+                    )
+                cost = float(
+                    pair_costs(mean[None], S[None], z.position[None], gate_d2, *looks)[0, 0]
+                )
+                if cost < single:
+                    options.append((cost, row, partner, column))
+    blobs: list[Blob] = []
+    used_rows: set[int] = set()
+    used_columns: set[int] = set()
+    for _, row, partner, column in sorted(options):
+        if row in used_rows or partner in used_rows or column in used_columns:
+            continue
+        blobs.append(Blob((row, partner), column))
+        used_rows |= {row, partner}
+        used_columns.add(column)
+    return blobs
 
 
 def same_target(

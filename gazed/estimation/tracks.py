@@ -11,9 +11,14 @@ Every frame (one detection message, with any number of movers):
    where positions are ambiguous (`association`). The gate and the cost use the position alone:
    a mover's image velocity is a difference over one frame interval and too noisy to tell people
    apart; the filter itself then takes the mover's full measurement and gates it again;
-3. a track that takes a mover is updated, its appearance template and spread follow it; a track
+3. a confirmed track left without a mover may be one of two people the detector saw as one
+   blob: where the blob hypothesis costs less than the one-person one (`association.find_blobs`),
+   both tracks take the blob as a measurement of each (the centroid less the other's
+   prediction, its noise widened accordingly), keep their ids and are not ended while the blob
+   holds them; the blob does not change their appearance templates;
+4. a track that takes a mover is updated, its appearance template and spread follow it; a track
    left without one coasts (predict-only) and ends once it has coasted past `coast_max_ms`;
-4. a mover left without a track starts a new, tentative track. A tentative track is confirmed
+5. a mover left without a track starts a new, tentative track. A tentative track is confirmed
    once it has `confirm_hits` detections within its first `confirm_frames` frames (M of N); one
    that cannot is dropped as clutter. Where one track and one mover are all there is, the mover
    is the track's, inside its gate or not: outside it, it is an outlier the track's filter
@@ -23,7 +28,7 @@ Every frame (one detection message, with any number of movers):
    here: one confirmed track and one mover is the same case (a detector that splits one
    person into parts, or reports the leftovers of the head's own motion, starts tentative
    tracks beside a person whose filter may have gated out its own detections);
-5. two tracks on one person are merged: a track that coasts while another takes a detection
+6. two tracks on one person are merged: a track that coasts while another takes a detection
    where it is, moving as it moves, is that one's duplicate. A detector can split one person
    into parts, or report a part off the track's gate (a filter grown too sure of itself gates
    out its own person), and the part starts a second track that then takes the person's
@@ -51,8 +56,10 @@ import numpy as np
 from gazed.config import EstimatorSection
 from gazed.estimation.association import (
     associate,
+    find_blobs,
     gate_threshold,
     load_solver,
+    member_measurement,
     pair_costs,
     same_target,
 )
@@ -145,11 +152,18 @@ class TrackSet:
             # one person, one mover: the mover is the person's, inside its gate or not (an
             # outlier its filter counts, restarting there after reinit_after_misses in a row,
             # as a single-target estimator does when its target jumps)
-            pairs, lone_sightings = {lone: 0}, ()
+            pairs, lone_sightings, members = {lone: 0}, (), {}
         else:
-            pairs, lone_sightings = self._assign(self._predicted(t_s), sightings)
+            states = self._predicted(t_s)
+            pairs, lone_sightings, costs = self._assign(states, sightings)
+            members, taken = self._groups(states, sightings, pairs, costs)
+            pairs = {r: c for r, c in pairs.items() if r not in members and c not in taken}
+            lone_sightings = tuple(c for c in lone_sightings if c not in taken)
         for row, track in enumerate(self.tracks):
             track.frames += 1
+            if row in members:
+                self._take(track, members[row], t_s)
+                continue
             column = pairs.get(row)
             if column is None:
                 track.coasting = True
@@ -190,12 +204,10 @@ class TrackSet:
 
     def _assign(
         self, states: list[PredictedState], sightings: list[Sighting]
-    ) -> tuple[dict[int, int], tuple[int, ...]]:
-        """Track row -> sighting column, and the sightings no track took."""
-        if not sightings:
-            return {}, ()
-        if not states:
-            return {}, tuple(range(len(sightings)))
+    ) -> tuple[dict[int, int], tuple[int, ...], np.ndarray]:
+        """Track row -> sighting column, the sightings no track took, and the (T, D) costs."""
+        if not sightings or not states:
+            return {}, tuple(range(len(sightings))), np.full((len(states), len(sightings)), np.inf)
         predicted = np.array([s.position for s in states])  # (T, 2)
         P = np.array([s.covariance[:2, :2] for s in states])  # (T, 2, 2)
         measured = np.array([s.measurement.position for s in sightings])  # (D, 2)
@@ -204,7 +216,42 @@ class TrackSet:
         looks = self._appearances(sightings)
         costs = pair_costs(predicted, S, measured, self.gate_d2, *looks)
         result = associate(costs)
-        return dict(result.pairs), result.lone_detections
+        return dict(result.pairs), result.lone_detections, costs
+
+    def _groups(
+        self,
+        states: list[PredictedState],
+        sightings: list[Sighting],
+        pairs: dict[int, int],
+        costs: np.ndarray,
+    ) -> tuple[dict[int, Sighting], set[int]]:
+        """Row -> its measurement from a blob that holds it and another confirmed track
+        (`association.find_blobs`), and the blobs' sighting columns."""
+        if not sightings or all(r in pairs for r in range(len(self.tracks))):
+            return {}, set()
+        predicted = np.array([s.position for s in states])
+        P = np.array([s.covariance[:2, :2] for s in states])
+        confirmed = np.array([t.confirmed for t in self.tracks])
+        measured = [s.measurement for s in sightings]
+        blobs = find_blobs(
+            predicted,
+            P,
+            confirmed,
+            measured,
+            pairs,
+            costs,
+            self.gate_d2,
+            self._appearances(sightings),
+        )
+        members: dict[int, Sighting] = {}
+        for blob in blobs:
+            z = measured[blob.column]
+            states_in = [states[row] for row in blob.rows]
+            for k, row in enumerate(blob.rows):
+                measurement = member_measurement(z, k, states_in)
+                members[row] = Sighting(measurement, None, self.tracks[row].box_height_px)
+            self.counts["group_updates"] += 1
+        return members, {blob.column for blob in blobs}
 
     def _appearances(self, sightings: list[Sighting]) -> tuple[np.ndarray, ...]:
         """(track templates, sighting histograms, track spreads) where both sides have some of

@@ -27,13 +27,15 @@ so any track within that gate continues it, however old. Tracks without a ground
 continued.
 
 An operator points at a person the moment they see them, often before the estimator has a
-track of them (a person who has just walked in needs a few detections to be confirmed). A
-ground point that no track is near yet is held rather than refused, and taken by the first
-confirmed track whose person can have been at that point when it was chosen: its ground
-position taken back along its velocity to the request's capture time lies within the reach of
-that point — as far as a person walks in the time between (`WALK_MAX_M_S` for the error of the
-velocity over that time), plus half a person's width (the point may be anywhere on them) and
-three standard deviations of the track's position. While it is held, the rule does not pick.
+track of them (a person who has just walked in needs a few detections to be confirmed), and
+often beside others who have tracks. A ground point is taken by the nearest confirmed track
+whose person can have been at that point when it was chosen: its ground position taken back
+along its velocity to the request's capture time lies within the reach of that point — as far
+as a person walks in the time between (`WALK_MAX_M_S` for the error of the velocity over that
+time), plus a person's width (the point and the track's may each be anywhere on them) and three
+standard deviations of the track's position. Tentative tracks are not people yet and take no
+point. A point no confirmed track can take yet is held rather than refused, and taken by the
+first track that can. While it is held, the rule does not pick.
 """
 
 from __future__ import annotations
@@ -48,7 +50,6 @@ from gazed.estimation.chi_square import chi2_quantile
 from gazed.gaze.target_rule import (
     GroundZone,
     nearest_by_angle,
-    nearest_on_ground,
     rule_pick,
 )
 from gazed.geometry.kinematics import HeadKinematics
@@ -60,7 +61,7 @@ OPERATOR = "operator"  # how every gaze/state reason about an operator's request
 REFUSED = "operator refused"  # ... and one that changed nothing
 CONTINUATION_GATE_PROBABILITY = 0.999  # the estimator's own default gate for a detection
 WALK_MAX_M_S = 2.5  # the upper end of walking speeds: how far a person gets in a given time
-PERSON_RADIUS_M = 0.25  # half a shoulder width: a point chosen anywhere on a person
+PERSON_WIDTH_M = 0.5  # a shoulder width: a point, and a track's, anywhere on one person
 POSITION_SIGMAS = 3.0  # a track's position is taken as known to within this many std
 
 
@@ -89,6 +90,7 @@ class TargetChoice:
         self._chosen: Track | None = None  # the chosen track in the last state that held it
         self._known: frozenset[int] = frozenset()  # the ids when it last took a detection
         self.pending: GazeSelect | None = None  # an operator's point no track was near yet
+        self._t_state_ns = 0  # the capture time of the last estimator state
 
     def accepts(self, prediction: Prediction) -> bool:
         """A prediction of the chosen track (or of the only track, or before any choice);
@@ -107,6 +109,7 @@ class TargetChoice:
     ) -> ChoiceChange | None:
         """The estimator's tracks at a frame: the chosen one ended, or the rule picks one."""
         self.tracks = state.tracks
+        self._t_state_ns = state.t_capture_ns
         if self.pending is not None:
             return self._take_pending(state)
         continued = self._continuation(state.tracks)
@@ -158,31 +161,42 @@ class TargetChoice:
         """The held ground point taken by the track whose person was there (module docstring),
         or None while none can have been."""
         assert self.pending is not None and self.pending.ground_xy_m is not None
-        point = np.asarray(self.pending.ground_xy_m)
-        dt_s = max(0.0, (state.t_capture_ns - self.pending.t_capture_ns) * 1e-9)
+        x, y = self.pending.ground_xy_m
+        best = self._reaching(self.pending, state.tracks, state.t_capture_ns)
+        if best is None:
+            return None
+        self.pending, self.target_id, self.by_operator = None, best.id, True
+        self._chosen, self._known = best, frozenset(t.id for t in state.tracks)
+        return ChoiceChange(best.id, f"{OPERATOR} chose track {best.id} at ({x:g}, {y:g}) m")
+
+    @staticmethod
+    def _reaching(select: GazeSelect, tracks: tuple[Track, ...], t_ns: int) -> Track | None:
+        """The nearest confirmed track at `t_ns` whose person can have been at the request's
+        ground point when it was made (module docstring); None if none can."""
+        assert select.ground_xy_m is not None
+        point = np.asarray(select.ground_xy_m)
+        dt_s = max(0.0, (t_ns - select.t_capture_ns) * 1e-9)
         best, best_m = None, math.inf
-        for track in state.tracks:
+        for track in tracks:
             if not track.confirmed or track.ground_xy_m is None:
                 continue
             velocity = np.asarray(track.ground_velocity_m_s or (0.0, 0.0))
             then = np.asarray(track.ground_xy_m) - velocity * dt_s
             spread = np.linalg.eigvalsh(track.ground_cov_m2)[-1] if track.ground_cov_m2 else 0.0
-            reach = WALK_MAX_M_S * dt_s + PERSON_RADIUS_M + POSITION_SIGMAS * math.sqrt(spread)
+            reach = WALK_MAX_M_S * dt_s + PERSON_WIDTH_M + POSITION_SIGMAS * math.sqrt(spread)
             distance = float(np.linalg.norm(then - point))
             if distance <= reach and distance < best_m:
                 best, best_m = track, distance
-        if best is None:
-            return None
-        x, y = point
-        self.pending, self.target_id, self.by_operator = None, best.id, True
-        return ChoiceChange(best.id, f"{OPERATOR} chose track {best.id} at ({x:g}, {y:g}) m")
+        return best
 
     def on_select(self, select: GazeSelect, head_rad: tuple[float, float] | None) -> ChoiceChange:
         """An operator's request: a track by id, or the nearest to a ground point or a pixel;
         an empty request hands the choice back to the rule. A ground point with no track on the
         ground yet is held (module docstring)."""
         self.pending = None
-        if select.ground_xy_m is not None and not any(t.ground_xy_m for t in self.tracks):
+        if select.ground_xy_m is not None and (
+            self._reaching(select, self.tracks, self._t_state_ns) is None
+        ):
             self.pending = select
             x, y = select.ground_xy_m
             return ChoiceChange(
@@ -207,10 +221,10 @@ class TargetChoice:
         if select.track_id is not None:
             found = next((t for t in self.tracks if t.id == select.track_id), None)
             return found, "by id" if found else f"no track {select.track_id}"
-        if select.ground_xy_m is not None:
+        if select.ground_xy_m is not None:  # one can take it (`on_select`)
             x, y = select.ground_xy_m
-            found = nearest_on_ground(self.tracks, (x, y))
-            return found, f"nearest ({x:g}, {y:g}) m" if found else "no track on the ground"
+            found = self._reaching(select, self.tracks, self._t_state_ns)
+            return found, f"nearest ({x:g}, {y:g}) m"
         assert select.pixel_px is not None and select.head is not None  # GazeSelect checks
         u, v = select.pixel_px
         head = select.head

@@ -1,4 +1,4 @@
-"""Which track the rig's rule picks, and which track is nearest an operator's point.
+"""Which track the rig's rule picks, and which track is nearest an operator's pixel.
 
 The rule (`[gaze] select_rule`) picks among the confirmed tracks, only those inside the ground
 zone (`select_zone_xy_m`) where the rig gives one:
@@ -65,15 +65,6 @@ def rule_pick(
     if rule == "longest-seen":
         return max(candidates, key=lambda t: (t.hits, -t.id))
     return candidates[0]
-
-
-def nearest_on_ground(tracks: Sequence[Track], xy_m: tuple[float, float]) -> Track | None:
-    """The track nearest a ground point (None: no track has a ground position)."""
-    placed = [t for t in tracks if t.ground_xy_m is not None]
-    if not placed:
-        return None
-    x, y = xy_m
-    return min(placed, key=lambda t: (t.ground_xy_m[0] - x) ** 2 + (t.ground_xy_m[1] - y) ** 2)  # type: ignore[index]
 
 
 def nearest_by_angle(
