@@ -84,9 +84,14 @@ def test_positions_round_trip_across_the_range(head) -> None:
         def reached(pan=pan, tilt=tilt):
             where = driver.query_position()
             ok = abs(where.pan_rad - pan) <= pan_unit / 2 + 1e-9
-            return where if ok and abs(where.tilt_rad - tilt) <= tilt_unit / 2 + 1e-9 else None
+            return ok and abs(where.tilt_rad - tilt) <= tilt_unit / 2 + 1e-9
 
-        where = poll_until(reached, timeout_s=5.0)
+        def still():
+            axes = emulator.device_pose_at(time.monotonic())
+            return axes.pan_rate_rad_s == axes.tilt_rate_rad_s == 0.0
+
+        poll_until(lambda: reached() and still(), timeout_s=5.0)  # not passing through it
+        where = driver.query_position()
         # what the head reports is where its axes truly are, to the protocol's unit
         true = emulator.device_pose_at(time.monotonic())
         assert abs(true.pan_rad - where.pan_rad) <= pan_unit / 2 + 1e-9

@@ -32,7 +32,7 @@ from gazed.config.servo import SPEED_PROTOCOLS, OnvifServo
 from gazed.servo import make_codec
 from gazed.servo.codec import CodecError, HandshakeError
 from gazed.servo.drive_speeds import DriveSpeeds, drive_rates_rad_s
-from gazed.servo.driver import DeviceError, ServoDriver
+from gazed.servo.driver import DeviceError, ServoDriver, ServoTimeout
 from gazed.servo.onvif_driver import rig_folder
 from gazed.servo.onvif_head import OnvifHead
 from gazed.servo.speed_mode import SpeedDevice
@@ -173,7 +173,10 @@ def _run_step(
                 sent_s = t_ns / 1e9 if sent_s is None else sent_s
                 renewed_s = now_s
             sleep(poll_s)
-            position = camera.query_position()
+            try:
+                position = camera.query_position()
+            except ServoTimeout:
+                continue  # a reply lost on the network (counted by the link): poll on
             angle, t_s = (position.pan_rad, position.tilt_rad)[axis], position.t_pan_ns / 1e9
             if mono_s() - began_s >= SETTLE_S:
                 readings.append((t_s, angle))
