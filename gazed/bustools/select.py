@@ -32,7 +32,11 @@ def select_arguments(parser: argparse.ArgumentParser) -> None:
     choice = parser.add_mutually_exclusive_group(required=True)
     choice.add_argument("--track", type=int, metavar="ID", help="follow the track with this id")
     choice.add_argument(
-        "--ground", type=float, nargs=2, metavar=("X", "Y"), help="the track nearest (m)"
+        "--ground",
+        type=float,
+        nargs=2,
+        metavar=("X", "Y"),
+        help="the confirmed track of the person there (m); held until one is confirmed",
     )
     choice.add_argument(
         "--pixel", type=float, nargs=2, metavar=("U", "V"), help="the track nearest this pixel"
