@@ -175,11 +175,11 @@ class GazeSection(Section):
         1.0, ge=0, le=1, description="zoom_control: the longest zoom position it goes to."
     )
     zoom_in_rate_s: float = Field(
-        0.5,
+        0.1,
         gt=0,
         le=100,
         description="zoom_control: zooming in, the demand moves this fraction of the zoom range "
-        "per second at most (the head's [head] zoom_rate_max_s limits the lens further).",
+        "per second at most.",
     )
     zoom_out_rate_s: float = Field(
         0.5,
@@ -203,9 +203,8 @@ class GazeSection(Section):
     zoom_in_steady_ms: float = Field(
         1000.0,
         ge=0,
-        description="zoom_control: zoom in only as far as every sighting of this long lets the "
-        "frame hold the target (inside the edge, no faster than zoom_out_speed), and only after "
-        "this long in pursuit.",
+        description="zoom_control: zoom in only once the target has been neither near the edge "
+        "nor fast for this long in pursuit.",
     )
 
     @model_validator(mode="after")

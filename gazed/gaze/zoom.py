@@ -20,20 +20,13 @@ the room's: an escaping target is zoomed out just enough to keep it in the frame
 widest, and the height is held again as soon as it is steady.
 
 Each tick, the zoom demand moves towards a goal, at most `zoom_in_rate_s` or `zoom_out_rate_s`
-(of the zoom range per second; the head's own rate limits the lens further) from the last
-demand, within `zoom_min`..`zoom_max`. The goal moves only when the height is off it by more
-than the hysteresis: `zoom_deadband`, or twice the standard deviation of the sizes' median where
-the boxes are noisier (so the zoom does not hunt after the detector's noise):
+(of the zoom range per second) from the last demand, within `zoom_min`..`zoom_max`:
 - in any state but pursuit (and line tracing, which leaves the zoom alone), to the widest:
   a target is reacquired (search, saccade, lost) with the widest view first;
-- in pursuit, with the focal length of the latest frame longer than the shorter of the
-  setpoint's and the latest sighting's room by more than the hysteresis: out, to it at once;
-- shorter than the shorter of the setpoint's and the room of every sighting of the last
-  `zoom_in_steady_ms` (the focal length at which all of them would have held the target): in,
-  to it, once pursuit has gone on for `zoom_in_steady_ms`, and never on a detection older than
-  `lost_after_ms`; each tick the focal length nears that room by no more than the fraction
-  dt / latency of their ratio (in logarithm), the latency being the latest sighting's age, so
-  the zoom in does not outrun the evidence the frames give of the room;
+- in pursuit, with the focal length of the latest frame longer than the goal's by more than
+  the deadband: out, to the goal; shorter: in, to it, but only once the target has been
+  steady (its room at least 1) for `zoom_in_steady_ms`, and never on a detection older than
+  `lost_after_ms`;
 - otherwise the demand stays.
 
 Off (`zoom_control = false`, or a fixed lens) every demand goes out unchanged: no zoom.
@@ -41,7 +34,6 @@ Off (`zoom_control = false`, or a fixed lens) every demand goes out unchanged: n
 
 from __future__ import annotations
 
-import itertools
 import math
 import statistics
 from collections import deque
@@ -55,11 +47,6 @@ from gazed.messages import Detection, GazeDemand, GazeStateName, Odometry
 LEAVE_ALONE: tuple[GazeStateName, ...] = ("trace", "hold")  # states that never move the zoom
 TICK_MAX_S = 0.5  # a longer gap between ticks ramps the zoom by this much time at most
 SIZE_SAMPLES = 15  # the target's size is the median of this many sightings' (about 0.6 s)
-MIN_SPREAD_SAMPLES = 5  # the sizes' spread is measured from this many on
-MAD_TO_SIGMA = 1.4826  # a normal distribution's standard deviation over its median deviation
-MEDIAN_SE_FACTOR = 1.2533  # a normal sample's median's standard error over the mean's
-NOISE_DEADBANDS = 2.0  # the hysteresis: the goal moves by this many of its standard deviations
-MIN_LATENCY_S = 1e-3  # a sighting's age below this counts as this
 
 
 @dataclass(frozen=True)
@@ -95,8 +82,7 @@ class ZoomControl:
         self.steady_ns = round(gaze.zoom_in_steady_ms * 1e6)
         self.seen: ZoomSighting | None = None
         self.sizes: deque[float] = deque(maxlen=SIZE_SAMPLES)  # h / f_capture (1/px)
-        self.rooms: deque[tuple[int, float]] = deque()  # (t_capture_ns, room's focal_px)
-        self.unsteady_ns: int | None = None  # when pursuit last began
+        self.unsteady_ns: int | None = None  # the last time the target was not steady
         self.demanded: float | None = None
         self.last_s: float | None = None
 
@@ -122,9 +108,8 @@ class ZoomControl:
         if height_px is not None:
             height = max(height_px - self.gaze.zoom_box_margin_px, 1.0) / h
             self.sizes.append(height / focal_px)
-        self.rooms.append((detection.t_capture_ns, focal_px * room))
-        while self.rooms[0][0] < detection.t_capture_ns - self.steady_ns:
-            self.rooms.popleft()
+        if room < 1.0:
+            self.unsteady_ns = detection.t_capture_ns
 
     def apply(
         self,
@@ -150,9 +135,8 @@ class ZoomControl:
         if not self.enabled or state in LEAVE_ALONE:
             return None
         if state != "pursuit":
-            self.unsteady_ns = wall_ns  # zoom in only after a while in pursuit
+            self.unsteady_ns = wall_ns  # steady again only after a while in pursuit
             self.sizes.clear()  # and sized afresh
-            self.rooms.clear()
         elif self.sightings.found is not None:
             self.on_detection(self.sightings.found)
         if self.demanded is None:
@@ -164,31 +148,9 @@ class ZoomControl:
         if goal is not None:
             goal = min(max(goal, self.gaze.zoom_min), self.gaze.zoom_max)
             step = rate_s * dt_s
-            if goal > now:
-                step = min(step, max(self._in_step(now, dt_s, wall_ns), 0.0))
             now = min(max(goal, now - step), now + step)
         self.demanded = now
         return now
-
-    def _in_step(self, zoom: float, dt_s: float, wall_ns: int) -> float:
-        """How far in the zoom may move this tick: its focal length nears the room of the
-        recent sightings by the fraction dt / latency of their ratio (in logarithm), the latency
-        being the latest sighting's age, so by the time a frame taken at the new zoom is seen
-        the focal length has grown within what they allowed."""
-        if self.seen is None or not self.rooms:
-            return 0.0
-        focal_px = self.lens.focal_px(zoom)
-        room_px = min(room_px for _, room_px in self.rooms)
-        if room_px <= focal_px:
-            return 0.0
-        latency_s = max((wall_ns - self.seen.t_capture_ns) / 1e9, dt_s, MIN_LATENCY_S)
-        grown_px = focal_px * (room_px / focal_px) ** min(dt_s / latency_s, 1.0)
-        return self.lens.zoom_for_focal(grown_px) - zoom
-
-    def _size_noise(self) -> float:
-        """The hysteresis the size's own noise asks for: twice the relative standard deviation
-        of its median, so the zoom does not hunt after the noise of the boxes."""
-        return NOISE_DEADBANDS * _relative_spread(self.sizes)
 
     def _goal(self, state: GazeStateName, wall_ns: int) -> tuple[float | None, float]:
         """Where the zoom should go and how fast (None: stay)."""
@@ -199,35 +161,18 @@ class ZoomControl:
         seen = self.seen
         if seen is None or wall_ns - seen.t_capture_ns > self.stale_ns:
             return None, 0.0
-        # the setpoint's focal length; with no size yet, none
+        goal_px = seen.focal_px * seen.room  # the longest focal length the frame allows
+        # and the setpoint's; with no size yet, only out
         size_px = gaze.zoom_target_height / statistics.median(self.sizes) if self.sizes else 0.0
-        band = max(gaze.zoom_deadband, self._size_noise())
-        # out: to the shorter of the setpoint's and the longest the latest frame allows
-        out_px = min(seen.focal_px * seen.room, size_px or seen.focal_px)
-        if seen.focal_px / out_px > 1.0 + band:
-            return self.lens.zoom_for_focal(out_px), gaze.zoom_out_rate_s
-        began = self.unsteady_ns is None or seen.t_capture_ns - self.unsteady_ns >= self.steady_ns
-        if not size_px or not began or not self.rooms:
+        goal_px = min(goal_px, size_px or seen.focal_px)
+        ratio = seen.focal_px / goal_px  # the height it has now, of the goal's
+        if abs(ratio - 1.0) <= gaze.zoom_deadband:
             return None, 0.0
-        # in: to the shorter of the setpoint's and the longest every recent frame allows
-        in_px = min(size_px, min(room_px for _, room_px in self.rooms))
-        if seen.focal_px / in_px < 1.0 - band:
-            return self.lens.zoom_for_focal(in_px), gaze.zoom_in_rate_s
-        return None, 0.0
-
-
-def _relative_spread(sizes: deque[float]) -> float:
-    """The relative standard deviation of the median of `sizes`, from the differences between
-    successive sizes (so a target coming closer, whose size grows, is not taken for noise):
-    their robust deviation (1.4826 MAD) over the root of 2, over the median, times the
-    median's efficiency factor over the root of the count."""
-    if len(sizes) < MIN_SPREAD_SAMPLES:
-        return 0.0
-    steps = [b - a for a, b in itertools.pairwise(sizes)]
-    centre = statistics.median(steps)
-    mad = statistics.median(abs(step - centre) for step in steps)
-    sigma = MAD_TO_SIGMA * mad / math.sqrt(2.0)
-    return MEDIAN_SE_FACTOR * sigma / statistics.median(sizes) / math.sqrt(len(sizes))
+        goal = self.lens.zoom_for_focal(goal_px)
+        if ratio > 1.0:
+            return goal, gaze.zoom_out_rate_s
+        steady = self.unsteady_ns is None or seen.t_capture_ns - self.unsteady_ns >= self.steady_ns
+        return (goal, gaze.zoom_in_rate_s) if steady else (None, 0.0)
 
 
 def _room(allowed: float, now: float) -> float:
