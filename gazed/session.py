@@ -78,6 +78,8 @@ def session_config(
     mode = "router" if router else "peer" if peer else "client"
     config.insert_json5("mode", json.dumps(mode))
     config.insert_json5("scouting/multicast/enabled", "false")
+    if router:  # its scouting delay waits for multicast answers, and there are none
+        config.insert_json5("scouting/delay", "0")
     config.insert_json5("scouting/gossip/enabled", json.dumps(bus.direct and (router or peer)))
     listen = list(bus.listen) if router else [bus.peer_listen] if peer else []
     config.insert_json5("listen/endpoints", json.dumps(listen))

@@ -215,6 +215,7 @@ def test_sessions_do_not_scout_and_clients_do_not_listen(tmp_path: Path) -> None
     assert json.loads(router.get_json("mode")) == "router"
     assert json.loads(router.get_json("listen/endpoints")) == ["tcp/127.0.0.1:7447"]
     assert json.loads(router.get_json("scouting/gossip/enabled")) is True
+    assert json.loads(router.get_json("scouting/delay")) == 0  # opens without waiting
     assert json.loads(process.get_json("mode")) == "peer"
     assert json.loads(process.get_json("listen/endpoints")) == ["tcp/127.0.0.1:0"]
     assert json.loads(process.get_json("connect/endpoints")) == ["tcp/127.0.0.1:7447"]

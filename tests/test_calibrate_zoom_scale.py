@@ -4,6 +4,7 @@ a zoom of each other refused."""
 
 from __future__ import annotations
 
+import functools
 import math
 
 import cv2
@@ -27,8 +28,16 @@ def zoomed(view: np.ndarray, scale: float, centre: tuple[float, float]) -> np.nd
     return cv2.warpAffine(view, affine, (view.shape[1], view.shape[0]), flags=cv2.INTER_CUBIC)
 
 
+@functools.cache
+def yard(seed: int) -> np.ndarray:
+    """A view-sized patch of the simulated yard's texture (made once per seed: read-only)."""
+    patch = ground_texture(seed)[400 : 400 + SIZE[1], 500 : 500 + SIZE[0]].copy()
+    patch.flags.writeable = False
+    return patch
+
+
 def texture() -> np.ndarray:
-    return ground_texture(3)[400 : 400 + SIZE[1], 500 : 500 + SIZE[0]]
+    return yard(3)
 
 
 @pytest.mark.parametrize(
@@ -68,10 +77,13 @@ def test_a_ten_times_zoom_lens_s_table_is_measured_by_chaining() -> None:
     zooms = list(np.linspace(0.0, 1.0, 6))
     ratios = np.geomspace(1.0, 10.0, 6)
     truth = [(fx_wide * r, 160.0 + 4.0 * (r - 1), 120.0 - 3.0 * (r - 1)) for r in ratios]
+    cameras = [CameraModel.from_intrinsics(*SIZE, fx, fx, cx, cy, ()) for fx, cx, cy in truth]
+    # one yard rendered through each zoom's camera (of the same size: same frames as a
+    # renderer made for that camera)
+    renderer = Renderer(cameras[0], pose, seed=1)
     views = []
-    for k, (fx, cx, cy) in enumerate(truth):
-        camera = CameraModel.from_intrinsics(*SIZE, fx, fx, cx, cy, ())
-        frame = Renderer(camera, pose, seed=1).render(k, math.radians(-30), math.radians(-20), [])
+    for k, camera in enumerate(cameras):
+        frame = renderer.render(k, math.radians(-30), math.radians(-20), [], camera=camera)
         views.append(cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY))
     rows = zoom_table(zooms, views, fx_wide, (160.0, 120.0))
     assert [row.zoom for row in rows] == zooms
@@ -81,7 +93,7 @@ def test_a_ten_times_zoom_lens_s_table_is_measured_by_chaining() -> None:
 
 
 def test_views_of_different_scenes_are_refused() -> None:
-    other = ground_texture(4)[400 : 400 + SIZE[1], 500 : 500 + SIZE[0]]
+    other = yard(4)
     with pytest.raises(ZoomMatchError, match="do not align"):
         match_zoom(texture(), other)
 
@@ -95,7 +107,7 @@ def test_a_stretch_that_no_zoom_makes_is_refused() -> None:
 
 def test_the_chain_names_the_pair_that_failed() -> None:
     wide = texture()
-    other = ground_texture(4)[400 : 400 + SIZE[1], 500 : 500 + SIZE[0]]
+    other = yard(4)
     views = [wide, zoomed(wide, 1.5, (160.0, 120.0)), other]
     with pytest.raises(ZoomMatchError, match=r"zoom 0\.500 -> 1\.000"):
         zoom_table([0.0, 0.5, 1.0], views, 300.0, (160.0, 120.0))

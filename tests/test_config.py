@@ -159,6 +159,7 @@ def test_unreadable_file(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> 
     assert "absent.toml: cannot read" in capsys.readouterr().err
 
 
+@pytest.mark.e2e  # the console entry point as a process
 def test_check_console_entry_exits_2(tmp_path: Path) -> None:
     path = tmp_path / "rig.toml"
     path.write_text('[rig]\nname = "x"\n[gaze]\nfovea_half_angel_deg = 2\n')

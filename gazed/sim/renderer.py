@@ -149,15 +149,21 @@ class Renderer:
     def _noise_pool(
         self, std: float, shape: tuple[int, int, int]
     ) -> list[tuple[np.ndarray, np.ndarray]]:
-        """Pairs (positive part, negative part) of Gaussian noise images, for saturating add."""
+        """Pairs (positive part, negative part) of Gaussian noise images, for saturating add.
+        The rounding and clipping work in place and split the signs in int16, the smallest
+        type that holds both."""
         if std <= 0:
             return []
         rng = np.random.default_rng([self.seed, 3])
         pool = []
         for _ in range(NOISE_POOL):
-            noise = np.rint(rng.standard_normal(shape) * std)
+            noise = rng.standard_normal(shape)
+            noise *= std
+            np.rint(noise, out=noise)
+            np.clip(noise, -255, 255, out=noise)
+            signed = noise.astype(np.int16)
             pool.append(
-                (np.clip(noise, 0, 255).astype(np.uint8), np.clip(-noise, 0, 255).astype(np.uint8))
+                (np.maximum(signed, 0).astype(np.uint8), np.maximum(-signed, 0).astype(np.uint8))
             )
         return pool
 
