@@ -372,3 +372,15 @@ def test_a_nearer_tentative_track_is_waited_for() -> None:
     assert c.on_state(at(2.5, someone, again, other), None) is None and c.target_id == 9
     change = c.on_state(at(2.6, someone, again.model_copy(update={"confirmed": True}), other), None)
     assert change is not None and change.target_id == 11
+
+
+def test_a_young_track_is_taken_back_only_to_its_birth() -> None:
+    c = choice(select_rule="first")
+    c.on_select(GazeSelect(t_capture_ns=1_000_000_000, ground_xy_m=(0.0, 5.0)), None)
+    # 1.6 s on: someone born 0.8 s ago 2.5 m from the point, and the person at the point,
+    # born 0.3 s ago, whose velocity is still poor; taken back 1.6 s along it, it would be
+    # 6 m off
+    someone = walker(4, (2.5, 5.0), (0.0, 0.0)).model_copy(update={"age_s": 0.8})
+    young = walker(9, (1.0, 5.0), (4.0, 2.5)).model_copy(update={"age_s": 0.3})
+    change = c.on_state(at(2.6, someone, young), None)
+    assert change is not None and change.target_id == 9

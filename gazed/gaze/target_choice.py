@@ -29,11 +29,13 @@ continued.
 An operator points at a person the moment they see them, often before the estimator has a
 track of them (a person who has just walked in needs a few detections to be confirmed), and
 often beside others who have tracks. A ground point is taken by the nearest confirmed track
-whose person can have been at that point when it was chosen: its ground position taken back
-along its velocity to the request's capture time lies within the reach of that point — as far
-as a person walks in the time between (`WALK_MAX_M_S` for the error of the velocity over that
-time), plus a person's width (the point and the track's may each be anywhere on them) and three
-standard deviations of the track's position. Tentative tracks are not people yet and take no
+whose person can have been at that point when it was chosen. Its ground position is taken back
+along its velocity over the time its detections measured that velocity: to the request's
+capture time, or to its birth where it was born after the request (a young track's velocity is
+too poor to take back further). That lies within the reach of the point: as far as a person
+walks (`WALK_MAX_M_S`) from the request to the birth, plus a person's width (the point and the
+track's may each be anywhere on them) and three standard deviations of the track's position.
+Tentative tracks are not people yet and take no
 point, but one nearer the point than every confirmed track that can take it is waited for: a
 person who has just walked in is still tentative while those around them are confirmed, and a
 tentative track is confirmed or dropped within the estimator's `confirm_frames`. A point no
@@ -245,10 +247,12 @@ class TargetChoice:
         for track in tracks:
             if track.ground_xy_m is None:
                 continue
+            back_s = min(dt_s, track.age_s)  # to the request, or to its birth after it
             velocity = np.asarray(track.ground_velocity_m_s or (0.0, 0.0))
-            then = np.asarray(track.ground_xy_m) - velocity * dt_s
+            then = np.asarray(track.ground_xy_m) - velocity * back_s
             spread = np.linalg.eigvalsh(track.ground_cov_m2)[-1] if track.ground_cov_m2 else 0.0
-            reach = WALK_MAX_M_S * dt_s + PERSON_WIDTH_M + POSITION_SIGMAS * math.sqrt(spread)
+            walked_m = WALK_MAX_M_S * (dt_s - back_s)
+            reach = walked_m + PERSON_WIDTH_M + POSITION_SIGMAS * math.sqrt(spread)
             distance = float(np.linalg.norm(then - point))
             if distance <= reach and distance < best_m:
                 best, best_m = track, distance
