@@ -4,8 +4,9 @@ The rig's rule (`target_rule`) picks a confirmed track when there is no choice; 
 `gaze/select` picks one by id, by a ground point (the nearest track on the ground) or by a pixel
 with the head pose it was seen at (the pixel's gaze angles through the camera model and the
 head's kinematics, then the nearest track by angle). Either choice holds until its track ends —
-it is absent from the estimator's state — and then the rule picks again. An empty `gaze/select`
-hands the choice back to the rule at once.
+it is absent from the estimator's state — and then the rule picks again (an operator's choice
+first waits for its person: below). An empty `gaze/select` hands the choice back to the rule at
+once.
 
 The estimator keeps a track's id through short losses (it coasts), so a target lost and
 reacquired keeps its id and the choice holds; the gaze uses only the predictions of its chosen
