@@ -384,3 +384,21 @@ def test_a_young_track_is_taken_back_only_to_its_birth() -> None:
     young = walker(9, (1.0, 5.0), (4.0, 2.5)).model_copy(update={"age_s": 0.3})
     change = c.on_state(at(2.6, someone, young), None)
     assert change is not None and change.target_id == 9
+
+
+def test_the_controller_follows_no_other_track_while_the_choice_waits() -> None:
+    clock = Clock()
+    controller = GazeController(RIG, clock.mono_s)
+    mine, other = walker(2, (0.0, 5.0), (1.0, 0.0)), walker(1, (-3.0, 5.0), (0.0, 0.0))
+    controller.on_estimator_state(at(clock.wall_ns / 1e9, other, mine), clock.wall_ns)
+    controller.on_select(GazeSelect(t_capture_ns=clock.wall_ns, track_id=2), clock.wall_ns)
+    controller.on_prediction(prediction(clock, 5.0, 0.0).model_copy(update={"track_id": 2}))
+    clock.advance(0.2)
+    controller.on_estimator_state(at(clock.wall_ns / 1e9, other), clock.wall_ns)  # 2 ended
+    decision = controller.tick(clock.wall_ns, clock.mono_s)
+    held = [s for s in decision.transitions if "held for its person" in s.reason]
+    assert len(held) == 1 and held[0].target_id == 2
+    pursued = controller.pursuit.prediction
+    controller.on_prediction(prediction(clock, -20.0, 0.0).model_copy(update={"track_id": 1}))
+    assert controller.pursuit.prediction is pursued  # not the rule's first track
+    assert controller.counts["other_tracks"] == 1 and controller.counts["held_for_person"] == 1
