@@ -6,19 +6,26 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 from test_gaze_controller import RIG, Clock, detection, odometry, prediction
 
 from gazed.config import GazeSection
 from gazed.gaze.controller import GazeController
 from gazed.gaze.focus import focus
-from gazed.gaze.target_choice import TargetChoice
+from gazed.gaze.target_choice import (
+    POSITION_SIGMAS,
+    WALK_MAX_M_S,
+    TargetChoice,
+    track_start_up_s,
+    walked_on,
+)
 from gazed.gaze.target_rule import GroundZone, rule_pick
 from gazed.geometry.camera import CameraModel
 from gazed.geometry.kinematics import HeadKinematics
 from gazed.geometry.target_angles import target_angles
 from gazed.geometry.zoom import ZoomLens
-from gazed.messages import EstimatorState, GazeSelect, HeadPose, Mover, Track
+from gazed.messages import EstimatorState, GazeSelect, HeadPose, Mover, Prediction, Track
 
 CAMERA = CameraModel.from_section(RIG.camera)
 LENS = ZoomLens.fixed(CAMERA)
@@ -61,7 +68,7 @@ def state(*tracks: Track) -> EstimatorState:
 
 
 def choice(**gaze: object) -> TargetChoice:
-    return TargetChoice(GazeSection(**gaze), LENS, KINEMATICS)
+    return TargetChoice(RIG.model_copy(update={"gaze": GazeSection(**gaze)}), LENS, KINEMATICS)
 
 
 @pytest.mark.parametrize(
@@ -127,11 +134,21 @@ def test_an_unknown_id_is_refused_and_an_empty_choice_goes_back_to_the_rule() ->
     assert back.target_id == 3 and back.reason == "operator: back to rule largest"
 
 
-def test_an_operators_choice_ends_with_its_track() -> None:
-    c = choice(select_rule="first")
-    c.on_state(state(*TRACKS), None)
+def at(t_s: float, *tracks: Track) -> EstimatorState:
+    return EstimatorState(t_capture_ns=round(t_s * 1e9), filter="imm", x=(), P=(), tracks=tracks)
+
+
+def test_an_operators_choice_is_held_for_its_person_then_ends() -> None:
+    c = choice(select_rule="first", lost_after_ms=600.0, search_after_ms=3000.0)
+    c.on_state(at(1.0, *TRACKS), None)
     c.on_select(GazeSelect(t_capture_ns=1, track_id=4), None)
-    change = c.on_state(state(*TRACKS[:3]), None)
+    change = c.on_state(at(1.2, *TRACKS[:3]), None)  # 4 ended; nobody continues it
+    assert change is not None and change.target_id == 4 and not change.changed
+    assert change.reason == "track 4 ended; held for its person where they were going"
+    assert c.on_state(at(4.5, *TRACKS[:3]), None) is None  # still searched for: said once
+    assert c.target_id == 4 and c.by_operator and c.counts["held_for_person"] == 1
+    # the gaze searches as long as `lost_after_ms` + `search_after_ms` after 4's last detection
+    change = c.on_state(at(4.7, *TRACKS[:3]), None)
     assert change is not None and change.target_id == 1 and not c.by_operator
     assert change.reason == "track 4 ended; rule first chose track 1"
 
@@ -204,11 +221,6 @@ def test_a_ground_point_before_any_track_is_held_for_the_track_of_its_person() -
     assert not held.changed and held.reason == "operator: no track yet; held for one at (0, 5) m"
     assert c.counts["refused_selections"] == 0
 
-    def at(t_s: float, *tracks: Track) -> EstimatorState:
-        return EstimatorState(
-            t_capture_ns=round(t_s * 1e9), filter="imm", x=(), P=(), tracks=tracks
-        )
-
     walker = placed(5, (1.5, 5.0), 0.01).model_copy(update={"ground_velocity_m_s": (1.0, 0.0)})
     other = placed(4, (-4.0, 5.0), 0.01)  # confirmed first, but too far to have been there
     assert c.on_state(at(1.5, other, walker.model_copy(update={"confirmed": False})), None) is None
@@ -271,3 +283,122 @@ def test_a_ground_point_is_not_taken_by_clutter_or_someone_far_from_it() -> None
     confirmed = newcomer.model_copy(update={"confirmed": True})
     change = c.on_state(state(far, confirmed), None)
     assert change is not None and change.target_id == 7 and c.by_operator
+
+
+def walker(id: int, xy: tuple[float, float], velocity: tuple[float, float]) -> Track:
+    return placed(id, xy, 0.04).model_copy(update={"ground_velocity_m_s": velocity})
+
+
+def test_a_held_choice_is_continued_only_where_its_person_can_have_walked() -> None:
+    c = choice(select_rule="first")
+    chosen = walker(2, (0.0, 5.0), (1.0, 0.0))
+    beside = walker(1, (-1.0, 5.0), (0.0, 0.0))  # tracked all along: someone else
+    c.on_state(at(1.0, beside, chosen), None)
+    c.on_select(GazeSelect(t_capture_ns=1, track_id=2), None)
+    c.on_state(at(1.1, beside, chosen.model_copy(update={"coasting": True})), None)
+    change = c.on_state(at(1.2, beside), None)  # 2 ended, its person at about (0.2, 5)
+    assert change is not None and change.target_id == 2 and c.holding
+    # other tracks' predictions do not reach the pursuit while the choice is held
+    assert not c.accepts(Prediction_for(1))
+    # a new track behind where 2's person was going, and one too far on: neither is them
+    behind, far = walker(5, (-1.6, 5.0), (1.0, 0.0)), walker(6, (4.5, 5.0), (1.0, 0.0))
+    assert c.on_state(at(1.5, beside, behind, far), None) is None and c.target_id == 2
+    # half a second on, a new track where 2's person has walked to (0.7, 5) continues it
+    change = c.on_state(at(1.7, beside, behind, far, walker(7, (0.9, 5.1), (1.0, 0.0))), None)
+    assert change is not None and change.target_id == 7 and c.by_operator and not c.holding
+    assert change.reason == "track 2 lost; its person continues as 7"
+
+
+def test_a_grown_gate_takes_no_track_held_before_the_loss() -> None:
+    c = choice(select_rule="first")
+    beside = walker(1, (2.0, 5.0), (0.0, 0.0))
+    c.on_state(at(1.0, beside, walker(2, (0.0, 5.0), (0.0, 0.0))), None)
+    c.on_select(GazeSelect(t_capture_ns=1, track_id=2), None)
+    c.on_state(at(1.1, beside), None)  # ended at once: merged, but 1 is too far to be it
+    assert c.holding and c.target_id == 2
+    # later the lost person's region covers 1: still not theirs (not a merge any more)
+    assert c.on_state(at(3.0, beside.model_copy(update={"ground_xy_m": (0.3, 5.0)})), None) is None
+    assert c.target_id == 2
+
+
+def test_walked_on_moves_along_the_velocity_and_grows_the_covariance() -> None:
+    before = walker(2, (0.0, 5.0), (1.0, -0.5))
+    after = walked_on(before, 2.0)
+    assert after.ground_xy_m == pytest.approx((2.0, 4.0))
+    stray_m2 = (WALK_MAX_M_S * 2.0 / POSITION_SIGMAS) ** 2
+    grown = 0.04 + stray_m2
+    assert np.asarray(after.ground_cov_m2) == pytest.approx(np.diag([grown, grown]))
+    assert walked_on(before, 0.0) is before
+
+
+def test_a_held_point_outlasts_the_start_up_and_is_then_refused() -> None:
+    rig = RIG.model_copy(update={"gaze": GazeSection(select_rule="first")})
+    start_up_s = track_start_up_s(rig)
+    frames = rig.vision.background_learning_frames + rig.estimator.confirm_frames
+    assert (
+        start_up_s > frames * rig.camera.frame_period_s + 0.999 * rig.estimator.coast_max_ms / 1e3
+    )
+    c = TargetChoice(rig, LENS, KINEMATICS)
+    c.on_select(GazeSelect(t_capture_ns=1_000_000_000, ground_xy_m=(0.0, 5.0)), None)
+    far = walker(4, (-40.0, 5.0), (0.0, 0.0))  # nobody who can have been at the point
+    assert c.on_state(at(1.0 + 0.99 * start_up_s, far), None) is None and c.pending is not None
+    change = c.on_state(at(1.0 + 1.01 * start_up_s, far), None)
+    assert change is not None and change.target_id == 4 and c.pending is None
+    assert change.reason.startswith("operator refused: no track at (0, 5) m in ")
+    assert change.reason.endswith("s; back to rule first") and not c.by_operator
+    assert c.counts["refused_selections"] == 1
+
+
+def Prediction_for(track_id: int) -> Prediction:
+    clock = Clock()
+    return prediction(clock, 0.0, 0.0).model_copy(update={"track_id": track_id})
+
+
+def test_a_nearer_tentative_track_is_waited_for() -> None:
+    c = choice(select_rule="first")
+    c.on_select(GazeSelect(t_capture_ns=1_000_000_000, ground_xy_m=(0.0, 5.0)), None)
+    # 1 s on: a confirmed walker who can have been at the point, and a nearer newcomer
+    someone = walker(4, (2.5, 5.0), (0.0, 0.0))
+    newcomer = walker(9, (0.6, 5.0), (0.5, 0.0)).model_copy(update={"confirmed": False})
+    assert c.on_state(at(2.0, someone, newcomer), None) is None and c.pending is not None
+    confirmed = newcomer.model_copy(update={"confirmed": True})
+    change = c.on_state(at(2.2, someone, confirmed), None)
+    assert change is not None and change.target_id == 9 and c.by_operator
+    # and a continuation waits for a nearer tentative new track as well
+    c.on_state(at(2.3, someone), None)  # 9 ended at once; 4 is too far to be its merge
+    assert c.holding and c.target_id == 9
+    again = walker(11, (0.7, 5.0), (0.5, 0.0)).model_copy(update={"confirmed": False})
+    other = walker(12, (1.8, 5.0), (0.0, 0.0))
+    assert c.on_state(at(2.5, someone, again, other), None) is None and c.target_id == 9
+    change = c.on_state(at(2.6, someone, again.model_copy(update={"confirmed": True}), other), None)
+    assert change is not None and change.target_id == 11
+
+
+def test_a_young_track_is_taken_back_only_to_its_birth() -> None:
+    c = choice(select_rule="first")
+    c.on_select(GazeSelect(t_capture_ns=1_000_000_000, ground_xy_m=(0.0, 5.0)), None)
+    # 1.6 s on: someone born 0.8 s ago 2.5 m from the point, and the person at the point,
+    # born 0.3 s ago, whose velocity is still poor; taken back 1.6 s along it, it would be
+    # 6 m off
+    someone = walker(4, (2.5, 5.0), (0.0, 0.0)).model_copy(update={"age_s": 0.8})
+    young = walker(9, (1.0, 5.0), (4.0, 2.5)).model_copy(update={"age_s": 0.3})
+    change = c.on_state(at(2.6, someone, young), None)
+    assert change is not None and change.target_id == 9
+
+
+def test_the_controller_follows_no_other_track_while_the_choice_waits() -> None:
+    clock = Clock()
+    controller = GazeController(RIG, clock.mono_s)
+    mine, other = walker(2, (0.0, 5.0), (1.0, 0.0)), walker(1, (-3.0, 5.0), (0.0, 0.0))
+    controller.on_estimator_state(at(clock.wall_ns / 1e9, other, mine), clock.wall_ns)
+    controller.on_select(GazeSelect(t_capture_ns=clock.wall_ns, track_id=2), clock.wall_ns)
+    controller.on_prediction(prediction(clock, 5.0, 0.0).model_copy(update={"track_id": 2}))
+    clock.advance(0.2)
+    controller.on_estimator_state(at(clock.wall_ns / 1e9, other), clock.wall_ns)  # 2 ended
+    decision = controller.tick(clock.wall_ns, clock.mono_s)
+    held = [s for s in decision.transitions if "held for its person" in s.reason]
+    assert len(held) == 1 and held[0].target_id == 2
+    pursued = controller.pursuit.prediction
+    controller.on_prediction(prediction(clock, -20.0, 0.0).model_copy(update={"track_id": 1}))
+    assert controller.pursuit.prediction is pursued  # not the rule's first track
+    assert controller.counts["other_tracks"] == 1 and controller.counts["held_for_person"] == 1

@@ -108,7 +108,7 @@ class GazeController:
             gaze, self.fovea_rad, rig.calibration.camera_xyz_m, move_limits, frame_period_s
         )
         self.tracer = LineTracer(gaze, lens, kinematics, limits_rad)
-        self.choice = TargetChoice(gaze, lens, kinematics)
+        self.choice = TargetChoice(rig, lens, kinematics)
         self.zoom = ZoomControl(gaze, lens, self.sightings)
         self.operator = OperatorControl(self)  # park, search, hold, resume
         # the state machine

@@ -4,8 +4,9 @@ The rig's rule (`target_rule`) picks a confirmed track when there is no choice; 
 `gaze/select` picks one by id, by a ground point (the nearest track on the ground) or by a pixel
 with the head pose it was seen at (the pixel's gaze angles through the camera model and the
 head's kinematics, then the nearest track by angle). Either choice holds until its track ends —
-it is absent from the estimator's state — and then the rule picks again. An empty `gaze/select`
-hands the choice back to the rule at once.
+it is absent from the estimator's state — and then the rule picks again (an operator's choice
+first waits for its person: below). An empty `gaze/select` hands the choice back to the rule at
+once.
 
 The estimator keeps a track's id through short losses (it coasts), so a target lost and
 reacquired keeps its id and the choice holds; the gaze uses only the predictions of its chosen
@@ -29,13 +30,35 @@ continued.
 An operator points at a person the moment they see them, often before the estimator has a
 track of them (a person who has just walked in needs a few detections to be confirmed), and
 often beside others who have tracks. A ground point is taken by the nearest confirmed track
-whose person can have been at that point when it was chosen: its ground position taken back
-along its velocity to the request's capture time lies within the reach of that point — as far
-as a person walks in the time between (`WALK_MAX_M_S` for the error of the velocity over that
-time), plus a person's width (the point and the track's may each be anywhere on them) and three
-standard deviations of the track's position. Tentative tracks are not people yet and take no
-point. A point no confirmed track can take yet is held rather than refused, and taken by the
-first track that can. While it is held, the rule does not pick.
+whose person can have been at that point when it was chosen. Its ground position is taken back
+along its velocity over the time its detections measured that velocity: to the request's
+capture time, or to its birth where it was born after the request (a young track's velocity is
+too poor to take back further). That lies within the reach of the point: as far as a person
+walks (`WALK_MAX_M_S`) from the request to the birth, plus a person's width (the point and the
+track's may each be anywhere on them) and three standard deviations of the track's position.
+Tentative tracks are not people yet and take no
+point, but one nearer the point than every confirmed track that can take it is waited for: a
+person who has just walked in is still tentative while those around them are confirmed, and a
+tentative track is confirmed or dropped within the estimator's `confirm_frames`. A point no
+confirmed track can take yet is held rather than refused, and taken by the first track that
+can. The same holds for a continuation: a tentative new track nearer (in the gate's distance)
+than every confirmed one is waited for. While it is held, the rule does not pick. It is held for as long as a
+person in view can go without a confirmed track (`track_start_up_s`): the detector's start-up
+(`[vision] background_learning_frames`), the estimator's confirmation (`confirm_frames`), and
+then as long as the estimator keeps a person through missed detections (`coast_max_ms`). A
+point no track has taken by then is refused, and the rule picks.
+
+An operator chose one person, and a track of someone else is not them: where the chosen track
+ends and no track continues it, the choice is held for its person rather than handed to the
+rule, which would pick another walker. The lost person is taken on along their last velocity,
+their covariance grown by how far a person can stray from that in the time since
+(`WALK_MAX_M_S` over it, as `POSITION_SIGMAS` standard deviations), so a new track born where
+they can have walked continues the choice (the gate above), and none held before (those the
+estimator already kept for someone else) does. Meanwhile the gaze takes no other track's
+predictions: it coasts and searches where the person was going. The hold lasts as long as the
+gaze searches for a lost target (`lost_after_ms` then `search_after_ms`, from the chosen track's
+last detection); past that the rule picks. The rule's own choice is its rule's: a track of it
+that ends is replaced at once.
 """
 
 from __future__ import annotations
@@ -45,7 +68,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from gazed.config import GazeSection
+from gazed.config import Rig
 from gazed.estimation.chi_square import chi2_quantile
 from gazed.gaze.target_rule import (
     GroundZone,
@@ -77,7 +100,8 @@ class ChoiceChange:
 class TargetChoice:
     """Feed it every `EstimatorState` and `GazeSelect`; `target_id` is the chosen track."""
 
-    def __init__(self, gaze: GazeSection, lens: ZoomLens, kinematics: HeadKinematics) -> None:
+    def __init__(self, rig: Rig, lens: ZoomLens, kinematics: HeadKinematics) -> None:
+        gaze = rig.gaze
         self.rule = gaze.select_rule
         self.zone = GroundZone(gaze.select_zone_xy_m) if gaze.select_zone_xy_m else None
         self.lens = lens
@@ -85,11 +109,18 @@ class TargetChoice:
         self.target_id: int | None = None
         self.by_operator = False
         self.tracks: tuple[Track, ...] = ()
-        self.counts = dict.fromkeys(("other_tracks", "refused_selections", "continued"), 0)
+        self.counts = dict.fromkeys(
+            ("other_tracks", "refused_selections", "continued", "held_for_person"), 0
+        )
         self.continuation_d2 = chi2_quantile(CONTINUATION_GATE_PROBABILITY, 2)
         self._chosen: Track | None = None  # the chosen track in the last state that held it
+        self._chosen_ns = 0  # that state's capture time
+        self._seen_ns = 0  # the capture time of the chosen track's last detection
         self._known: frozenset[int] = frozenset()  # the ids when it last took a detection
         self.pending: GazeSelect | None = None  # an operator's point no track was near yet
+        self.pending_max_ns = round(track_start_up_s(rig) * 1e9)
+        self.hold_max_ns = round((gaze.lost_after_ms + gaze.search_after_ms) * 1e6)
+        self.holding = False  # an operator's chosen track ended: held for its person
         self._t_state_ns = 0  # the capture time of the last estimator state
 
     def accepts(self, prediction: Prediction) -> bool:
@@ -111,13 +142,16 @@ class TargetChoice:
         self.tracks = state.tracks
         self._t_state_ns = state.t_capture_ns
         if self.pending is not None:
-            return self._take_pending(state)
-        continued = self._continuation(state.tracks)
+            return self._take_pending(state, head_rad)
+        continued = self._continuation(state.tracks, state.t_capture_ns)
         if continued is not None:
             return continued
         ended = None
         if self.target_id is not None and not any(t.id == self.target_id for t in state.tracks):
+            if self.by_operator and state.t_capture_ns - self._seen_ns <= self.hold_max_ns:
+                return self._hold_for_person()
             ended, self.target_id, self.by_operator = self.target_id, None, False
+            self.holding = False
         if self.target_id is None:
             picked = rule_pick(self.rule, state.tracks, self.kinematics, head_rad, self.zone)
             if picked is not None:
@@ -128,7 +162,20 @@ class TargetChoice:
             return ChoiceChange(None, f"track {ended} ended; rule {self.rule} has no track")
         return None
 
-    def _continuation(self, tracks: tuple[Track, ...]) -> ChoiceChange | None:
+    def _hold_for_person(self) -> ChoiceChange | None:
+        """The operator's chosen track has ended with no track to continue it: the choice holds
+        for its person (module docstring); said once, when the hold begins."""
+        if self.holding:
+            return None
+        self.holding = True
+        self.counts["held_for_person"] += 1
+        return ChoiceChange(
+            self.target_id,
+            f"track {self.target_id} ended; held for its person where they were going",
+            False,
+        )
+
+    def _continuation(self, tracks: tuple[Track, ...], t_ns: int) -> ChoiceChange | None:
         """The chosen track handed to the new track of its person (module docstring), or
         None."""
         chosen = next((t for t in tracks if t.id == self.target_id), None)
@@ -136,58 +183,81 @@ class TargetChoice:
             newly = self._chosen is None or self._chosen.id != chosen.id
             if newly or not chosen.coasting:
                 self._known = frozenset(t.id for t in tracks)
-            self._chosen = chosen
+                self._seen_ns = t_ns
+            self._chosen, self._chosen_ns = chosen, t_ns
             if not chosen.coasting:
                 return None
         lost = self._chosen
         if self.target_id is None or lost is None or lost.id != self.target_id:
             return None
-        merged = chosen is None and not lost.coasting  # ended at once: merged (docstring)
+        # ended at once, in the first state without it: merged (module docstring)
+        merged = chosen is None and not lost.coasting and not self.holding
+        if chosen is None:
+            lost = walked_on(lost, (t_ns - self._chosen_ns) * 1e-9)
         best, best_d2 = None, self.continuation_d2
         for track in tracks:
-            if (track.id in self._known and not merged) or not track.confirmed or track.coasting:
+            if (track.id in self._known and not merged) or track.coasting:
                 continue
             d2 = _ground_distance2(lost, track)
             if d2 is not None and d2 <= best_d2:
                 best, best_d2 = track, d2
-        if best is None:
+        if best is None or not best.confirmed:  # none, or wait for the tentative (docstring)
             return None
-        self.target_id, self._chosen = best.id, best
+        self.target_id, self._chosen, self._chosen_ns, self._seen_ns = best.id, best, t_ns, t_ns
         self._known = frozenset(t.id for t in tracks)
+        self.holding = False
         self.counts["continued"] += 1
         return ChoiceChange(best.id, f"track {lost.id} lost; its person continues as {best.id}")
 
-    def _take_pending(self, state: EstimatorState) -> ChoiceChange | None:
+    def _take_pending(
+        self, state: EstimatorState, head_rad: tuple[float, float] | None
+    ) -> ChoiceChange | None:
         """The held ground point taken by the track whose person was there (module docstring),
-        or None while none can have been."""
+        None while none can have been, or refused once none has in `pending_max_ns`."""
         assert self.pending is not None and self.pending.ground_xy_m is not None
         x, y = self.pending.ground_xy_m
         best = self._reaching(self.pending, state.tracks, state.t_capture_ns)
         if best is None:
-            return None
+            waited_ns = state.t_capture_ns - self.pending.t_capture_ns
+            if waited_ns <= self.pending_max_ns:
+                return None
+            self.pending = None
+            self.counts["refused_selections"] += 1
+            picked = rule_pick(self.rule, state.tracks, self.kinematics, head_rad, self.zone)
+            self.target_id = picked.id if picked is not None else None
+            return ChoiceChange(
+                self.target_id,
+                f"{REFUSED}: no track at ({x:g}, {y:g}) m in {waited_ns * 1e-9:.1f} s; "
+                f"back to rule {self.rule}",
+            )
         self.pending, self.target_id, self.by_operator = None, best.id, True
         self._chosen, self._known = best, frozenset(t.id for t in state.tracks)
+        self._chosen_ns = self._seen_ns = state.t_capture_ns
+        self.holding = False
         return ChoiceChange(best.id, f"{OPERATOR} chose track {best.id} at ({x:g}, {y:g}) m")
 
     @staticmethod
     def _reaching(select: GazeSelect, tracks: tuple[Track, ...], t_ns: int) -> Track | None:
-        """The nearest confirmed track at `t_ns` whose person can have been at the request's
-        ground point when it was made (module docstring); None if none can."""
+        """The nearest track at `t_ns` whose person can have been at the request's ground point
+        when it was made, if it is confirmed (module docstring); None if none can, or if the
+        nearest is tentative."""
         assert select.ground_xy_m is not None
         point = np.asarray(select.ground_xy_m)
         dt_s = max(0.0, (t_ns - select.t_capture_ns) * 1e-9)
         best, best_m = None, math.inf
         for track in tracks:
-            if not track.confirmed or track.ground_xy_m is None:
+            if track.ground_xy_m is None:
                 continue
+            back_s = min(dt_s, track.age_s)  # to the request, or to its birth after it
             velocity = np.asarray(track.ground_velocity_m_s or (0.0, 0.0))
-            then = np.asarray(track.ground_xy_m) - velocity * dt_s
+            then = np.asarray(track.ground_xy_m) - velocity * back_s
             spread = np.linalg.eigvalsh(track.ground_cov_m2)[-1] if track.ground_cov_m2 else 0.0
-            reach = WALK_MAX_M_S * dt_s + PERSON_WIDTH_M + POSITION_SIGMAS * math.sqrt(spread)
+            walked_m = WALK_MAX_M_S * (dt_s - back_s)
+            reach = walked_m + PERSON_WIDTH_M + POSITION_SIGMAS * math.sqrt(spread)
             distance = float(np.linalg.norm(then - point))
             if distance <= reach and distance < best_m:
                 best, best_m = track, distance
-        return best
+        return best if best is not None and best.confirmed else None
 
     def on_select(self, select: GazeSelect, head_rad: tuple[float, float] | None) -> ChoiceChange:
         """An operator's request: a track by id, or the nearest to a ground point or a pixel;
@@ -203,7 +273,7 @@ class TargetChoice:
                 self.target_id, f"{OPERATOR}: no track yet; held for one at ({x:g}, {y:g}) m", False
             )
         if select.track_id is None and select.ground_xy_m is None and select.pixel_px is None:
-            self.target_id, self.by_operator = None, False
+            self.target_id, self.by_operator, self.holding = None, False, False
             picked = rule_pick(self.rule, self.tracks, self.kinematics, head_rad, self.zone)
             self.target_id = picked.id if picked is not None else None
             return ChoiceChange(self.target_id, f"{OPERATOR}: back to rule {self.rule}")
@@ -212,8 +282,9 @@ class TargetChoice:
             self.counts["refused_selections"] += 1
             return ChoiceChange(self.target_id, f"{REFUSED}: {how}; target unchanged", False)
         changed = track.id != self.target_id
-        self.target_id, self.by_operator = track.id, True
+        self.target_id, self.by_operator, self.holding = track.id, True, False
         self._chosen, self._known = track, frozenset(t.id for t in self.tracks)
+        self._chosen_ns = self._seen_ns = self._t_state_ns
         return ChoiceChange(track.id, f"{OPERATOR} chose track {track.id} {how}", changed)
 
     def _resolve(self, select: GazeSelect) -> tuple[Track | None, str]:
@@ -232,6 +303,29 @@ class TargetChoice:
         angles = target_angles(camera, self.kinematics, head.pan_rad, head.tilt_rad, u, v)
         found = nearest_by_angle(self.tracks, angles.pan_rad, angles.tilt_rad, self.kinematics)
         return found, f"nearest pixel ({u:g}, {v:g})" if found else "no tracks"
+
+
+def track_start_up_s(rig: Rig) -> float:
+    """How long a person in view can go without a confirmed track (module docstring)."""
+    frames = rig.vision.background_learning_frames + rig.estimator.confirm_frames
+    return frames * rig.camera.frame_period_s + rig.estimator.coast_max_ms / 1000.0
+
+
+def walked_on(track: Track, dt_s: float) -> Track:
+    """A track's person `dt_s` after its last state: on along its velocity, its covariance grown
+    by how far a person can stray from that in the time (module docstring)."""
+    if track.ground_xy_m is None or track.ground_cov_m2 is None or dt_s <= 0.0:
+        return track
+    velocity = np.asarray(track.ground_velocity_m_s or (0.0, 0.0))
+    xy = np.asarray(track.ground_xy_m) + velocity * dt_s
+    stray_m2 = (WALK_MAX_M_S * dt_s / POSITION_SIGMAS) ** 2
+    cov = np.asarray(track.ground_cov_m2) + stray_m2 * np.eye(2)
+    return track.model_copy(
+        update={
+            "ground_xy_m": (float(xy[0]), float(xy[1])),
+            "ground_cov_m2": tuple(tuple(float(c) for c in row) for row in cov),
+        }
+    )
 
 
 def _ground_distance2(a: Track, b: Track) -> float | None:
