@@ -135,6 +135,17 @@ class Codec(ABC):
         del frame_bytes
         return 0
 
+    def has_room(self, frame_bytes: bytes) -> bool:
+        """True when the device can take `frame_bytes` now (VISCA: a command socket is free)."""
+        del frame_bytes
+        return True
+
+    def refused_as_busy(self, reply: Reply) -> bool:
+        """True when `reply` refuses a frame only because the device is busy (VISCA: command
+        buffer full): the frame is sent again once the device has room."""
+        del reply
+        return False
+
     def handshake(self, exchange: Exchange) -> None:
         """Bring the device into the state the codec assumes; `exchange` does the I/O. Raises
         `HandshakeError`. Protocols without a handshake do nothing."""

@@ -9,7 +9,10 @@ as many synchronous replies as `codec.replies_expected(frame)` says (none for Pe
 commands and Dynamixel Sync Write, an ACK for VISCA commands, one `*`/`!` line per PTU command,
 one status packet per ID of a Dynamixel Sync Read), or the read timeout passes. Only then is the
 next frame written, so a half-duplex line never has two talkers and VISCA never has more commands
-in flight than its sockets. Asynchronous replies (VISCA completions, PTU `!P`/`!T`) are kept in
+in flight than its sockets. A frame the device has no room for yet (`codec.has_room`: both
+VISCA sockets hold commands) waits for a completion, at most the read timeout; a frame refused
+because the device is busy (`codec.refused_as_busy`: VISCA buffer full) is sent once more when
+it has room. Nothing is queued: each call carries the newest demand. Asynchronous replies (VISCA completions, PTU `!P`/`!T`) are kept in
 `notices`. Bytes waiting before a request are stale answers to a request that timed out: they
 are decoded, counted and dropped. The read timeout runs from when the request has left the line
 (`SerialTransport.line_busy_s`), not from when it was handed to the port.
@@ -103,12 +106,25 @@ class ServoDriver:
         for i, frame in enumerate(frames):
             if i and between is not None:
                 between()
+            t_ns, frame_replies = self._send_one(frame)
+            t_written_ns = t_written_ns or t_ns
+            replies += frame_replies
+        return t_written_ns, replies
+
+    def _send_one(self, frame: bytes) -> tuple[int, list[tuple[Reply, int]]]:
+        """One frame once the device has room for it, sent again if it was refused as busy."""
+        for attempt in range(2):
+            self._await_room(frame)
             self._drain()
             t_ns = self.transport.write(frame)
             self.counters["frames_written"] += 1
-            t_written_ns = t_written_ns or t_ns
-            replies += self._collect(self.codec.replies_expected(frame))
-        return t_written_ns, replies
+            replies = self._collect(self.codec.replies_expected(frame))
+            busy = any(self.codec.refused_as_busy(reply) for reply, _ in replies)
+            if busy:
+                self.counters["refused_as_busy"] += 1
+            if not busy or attempt:
+                break
+        return t_ns, replies
 
     def command(self, frames: list[bytes]) -> int:
         """Send command frames; returns when the first was written. A device error reply raises
@@ -201,8 +217,27 @@ class ServoDriver:
                     replies.append((reply, t_ns - round(len(reply.raw) * byte_time_ns)))
         return replies
 
+    def _await_room(self, frame: bytes) -> None:
+        """Read until the device has room for `frame`. When none comes within the read
+        timeout, the completions that would have freed it are lost: the codec forgets what it
+        kept, and the device answers for itself."""
+        if self.codec.has_room(frame):
+            return
+        self.counters["waits_for_room"] += 1
+        deadline = time.monotonic() + self.timeout_s
+        while not self.codec.has_room(frame):
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                self.counters["room_waits_expired"] += 1
+                self.codec.reset()
+                return
+            self._take_unasked(self.transport.read(remaining)[0])
+
     def _drain(self) -> None:
-        data, _ = self.transport.read(0)
+        self._take_unasked(self.transport.read(0)[0])
+
+    def _take_unasked(self, data: bytes) -> None:
+        """Replies that answer no request in flight: notices kept, the rest counted stale."""
         if not data:
             return
         for reply in self.codec.feed(data):

@@ -14,8 +14,12 @@ byte: -1 -> 0F 0F 0F 0F, +2267 -> 00 08 0D 0B (Sony EVI-D70 technical manual p.4
     IF_Clear          8x 01 00 01 FF  ->  y0 50 FF (no ACK)
 
 Every command is answered by an ACK `z0 4y FF` (accepted into socket y) or an error
-`z0 6y ee FF`, and later by a completion `z0 5y FF` when it has been executed; inquiries get
-their answer directly (Sony SRG-300H technical manual p.28). Pan is positive to the right and
+`z0 6y ee FF`, and later by a completion `z0 5y FF` when it has been executed, or by
+`z0 6y 41 FF` when it could not be; inquiries get their answer directly (Sony SRG-300H
+technical manual p.28). The camera has two command sockets: the codec keeps which of them hold
+a command (from the ACKs, completions and errors it decodes), so the driver sends a command only
+when one is free (`has_room`), and one refused with `z0 60 03 FF` (buffer full: both busy, as
+when the codec lost track after a timeout) is sent again once a socket frees. Pan is positive to the right and
 tilt positive up; units per degree depend on the model (the rig's `pan_deg_per_unit`). The
 zoom's position runs from 0 (widest) to the model's telephoto end (0x4000 on most Sony models'
 optical zoom; the rig's `zoom_max_units`), which gazed calls zoom 1.
@@ -25,6 +29,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from dataclasses import replace
 from typing import ClassVar, TypeVar
 
 from gazed.servo.codec import Codec, CodecError, Exchange, HandshakeError, Reply, nearest
@@ -60,6 +65,9 @@ ERRORS = {
     0x05: "no socket",
     0x41: "command not executable",
 }
+BUFFER_FULL = ERRORS[0x03]
+NOT_EXECUTABLE = ERRORS[0x41]
+SOCKETS = (1, 2)
 
 
 def to_nibbles(value: int) -> bytes:
@@ -158,6 +166,8 @@ class ViscaCodec(Codec):
         self.tilt_speed_max_deg_s = tilt_speed_max_deg_s
         self._header = 0x80 | address
         self._reply_headers = bytes((reply_header(address),))
+        self.sockets_busy: set[int] = set()
+        self._buffer_full = False  # the camera said both sockets are busy; none freed since
 
     @property
     def resolution_rad(self) -> tuple[float, float]:
@@ -246,8 +256,47 @@ class ViscaCodec(Codec):
             got = replies[0].describe() if replies else "nothing"
             raise HandshakeError(f"VISCA IF_Clear answered {got}, expected completion")
 
+    def has_room(self, frame_bytes: bytes) -> bool:
+        is_command = len(frame_bytes) >= 3 and frame_bytes[1] == CATEGORY["command"]
+        if not is_command or tuple(frame_bytes[1:-1]) == IF_CLEAR:
+            return True  # inquiries and IF_Clear use no socket
+        return not self._buffer_full and len(self.sockets_busy) < len(SOCKETS)
+
+    def refused_as_busy(self, reply: Reply) -> bool:
+        return reply.kind == "error" and reply.reason == BUFFER_FULL
+
+    def reset(self) -> None:
+        super().reset()
+        self.sockets_busy.clear()
+        self._buffer_full = False
+
     def _parse(self) -> list[Reply]:
-        return self._counted(split_packets(self._buffer, self._reply_headers, self._decode))
+        split = split_packets(self._buffer, self._reply_headers, self._decode)
+        return [self._track(reply) for reply in self._counted(split)]
+
+    def _track(self, reply: Reply) -> Reply:
+        """Keep the sockets the reply names. An ACK fills its socket; a completion, or an error
+        naming a socket, frees it (`z0 50 FF`, IF_Clear's answer, frees both). `z0 6y 41 FF` on
+        a socket holding a command ends that command: it answers no request in flight."""
+        socket = reply.socket
+        if reply.kind == "ack" and socket is not None:
+            self.sockets_busy.add(socket)
+            return reply
+        if reply.kind == "error" and reply.reason == BUFFER_FULL:
+            self._buffer_full = True
+            return reply
+        if reply.kind not in ("completion", "error"):
+            return reply
+        ends_command = reply.kind == "error" and reply.reason == NOT_EXECUTABLE
+        if ends_command and socket in self.sockets_busy:
+            reply = replace(reply, asynchronous=True)
+        if socket:
+            self.sockets_busy.discard(socket)
+            self._buffer_full = False
+        elif reply.kind == "completion" and len(reply.raw) == 3:
+            self.sockets_busy.clear()
+            self._buffer_full = False
+        return reply
 
     def _decode(self, p: bytes) -> Reply | None:
         kind, socket = p[1] & 0xF0, p[1] & 0x0F
