@@ -75,9 +75,10 @@ def test_the_emulated_camera_moves_its_lens_and_answers_the_inquiry() -> None:
     assert error.kind == "error" and error.reason == "syntax error"  # past the tele end
 
 
-def test_a_command_takes_its_mechanism_over_so_a_zoom_never_fills_the_buffer() -> None:
-    """Sony's two sockets: a pan-tilt move executing in one and a zoom in the other; a new
-    command for either mechanism supersedes the one there instead of finding the buffer full."""
+def test_a_command_takes_its_mechanism_over_and_a_third_finds_the_buffer_full() -> None:
+    """Sony's two sockets: a pan-tilt move executing in one and a zoom in the other; a third
+    command is refused with buffer full until one completes, and a new command for either
+    mechanism takes it over from the one executing there."""
     servo = ViscaServo(protocol="visca", port="unused")
     mechanics = HeadMechanics(HeadSection(zoom_rate_max_s=0.5), SimSection(), t0_s=0.0)
     device = ViscaDevice(servo, mechanics)
@@ -86,11 +87,14 @@ def test_a_command_takes_its_mechanism_over_so_a_zoom_never_fills_the_buffer() -
     back = codec.encode_set_position(0.0, 0.0)[0]
     assert device.receive(far, 0.0) == bytes.fromhex("9041FF")
     assert device.receive(codec.encode_set_zoom(0.5)[0], 0.0) == bytes.fromhex("9042FF")
-    # socket 1's move is superseded: its completion comes before the ACK that reuses socket 1
-    assert device.receive(back, 0.001) == bytes.fromhex("9051FF 9041FF")
-    assert device.receive(codec.encode_set_zoom(0.6)[0], 0.002) == bytes.fromhex("9052FF 9042FF")
+    assert device.receive(back, 0.001) == bytes.fromhex("906003FF")  # both sockets busy
+    assert device.poll(0.1) == bytes.fromhex("9052FF")  # the zoom completes on arrival
+    # socket 2 takes the move back; socket 1's move completes once it has taken over
+    assert device.receive(back, 0.1) == bytes.fromhex("9042FF")
+    assert device.poll(0.2) == bytes.fromhex("9051FF")
+    assert device.receive(codec.encode_set_zoom(0.6)[0], 0.2) == bytes.fromhex("9041FF")
     # a cancelled zoom stops the lens, not the pan-tilt move
-    assert device.receive(bytes.fromhex("8122FF"), 0.003) == bytes.fromhex("906204FF")
+    assert device.receive(bytes.fromhex("8121FF"), 0.203) == bytes.fromhex("906104FF")
     device.poll(1.0)
     assert mechanics.zoom.velocity_rad_s == 0.0 and mechanics.pan.target_rad == 0.0
 
