@@ -23,6 +23,7 @@ LATENCY_S = 0.020
 DRIVE = H("81 01 06 01 0C 0A 02 03 FF")
 MOVE_PAN_300 = H("81 01 06 02 18 14 00 01 02 0C 00 00 00 00 FF")  # pan +300 units
 MOVE_PAN_0 = H("81 01 06 02 18 14 00 00 00 00 00 00 00 00 FF")
+ZOOM_HALF = H("81 01 04 47 02 00 00 00 FF")
 INQUIRY = H("81 09 06 12 FF")
 IF_CLEAR = H("81 01 00 01 FF")
 
@@ -120,16 +121,15 @@ class Camera:
 def test_emulator_refuses_a_third_command_while_two_execute() -> None:
     camera = Camera()
     assert camera.ask(MOVE_PAN_300, 3) == H("90 41 FF")
-    assert camera.ask(MOVE_PAN_0, 3) == H("90 42 FF")  # takes over once it takes effect
+    assert camera.ask(ZOOM_HALF, 3) == H("90 42 FF")
     assert camera.ask(DRIVE, 4) == H("90 60 03 FF")  # both sockets busy, nothing changes
-    # the superseded move completes when the new one takes effect; its socket takes a command
-    assert camera.ask(b"", 3) == H("90 51 FF")
-    assert camera.ask(MOVE_PAN_300, 3) == H("90 41 FF")
+    assert camera.ask(b"", 3) == H("90 52 FF")  # the zoom completes when it takes effect
+    # a move takes pan-tilt over: the move it supersedes completes after its ACK
+    assert camera.ask(MOVE_PAN_0, 6) == H("90 42 FF 90 51 FF")
     m = camera.line.mechanics
-    camera.ask(b"", 6)  # both moves complete once the head settles on the last one
-    assert m.settled
-    assert math.degrees(m.pan.target_rad) == pytest.approx(300 * 0.075)
-    assert m.pan.velocity_rad_s == 0.0  # the refused drive never ran
+    assert camera.ask(b"", 3) == H("90 52 FF")  # once the head has settled on it
+    assert m.pan.settled and m.tilt.settled
+    assert m.pan.target_rad == 0.0 and m.pan.velocity_rad_s == 0.0  # the drive never ran
 
 
 # --- the driver against it -------------------------------------------------------------------
@@ -178,8 +178,9 @@ def driver_on_camera() -> tuple[ServoDriver, Camera]:
 def test_a_stream_of_demands_never_overfills_the_sockets() -> None:
     driver, camera = driver_on_camera()
     demands_deg = [0.5 * i for i in range(30)]
-    for pan_deg in demands_deg:  # faster than the camera takes moves in
+    for pan_deg in demands_deg:  # a zoom between moves: both sockets busy at times
         driver.set_position(math.radians(pan_deg), 0.0)
+        driver.set_zoom(pan_deg / 30.0)
         assert len(driver.codec.sockets_busy) <= 2
     assert driver.counters["refused_as_busy"] == 0
     assert driver.counters["waits_for_room"] > 0
@@ -194,11 +195,11 @@ def test_a_stream_of_demands_never_overfills_the_sockets() -> None:
 def test_buffer_full_is_counted_and_the_command_sent_again_when_a_socket_frees() -> None:
     driver, camera = driver_on_camera()
     driver.set_position(math.radians(10.0), 0.0)
-    driver.set_position(math.radians(20.0), 0.0)
+    driver.set_zoom(0.5)
     driver.codec.reset()  # as after a timeout: the codec no longer knows both are busy
     driver.set_position(math.radians(30.0), 0.0)
     assert driver.counters["refused_as_busy"] == 1
-    assert driver.counters["frames_written"] == 5  # IF_Clear, two moves, one refused, resent
+    assert driver.counters["frames_written"] == 5  # IF_Clear, move, zoom, refused, resent
     while not camera.line.mechanics.settled:
         driver.query_position()
     assert math.degrees(camera.line.mechanics.pan.target_rad) == pytest.approx(30.0)

@@ -6,11 +6,11 @@ been executed — for Pan-tiltDrive, stop and CAM_Zoom Direct once they take eff
 then runs to its position, as a drive runs at its speed), for absolute/relative moves, Home and
 Reset when pan and tilt have settled on the target.
 Each command drives one mechanism, pan-tilt or the zoom, and a new command for a mechanism takes
-it over from the one executing there once it takes effect, as a Sony camera follows a new
-pan-tilt or zoom command without waiting for the last to end: the superseded command is
-reported complete then (its motion has ended), and its socket frees only then. A command that
-finds both sockets holding commands is refused with buffer full (`z0 60 03 FF`) and changes
-nothing, so a host that sends faster than the camera takes commands in is told so. Cancel
+it over from the one executing there, as a Sony camera follows a new pan-tilt or zoom command
+without waiting for the last to end: the superseded command is reported complete right after
+the new one's ACK (its motion has ended), and its socket is free again. A command needs a free
+socket: one that finds both holding commands (a pan-tilt move and a zoom) is refused with
+buffer full (`z0 60 03 FF`) and changes nothing. Cancel
 `8x 2y FF` answers `z0 6y 04 FF` (no completion follows) or `z0 6y 05 FF`. Inquiries are
 answered directly and use no socket; IF_Clear empties the sockets and answers `z0 50 FF`.
 CAM_Zoom Direct moves the mechanism's zoom axis (position 0 .. the rig's `zoom_max_units`, the
@@ -165,18 +165,19 @@ class ViscaDevice:
         return self._accept(*action, t_s)
 
     def _accept(self, run: Action, moves: bool, t_s: float, mechanism: str = "pan_tilt") -> bytes:
-        """Into a free socket, taking `mechanism` over from the command executing there when it
-        takes effect. `moves`: it completes when the mechanism settles, not on arrival."""
+        """Into a free socket, taking `mechanism` over from the command executing there (whose
+        completion follows the ACK). `moves`: it completes when the mechanism settles, not on
+        arrival."""
         free = [s for s in SOCKETS if s not in self._sockets]
         if not free:
             return self._error(0, "buffer_full")
-        t_effect_s = t_s + self.mechanics.latency_s
-        for old, job in self._sockets.items():
-            if job.mechanism == mechanism:
-                self._sockets[old] = _Job(t_effect_s, False, mechanism)
+        superseded = sorted(s for s, job in self._sockets.items() if job.mechanism == mechanism)
+        for old in superseded:
+            del self._sockets[old]
         self.mechanics.schedule(t_s, run)
-        self._sockets[free[0]] = _Job(t_effect_s, moves, mechanism)
-        return self._reply(REPLY["ack"] | free[0])
+        self._sockets[free[0]] = _Job(t_s + self.mechanics.latency_s, moves, mechanism)
+        ack = self._reply(REPLY["ack"] | free[0])
+        return ack + b"".join(self._reply(REPLY["completion"] | s) for s in superseded)
 
     def _decode(self, kind: int, args: bytes) -> tuple[Action, bool] | None:
         """The action of a pan-tilt command and whether it is a move that completes on arrival."""
