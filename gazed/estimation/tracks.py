@@ -66,6 +66,7 @@ from gazed.estimation.association import (
 from gazed.estimation.estimator import TRACKING, TrackEstimator
 from gazed.estimation.factory import build_estimator
 from gazed.estimation.measurement import Measurement
+from gazed.estimation.reacquisition import Departures
 from gazed.estimation.results import Outcome, PredictedState
 
 MAX_TRACKS = 256  # an EstimatorState carries at most this many
@@ -85,6 +86,7 @@ class Sighting:
     measurement: Measurement
     appearance: np.ndarray | None = None  # (B,) normalised colour histogram
     box_height_px: float = 0.0
+    extent_cov: np.ndarray | None = None  # (2, 2) the ground its silhouette covers
 
 
 @dataclass
@@ -102,6 +104,7 @@ class PersonTrack:
     box_height_px: float = 0.0
     appearance: np.ndarray | None = None
     spread: float = INITIAL_SPREAD
+    last_state: PredictedState | None = None  # its prediction before it last coasted
 
     def take_appearance(self, appearance: np.ndarray | None) -> None:
         """Move the template toward a detection's histogram, and the spread toward the squared
@@ -133,6 +136,12 @@ class TrackSet:
         self.gate_d2 = gate_threshold(self.section.gate_probability, 2)
         self.duplicate_d2 = gate_threshold(self.section.gate_probability, 4)
         self.coast_max_s = self.section.coast_max_ms / 1000.0
+        self.departures = Departures(
+            self.coast_max_s,
+            self.section.cv_accel_noise_m_s2,
+            self.duplicate_d2,
+            PERSON_EXTENT_COV_M2,
+        )
         load_solver()  # imported before several tracks first compete (`association`)
 
     def get(self, track_id: int) -> PersonTrack | None:
@@ -167,6 +176,7 @@ class TrackSet:
             column = pairs.get(row)
             if column is None:
                 track.coasting = True
+                track.last_state = track.estimator.predict(t_s) or track.last_state
                 track.estimator.coast(t_s)
             else:
                 self._take(track, sightings[column], t_s)
@@ -242,6 +252,7 @@ class TrackSet:
             costs,
             self.gate_d2,
             self._appearances(sightings),
+            [s.extent_cov for s in sightings],
         )
         members: dict[int, Sighting] = {}
         for blob in blobs:
@@ -287,6 +298,18 @@ class TrackSet:
         if not track.confirmed and track.hits >= self.section.confirm_hits:
             track.confirmed = True  # within confirm_frames: a track that cannot is ended
             self.counts["tracks_confirmed"] += 1
+            self._reclaim(track, t_s)
+
+    def _reclaim(self, track: PersonTrack, t_s: float) -> None:
+        """A newly confirmed track takes the id of the departed track it continues, if any
+        (`reacquisition`)."""
+        state = track.estimator.predict(t_s)
+        if state is None:
+            return
+        track_id = self.departures.claim(state)
+        if track_id is not None:
+            track.id = track_id
+            self.counts["tracks_reclaimed"] += 1
 
     def _start(self, sighting: Sighting, t_s: float) -> None:
         if len(self.tracks) >= MAX_TRACKS:
@@ -360,6 +383,8 @@ class TrackSet:
             if stale or hopeless:
                 self.ended_health.update(track.estimator.health())
                 self.counts["tracks_ended"] += 1
+                if track.confirmed and track.last_state is not None:
+                    self.departures.leave(track.id, track.last_state)
             else:
                 kept.append(track)
         self.tracks = kept
