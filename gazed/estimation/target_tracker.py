@@ -38,6 +38,7 @@ from gazed.estimation.measurement import Measurement
 from gazed.estimation.observation import gaze_measurement, ground_measurement
 from gazed.estimation.tracks import PersonTrack, Sighting, TrackSet
 from gazed.geometry.ground import GroundGeometry, MeasurementNoise
+from gazed.geometry.height import HeightCorrection
 from gazed.geometry.homography import HorizonError
 from gazed.geometry.kinematics import HeadKinematics
 from gazed.geometry.zoom import ZoomLens
@@ -49,7 +50,9 @@ from gazed.messages import (
     Prediction,
     Stamp,
 )
+from gazed.vision.person_size import PERSON_HEIGHT_M
 
+WHOLE_FRACTION = 0.5  # a silhouette shorter than half a person's height is a part of one
 IDLE_S = 1.0  # how long to wait when there is nothing to predict
 FUTURE_TOLERANCE_NS = 1_000_000_000  # a detection captured further ahead of our clock is bogus
 
@@ -91,6 +94,13 @@ class TargetTracker:
         # a detector that reports the ground contact point (`background`) needs no height correction
         self.contact_geometry = (
             replace(self.geometry, height=None) if self.geometry is not None else None
+        )
+        # a person's top, for telling a whole person's silhouette from a part of one (`_whole`)
+        camera_xyz = rig.calibration.camera_xyz_m
+        self.head_geometry = (
+            replace(self.geometry, height=HeightCorrection(np.array(camera_xyz), PERSON_HEIGHT_M))
+            if self.geometry is not None and camera_xyz is not None
+            else None
         )
         self.noise = MeasurementNoise.from_head(
             rig.head, section.pixel_noise_px, section.pixel_rate_noise_px_s
@@ -285,9 +295,34 @@ class TargetTracker:
             measurement = self._measure(seen)
             if measurement is not None:
                 extent = self._extent(seen, mover)
+                whole = self._whole(seen, mover, measurement)
                 histogram = _histogram(mover)
-                sightings.append(Sighting(measurement, histogram, mover.box_height_px, extent))
+                sightings.append(
+                    Sighting(measurement, histogram, mover.box_height_px, extent, whole)
+                )
         return sightings
+
+    def _whole(self, detection: Detection, mover: Mover, measurement: Measurement) -> bool:
+        """Whether the mover's silhouette stands at least `WHOLE_FRACTION` of a person's height
+        (`PERSON_HEIGHT_M`, from the ground point under it to the point that high above, in the
+        view at the detection's pose): a shorter one is a part of someone (legs, a head, a
+        shadow at the feet) and starts no track. True without a box or a ground."""
+        if self.head_geometry is None or mover.box_height_px <= 0.0:
+            return True
+        head = detection.head
+        assert head is not None and self.contact_geometry is not None  # with the ground's
+        camera = self.lens.at_pose(head)
+        x_m, y_m = measurement.position
+        try:
+            foot = self.contact_geometry.with_camera(camera).pixel_from_ground(
+                x_m, y_m, head.pan_rad, head.tilt_rad
+            )
+            top = self.head_geometry.with_camera(camera).pixel_from_ground(
+                x_m, y_m, head.pan_rad, head.tilt_rad
+            )
+        except ValueError:  # behind the camera
+            return True
+        return mover.box_height_px >= WHOLE_FRACTION * float(np.hypot(*(top - foot)))
 
     def _extent(self, detection: Detection, mover: Mover) -> np.ndarray | None:
         """The ground covariance (2, 2) of a point spread evenly over the mover's box, through

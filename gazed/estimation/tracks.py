@@ -18,7 +18,9 @@ Every frame (one detection message, with any number of movers):
    holds them; the blob does not change their appearance templates;
 4. a track that takes a mover is updated, its appearance template and spread follow it; a track
    left without one coasts (predict-only) and ends once it has coasted past `coast_max_ms`;
-5. a mover left without a track starts a new, tentative track. A tentative track is confirmed
+5. a mover left without a track starts a new, tentative track, where its silhouette is a whole
+   person's (`Sighting.whole`: a part of one, legs or a shadow at the feet, would start a second
+   track beside the person's own). A tentative track is confirmed
    once it has `confirm_hits` detections within its first `confirm_frames` frames (M of N); one
    that cannot is dropped as clutter. Where one track and one mover are all there is, the mover
    is the track's, inside its gate or not: outside it, it is an outlier the track's filter
@@ -41,8 +43,8 @@ Every frame (one detection message, with any number of movers):
    and so the gaze's choice) and takes the filter that took the detection. People who cross
    or pass move apart in velocity, and so are never merged where one hides the other.
 
-Ids count up from 0 and are never reused, so a track's id names one person for its whole life;
-a person lost for longer than `coast_max_ms` comes back as a new track with a new id.
+Ids count up from 0, and an id names one person: a person lost for longer than `coast_max_ms`
+comes back under their id where their ended track's prediction allows (`reacquisition`).
 """
 
 from __future__ import annotations
@@ -87,6 +89,7 @@ class Sighting:
     appearance: np.ndarray | None = None  # (B,) normalised colour histogram
     box_height_px: float = 0.0
     extent_cov: np.ndarray | None = None  # (2, 2) the ground its silhouette covers
+    whole: bool = True  # a whole person's silhouette: only such a one starts a track
 
 
 @dataclass
@@ -312,6 +315,9 @@ class TrackSet:
             self.counts["tracks_reclaimed"] += 1
 
     def _start(self, sighting: Sighting, t_s: float) -> None:
+        if not sighting.whole:
+            self.counts["parts_not_started"] += 1
+            return
         if len(self.tracks) >= MAX_TRACKS:
             self.counts["tracks_not_started"] += 1
             return
@@ -365,11 +371,8 @@ class TrackSet:
         lost.estimator, lost.coasting = found.estimator, False
         lost.hits += found.hits
         lost.last_hit_s, lost.confirmed = found.last_hit_s, True
-        lost.box_height_px, lost.appearance, lost.spread = (
-            found.box_height_px,
-            found.appearance,
-            found.spread,
-        )
+        lost.box_height_px, lost.appearance = found.box_height_px, found.appearance
+        lost.spread = found.spread
         return found.id
 
     def _end(self, t_s: float) -> None:
