@@ -50,9 +50,8 @@ from gazed.messages import (
     Prediction,
     Stamp,
 )
-from gazed.vision.person_size import PERSON_HEIGHT_M
 
-WHOLE_FRACTION = 0.5  # a silhouette shorter than half a person's height is a part of one
+WHOLE_FRACTION = 0.5  # a silhouette shorter than half a target's height is a part of one
 IDLE_S = 1.0  # how long to wait when there is nothing to predict
 FUTURE_TOLERANCE_NS = 1_000_000_000  # a detection captured further ahead of our clock is bogus
 
@@ -95,13 +94,7 @@ class TargetTracker:
         self.contact_geometry = (
             replace(self.geometry, height=None) if self.geometry is not None else None
         )
-        # a person's top, for telling a whole person's silhouette from a part of one (`_whole`)
-        camera_xyz = rig.calibration.camera_xyz_m
-        self.head_geometry = (
-            replace(self.geometry, height=HeightCorrection(np.array(camera_xyz), PERSON_HEIGHT_M))
-            if self.geometry is not None and camera_xyz is not None
-            else None
-        )
+        self.head_geometry = self._top_geometry(rig)
         self.noise = MeasurementNoise.from_head(
             rig.head, section.pixel_noise_px, section.pixel_rate_noise_px_s
         )
@@ -302,11 +295,21 @@ class TargetTracker:
                 )
         return sightings
 
+    def _top_geometry(self, rig: Rig) -> GroundGeometry | None:
+        """The geometry of a target's top: the detector's point is the target's middle, at
+        `[calibration] target_height_m`, so the target stands twice that. None without a
+        ground, a camera position or a height."""
+        camera_xyz = rig.calibration.camera_xyz_m
+        height_m = 2.0 * rig.calibration.target_height_m
+        if self.geometry is None or camera_xyz is None or not 0.0 < height_m < camera_xyz[2]:
+            return None
+        return replace(self.geometry, height=HeightCorrection(np.array(camera_xyz), height_m))
+
     def _whole(self, detection: Detection, mover: Mover, measurement: Measurement) -> bool:
-        """Whether the mover's silhouette stands at least `WHOLE_FRACTION` of a person's height
-        (`PERSON_HEIGHT_M`, from the ground point under it to the point that high above, in the
-        view at the detection's pose): a shorter one is a part of someone (legs, a head, a
-        shadow at the feet) and starts no track. True without a box or a ground."""
+        """Whether the mover's silhouette stands at least `WHOLE_FRACTION` of a target's height
+        (`_top_geometry`: from the ground point under it to the target's top, in the view at the
+        detection's pose): a shorter one is a part of someone (legs, a head, a shadow at the
+        feet) and starts no track. True without a box or a target height."""
         if self.head_geometry is None or mover.box_height_px <= 0.0:
             return True
         head = detection.head
