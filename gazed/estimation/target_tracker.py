@@ -336,7 +336,7 @@ class TargetTracker:
             return None
         head = detection.head
         assert head is not None  # `_sightings` has checked it
-        geometry = self.geometry.with_camera(self.lens.at_pose(head))
+        geometry = self._ground_geometry(detection)
         j = geometry.ground_jacobian(head.pan_rad, head.tilt_rad, mover.u_px, mover.v_px)[:, 2:]
         box = np.diag([mover.box_width_px**2, mover.box_height_px**2]) / 12.0
         return j @ box @ j.T
@@ -347,15 +347,16 @@ class TargetTracker:
             if self.geometry is None:
                 camera = self.lens.at_pose(detection.head)
                 return gaze_measurement(detection, camera, self.kinematics, self.noise)
-            geometry = (
-                self.contact_geometry if detection.point == "ground-contact" else self.geometry
-            )
-            assert geometry is not None
-            geometry = geometry.with_camera(self.lens.at_pose(detection.head))
-            return ground_measurement(detection, geometry, self.noise)
+            return ground_measurement(detection, self._ground_geometry(detection), self.noise)
         except HorizonError:
             self.counts["above_horizon"] += 1
             return None
+
+    def _ground_geometry(self, detection: Detection) -> GroundGeometry:
+        """The ground geometry of a detection's point (its kind, the lens at its pose)."""
+        geometry = self.contact_geometry if detection.point == "ground-contact" else self.geometry
+        assert geometry is not None and detection.head is not None
+        return geometry.with_camera(self.lens.at_pose(detection.head))
 
     def _reject(self, seq: int, exc: ValueError) -> None:
         self.counts["rejected"] += 1
