@@ -12,8 +12,6 @@ from filterpy.kalman import KalmanFilter
 
 from gazed.estimation.association import (
     associate,
-    covers,
-    find_blobs,
     gate_threshold,
     group_prediction,
     hellinger_squared,
@@ -229,28 +227,3 @@ def test_a_blob_of_two_is_their_centroid_widened_by_their_unknown_shares() -> No
         d2 = own @ np.linalg.solve(state.covariance[:2, :2] + m.position_cov, own)
         assert d2 == pytest.approx(blob_d2)
     assert member_measurement(z, 0, states).position == pytest.approx([0.2, 0.2])
-
-
-def test_a_silhouette_covers_only_the_tracks_that_stand_on_it() -> None:
-    z = Measurement.ground(1.0, (0.0, 0.0), np.eye(2) * 0.01)
-    extent = np.diag([1.2**2, 1.0**2]) / 12.0  # a box 1.2 m across, 1 m along the line of sight
-    P = np.array([np.eye(2) * 0.01] * 2)
-    assert covers(z, extent, np.array([[-0.4, 0.0], [0.4, 0.0]]), P, GATE)  # side by side
-    assert not covers(z, extent, np.array([[-3.0, 0.0], [3.0, 0.0]]), P, GATE)  # 6 m apart
-
-
-def test_a_blob_is_not_made_of_two_tracks_far_apart() -> None:
-    z = Measurement.ground(1.0, (0.0, 0.0), np.eye(2) * 0.01)
-    person = np.diag([0.5**2, 1.0]) / 12.0  # a box one person wide
-
-    def blobs(apart_m: float, extent: np.ndarray | None) -> list:
-        predicted = np.array([[-apart_m / 2, 0.0], [apart_m / 2, 0.0]])
-        P = np.array([np.eye(2) * 0.04] * 2)
-        costs = np.full((2, 1), np.inf)  # neither track's own gate holds the blob's point
-        confirmed = np.array([True, True])
-        return find_blobs(predicted, P, confirmed, [z], {}, costs, GATE, (), [extent])
-
-    round_both = np.diag([1.3**2, 1.0]) / 12.0  # the box round two walkers 0.8 m apart
-    assert blobs(0.8, round_both)
-    assert not blobs(6.0, person)  # one person's box cannot hold two people 6 m apart
-    assert blobs(6.0, None)  # without an extent, the blob test alone takes it

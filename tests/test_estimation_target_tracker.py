@@ -17,7 +17,7 @@ from gazed.estimation.target_tracker import (
     TargetTracker,
     TrackUpdate,
 )
-from gazed.messages import Detection, GazeDemand, HeadPose, Mover
+from gazed.messages import Detection, GazeDemand
 
 SIM_RIG = Path(__file__).resolve().parents[1] / "configs" / "sim.toml"
 STAGE = "estimator"
@@ -194,28 +194,3 @@ def test_maneuver_events_follow_the_state() -> None:
     for event, update in events:
         assert event.t_capture_ns == update.t_capture_ns and event.stamps == update.stamps
         assert event.model != event.previous_model
-
-
-def test_a_part_of_a_person_is_measured_but_starts_no_track() -> None:
-    rig = load_rig(SIM_RIG.parent / "pets.toml")
-    tracker, _ = tracker_for(rig)
-    frame_ns = 1e9 / rig.camera.rate_hz
-    movers = []
-    for u_px, box_height_px in ((100.0, 60.0), (220.0, 8.0)):  # a walker, a shadow's blob
-        movers.append(Mover(u_px=u_px, v_px=150.0, box_width_px=16.0, box_height_px=box_height_px))
-    detection = Detection(
-        t_capture_ns=round(frame_ns),
-        seq=1,
-        detector="flow",
-        found=False,
-        width_px=rig.camera.width_px,
-        height_px=rig.camera.height_px,
-        head=HeadPose(pan_rad=0.0, tilt_rad=0.0),
-        movers=tuple(movers),
-    )
-    sightings = tracker._sightings(detection)
-    assert [s.whole for s in sightings] == [True, False]
-    assert all(s.extent_cov is not None for s in sightings)
-    tracker.tracks.step(detection.t_capture_ns / 1e9, sightings)
-    assert len(tracker.tracks.tracks) == 1  # the walker's; the shadow started none
-    assert tracker.tracks.counts["parts_not_started"] == 1

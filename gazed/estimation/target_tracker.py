@@ -38,7 +38,6 @@ from gazed.estimation.measurement import Measurement
 from gazed.estimation.observation import gaze_measurement, ground_measurement
 from gazed.estimation.tracks import PersonTrack, Sighting, TrackSet
 from gazed.geometry.ground import GroundGeometry, MeasurementNoise
-from gazed.geometry.height import HeightCorrection
 from gazed.geometry.homography import HorizonError
 from gazed.geometry.kinematics import HeadKinematics
 from gazed.geometry.zoom import ZoomLens
@@ -51,7 +50,6 @@ from gazed.messages import (
     Stamp,
 )
 
-WHOLE_FRACTION = 0.5  # a silhouette shorter than half a target's height is a part of one
 IDLE_S = 1.0  # how long to wait when there is nothing to predict
 FUTURE_TOLERANCE_NS = 1_000_000_000  # a detection captured further ahead of our clock is bogus
 
@@ -94,7 +92,6 @@ class TargetTracker:
         self.contact_geometry = (
             replace(self.geometry, height=None) if self.geometry is not None else None
         )
-        self.head_geometry = self._top_geometry(rig)
         self.noise = MeasurementNoise.from_head(
             rig.head, section.pixel_noise_px, section.pixel_rate_noise_px_s
         )
@@ -287,59 +284,8 @@ class TargetTracker:
             seen = detection.model_copy(update=_target_fields(mover))
             measurement = self._measure(seen)
             if measurement is not None:
-                extent = self._extent(seen, mover)
-                whole = self._whole(seen, mover, measurement)
-                histogram = _histogram(mover)
-                sightings.append(
-                    Sighting(measurement, histogram, mover.box_height_px, extent, whole)
-                )
+                sightings.append(Sighting(measurement, _histogram(mover), mover.box_height_px))
         return sightings
-
-    def _top_geometry(self, rig: Rig) -> GroundGeometry | None:
-        """The geometry of a target's top: the detector's point is the target's middle, at
-        `[calibration] target_height_m`, so the target stands twice that. None without a
-        ground, a camera position or a height."""
-        camera_xyz = rig.calibration.camera_xyz_m
-        height_m = 2.0 * rig.calibration.target_height_m
-        if self.geometry is None or camera_xyz is None or not 0.0 < height_m < camera_xyz[2]:
-            return None
-        return replace(self.geometry, height=HeightCorrection(np.array(camera_xyz), height_m))
-
-    def _whole(self, detection: Detection, mover: Mover, measurement: Measurement) -> bool:
-        """Whether the mover's silhouette stands at least `WHOLE_FRACTION` of a target's height
-        (`_top_geometry`: from the ground point under it to the target's top, in the view at the
-        detection's pose): a shorter one is a part of someone (legs, a head, a shadow at the
-        feet) and starts no track. True without a box or a target height."""
-        if self.head_geometry is None or mover.box_height_px <= 0.0:
-            return True
-        head = detection.head
-        assert head is not None and self.contact_geometry is not None  # with the ground's
-        camera = self.lens.at_pose(head)
-        x_m, y_m = measurement.position
-        try:
-            foot = self.contact_geometry.with_camera(camera).pixel_from_ground(
-                x_m, y_m, head.pan_rad, head.tilt_rad
-            )
-            top = self.head_geometry.with_camera(camera).pixel_from_ground(
-                x_m, y_m, head.pan_rad, head.tilt_rad
-            )
-        except ValueError:  # behind the camera
-            return True
-        return mover.box_height_px >= WHOLE_FRACTION * float(np.hypot(*(top - foot)))
-
-    def _extent(self, detection: Detection, mover: Mover) -> np.ndarray | None:
-        """The ground covariance (2, 2) of a point spread evenly over the mover's box, through
-        the ground's pixel Jacobian at its point: where on the ground its silhouette can hold
-        people (a person standing behind another is hidden up to the first one's height, so
-        the box's height reaches along the line of sight). None without a box or a ground."""
-        if self.geometry is None or mover.box_width_px <= 0.0 or mover.box_height_px <= 0.0:
-            return None
-        head = detection.head
-        assert head is not None  # `_sightings` has checked it
-        geometry = self._ground_geometry(detection)
-        j = geometry.ground_jacobian(head.pan_rad, head.tilt_rad, mover.u_px, mover.v_px)[:, 2:]
-        box = np.diag([mover.box_width_px**2, mover.box_height_px**2]) / 12.0
-        return j @ box @ j.T
 
     def _measure(self, detection: Detection) -> Measurement | None:
         """The measurement of a detection's target; None above the horizon (counted)."""
@@ -347,16 +293,15 @@ class TargetTracker:
             if self.geometry is None:
                 camera = self.lens.at_pose(detection.head)
                 return gaze_measurement(detection, camera, self.kinematics, self.noise)
-            return ground_measurement(detection, self._ground_geometry(detection), self.noise)
+            geometry = (
+                self.contact_geometry if detection.point == "ground-contact" else self.geometry
+            )
+            assert geometry is not None
+            geometry = geometry.with_camera(self.lens.at_pose(detection.head))
+            return ground_measurement(detection, geometry, self.noise)
         except HorizonError:
             self.counts["above_horizon"] += 1
             return None
-
-    def _ground_geometry(self, detection: Detection) -> GroundGeometry:
-        """The ground geometry of a detection's point (its kind, the lens at its pose)."""
-        geometry = self.contact_geometry if detection.point == "ground-contact" else self.geometry
-        assert geometry is not None and detection.head is not None
-        return geometry.with_camera(self.lens.at_pose(detection.head))
 
     def _reject(self, seq: int, exc: ValueError) -> None:
         self.counts["rejected"] += 1

@@ -18,9 +18,7 @@ Every frame (one detection message, with any number of movers):
    holds them; the blob does not change their appearance templates;
 4. a track that takes a mover is updated, its appearance template and spread follow it; a track
    left without one coasts (predict-only) and ends once it has coasted past `coast_max_ms`;
-5. a mover left without a track starts a new, tentative track, where its silhouette is a whole
-   person's (`Sighting.whole`: a part of one, legs or a shadow at the feet, would start a second
-   track beside the person's own). A tentative track is confirmed
+5. a mover left without a track starts a new, tentative track. A tentative track is confirmed
    once it has `confirm_hits` detections within its first `confirm_frames` frames (M of N); one
    that cannot is dropped as clutter. Where one track and one mover are all there is, the mover
    is the track's, inside its gate or not: outside it, it is an outlier the track's filter
@@ -43,8 +41,8 @@ Every frame (one detection message, with any number of movers):
    and so the gaze's choice) and takes the filter that took the detection. People who cross
    or pass move apart in velocity, and so are never merged where one hides the other.
 
-Ids count up from 0, and an id names one person: a person lost for longer than `coast_max_ms`
-comes back under their id where their ended track's prediction allows (`reacquisition`).
+Ids count up from 0 and are never reused, so a track's id names one person for its whole life;
+a person lost for longer than `coast_max_ms` comes back as a new track with a new id.
 """
 
 from __future__ import annotations
@@ -68,7 +66,6 @@ from gazed.estimation.association import (
 from gazed.estimation.estimator import TRACKING, TrackEstimator
 from gazed.estimation.factory import build_estimator
 from gazed.estimation.measurement import Measurement
-from gazed.estimation.reacquisition import Departures
 from gazed.estimation.results import Outcome, PredictedState
 
 MAX_TRACKS = 256  # an EstimatorState carries at most this many
@@ -88,8 +85,6 @@ class Sighting:
     measurement: Measurement
     appearance: np.ndarray | None = None  # (B,) normalised colour histogram
     box_height_px: float = 0.0
-    extent_cov: np.ndarray | None = None  # (2, 2) the ground its silhouette covers
-    whole: bool = True  # a whole person's silhouette: only such a one starts a track
 
 
 @dataclass
@@ -107,7 +102,6 @@ class PersonTrack:
     box_height_px: float = 0.0
     appearance: np.ndarray | None = None
     spread: float = INITIAL_SPREAD
-    last_state: PredictedState | None = None  # its prediction before it last coasted
 
     def take_appearance(self, appearance: np.ndarray | None) -> None:
         """Move the template toward a detection's histogram, and the spread toward the squared
@@ -139,12 +133,6 @@ class TrackSet:
         self.gate_d2 = gate_threshold(self.section.gate_probability, 2)
         self.duplicate_d2 = gate_threshold(self.section.gate_probability, 4)
         self.coast_max_s = self.section.coast_max_ms / 1000.0
-        self.departures = Departures(
-            self.coast_max_s,
-            self.section.cv_accel_noise_m_s2,
-            self.duplicate_d2,
-            PERSON_EXTENT_COV_M2,
-        )
         load_solver()  # imported before several tracks first compete (`association`)
 
     def get(self, track_id: int) -> PersonTrack | None:
@@ -179,7 +167,6 @@ class TrackSet:
             column = pairs.get(row)
             if column is None:
                 track.coasting = True
-                track.last_state = track.estimator.predict(t_s) or track.last_state
                 track.estimator.coast(t_s)
             else:
                 self._take(track, sightings[column], t_s)
@@ -255,7 +242,6 @@ class TrackSet:
             costs,
             self.gate_d2,
             self._appearances(sightings),
-            [s.extent_cov for s in sightings],
         )
         members: dict[int, Sighting] = {}
         for blob in blobs:
@@ -301,23 +287,8 @@ class TrackSet:
         if not track.confirmed and track.hits >= self.section.confirm_hits:
             track.confirmed = True  # within confirm_frames: a track that cannot is ended
             self.counts["tracks_confirmed"] += 1
-            self._reclaim(track, t_s)
-
-    def _reclaim(self, track: PersonTrack, t_s: float) -> None:
-        """A newly confirmed track takes the id of the departed track it continues, if any
-        (`reacquisition`)."""
-        state = track.estimator.predict(t_s)
-        if state is None:
-            return
-        track_id = self.departures.claim(state)
-        if track_id is not None:
-            track.id = track_id
-            self.counts["tracks_reclaimed"] += 1
 
     def _start(self, sighting: Sighting, t_s: float) -> None:
-        if not sighting.whole:
-            self.counts["parts_not_started"] += 1
-            return
         if len(self.tracks) >= MAX_TRACKS:
             self.counts["tracks_not_started"] += 1
             return
@@ -371,8 +342,11 @@ class TrackSet:
         lost.estimator, lost.coasting = found.estimator, False
         lost.hits += found.hits
         lost.last_hit_s, lost.confirmed = found.last_hit_s, True
-        lost.box_height_px, lost.appearance = found.box_height_px, found.appearance
-        lost.spread = found.spread
+        lost.box_height_px, lost.appearance, lost.spread = (
+            found.box_height_px,
+            found.appearance,
+            found.spread,
+        )
         return found.id
 
     def _end(self, t_s: float) -> None:
@@ -386,8 +360,6 @@ class TrackSet:
             if stale or hopeless:
                 self.ended_health.update(track.estimator.health())
                 self.counts["tracks_ended"] += 1
-                if track.confirmed and track.last_state is not None:
-                    self.departures.leave(track.id, track.last_state)
             else:
                 kept.append(track)
         self.tracks = kept

@@ -10,8 +10,7 @@ Each person walks a straight line at 0.5-1.5 m/s (`SCENES`); their tracked point
 image-velocity noise and a noisy colour histogram of the person's own colours, the movers in a
 shuffled order every frame (seeded). Where two are close, the one farther from the camera is
 hidden; in the scenes of `BLOB_M`, people nearer each other than that are reported as one blob
-(one mover at their centroid, with their mixed colours and the box round them all: each person's
-box is `[sim] target_width_m` across), as a wide background detector reports
+(one mover at their centroid, with their mixed colours), as a wide background detector reports
 people who walk together. Per scene it prints, with person 0 chosen after `CHOOSE_FRAME`:
 
 - ids: the distinct tracks nearest each person where no one else is within `APART_M`
@@ -91,8 +90,6 @@ class Scene:
         now, ahead = walk(self.scene, t), walk(self.scene, t + 1e-3)
         uv = self.pixels(now)
         duv = (self.pixels(ahead) - uv) / 1e-3
-        across = np.array([self.rig.sim.target_width_m / 2.0, 0.0])  # the camera looks along y
-        widths = np.abs(self.pixels(now + across)[:, 0] - self.pixels(now - across)[:, 0])
         uv = uv + self.rng.normal(0.0, PIXEL_NOISE_PX, uv.shape)
         duv = duv + self.rng.normal(0.0, RATE_NOISE_PX_S, duv.shape)
         movers = [
@@ -101,11 +98,10 @@ class Scene:
                 v_px=float(v),
                 du_px_s=float(du),
                 dv_px_s=float(dv),
-                box_width_px=float(width),
                 box_height_px=60.0,
                 appearance=tuple(self.rng.dirichlet(self.colours[i] * 200 + 0.1)),
             )
-            for i, ((u, v), (du, dv), width) in enumerate(zip(uv, duv, widths, strict=True))
+            for i, ((u, v), (du, dv)) in enumerate(zip(uv, duv, strict=True))
         ]
         camera_y = self.rig.sim.camera_xyz_m[1]
         hidden = {  # behind someone nearer to the camera
@@ -152,9 +148,6 @@ class Scene:
                 for key in ("u_px", "v_px", "du_px_s", "dv_px_s", "box_height_px")
             }
             looks = np.mean([m.appearance for m in parts], axis=0)
-            left = min(m.u_px - m.box_width_px / 2.0 for m in parts)
-            right = max(m.u_px + m.box_width_px / 2.0 for m in parts)
-            mean["box_width_px"] = right - left  # the box round them all
             out.append(Mover(**mean, appearance=tuple(looks / looks.sum())))
         return out
 
