@@ -5,11 +5,11 @@ pursues. The target's height is that of its box in the frame, the mover at the d
 pixel (`Detection.movers`, `Mover.box_height_px`) less `zoom_box_margin_px` (the detector's
 box reaches past the body by its smoothing), as a fraction h of the frame's height. Divided
 by the lens's focal length at the frame's own zoom (the pose it was captured at), f_capture,
-it is the target's size a = h / f_capture, which the zoom does not change; the lower quartile
-of the last `SIZE_SAMPLES` sizes (boxes the detector merged with an edge behind the target do
-not move the zoom, even where they are most of them) gives the focal length that shows the
-target at the setpoint h*, h* / a: a goal that does not depend on how far the zoom has moved
-since the frames were taken, so the loop's latency does not make it overshoot.
+it is the target's size a = h / f_capture, which the zoom does not change; the median of the
+last `SIZE_SAMPLES` sizes (a box the detector merged for a few frames with an edge behind the
+target does not move the zoom) gives the focal length that shows the target at the setpoint
+h*, h* / a: a goal that does not depend on how far the zoom has moved since the frames were
+taken, so the loop's latency does not make it overshoot.
 
 The frame must also hold the target: its centre at least `zoom_out_edge` of the frame's size
 from the edge, and its independent image velocity at most `zoom_out_speed` frame heights per
@@ -35,6 +35,7 @@ Off (`zoom_control = false`, or a fixed lens) every demand goes out unchanged: n
 from __future__ import annotations
 
 import math
+import statistics
 from collections import deque
 from dataclasses import dataclass
 
@@ -45,7 +46,7 @@ from gazed.messages import Detection, GazeDemand, GazeStateName, Odometry
 
 LEAVE_ALONE: tuple[GazeStateName, ...] = ("trace", "hold")  # states that never move the zoom
 TICK_MAX_S = 0.5  # a longer gap between ticks ramps the zoom by this much time at most
-SIZE_SAMPLES = 15  # the target's size is the lower quartile of this many sightings' (0.6 s)
+SIZE_SAMPLES = 15  # the target's size is the median of this many sightings' (about 0.6 s)
 
 
 @dataclass(frozen=True)
@@ -162,7 +163,7 @@ class ZoomControl:
             return None, 0.0
         goal_px = seen.focal_px * seen.room  # the longest focal length the frame allows
         # and the setpoint's; with no size yet, only out
-        size_px = gaze.zoom_target_height / _size(self.sizes) if self.sizes else 0.0
+        size_px = gaze.zoom_target_height / statistics.median(self.sizes) if self.sizes else 0.0
         goal_px = min(goal_px, size_px or seen.focal_px)
         ratio = seen.focal_px / goal_px  # the height it has now, of the goal's
         if abs(ratio - 1.0) <= gaze.zoom_deadband:
@@ -172,15 +173,6 @@ class ZoomControl:
             return goal, gaze.zoom_out_rate_s
         steady = self.unsteady_ns is None or seen.t_capture_ns - self.unsteady_ns >= self.steady_ns
         return (goal, gaze.zoom_in_rate_s) if steady else (None, 0.0)
-
-
-def _size(sizes: deque[float]) -> float:
-    """The target's size from its last sightings: their lower quartile (the order statistic,
-    not interpolated). A wrong box is too tall (the detector's region took in an edge behind
-    the target) far more often, and by far more, than too short, so up to three in four of
-    them may be wrong without moving the zoom; the price is a bias towards the small side of
-    about the boxes' own spread."""
-    return sorted(sizes)[(len(sizes) - 1) // 4]
 
 
 def _room(allowed: float, now: float) -> float:
