@@ -98,23 +98,6 @@ def test_a_small_steady_target_is_zoomed_in_to_the_setpoint_at_the_zoom_in_rate(
     assert run(zc, "pursuit", 1.9) == pytest.approx(1.0 / 6.0, abs=1e-3)
 
 
-def test_from_a_wider_zoom_the_focal_length_grows_at_the_pace_it_has_at_the_goal() -> None:
-    """A lens whose focal length grows eight times faster with its position above zoom 0.5
-    than below. Zoomed in towards 0.75 (f = 3000), the focal length grows by zoom_in_rate_s
-    times 8000 px a second all the way: 0.1 a second in position above 0.5, 0.8 below it
-    (no faster than zoom_out_rate_s)."""
-    table = [[0.0, 500.0], [0.5, 1000.0], [1.0, 5000.0]]
-    for zoom_now, height, out_rate_s, expected in [
-        (0.0, 0.05, 1.0, (0.08, 0.16)),  # f = 500: 80 px a tick, 1000 px per unit
-        (0.0, 0.05, 0.5, (0.05, 0.10)),  # capped at zoom_out_rate_s
-        (0.6, 0.18, 1.0, (0.61, 0.62)),  # f = 1800: 80 px a tick, 8000 px per unit
-    ]:
-        zc = control(table, zoom_target_height=0.3, zoom_in_rate_s=0.1, zoom_out_rate_s=out_rate_s)
-        for k, zoom in enumerate((zoom_now, *expected)):
-            zc.sightings.found = seen(0.1 * k, height * H, zoom=zoom_now)
-            assert run(zc, "pursuit", 0.1 * k, zoom_now=zoom_now) == pytest.approx(zoom)
-
-
 def test_a_target_taller_than_the_deadband_is_zoomed_out_at_once() -> None:
     zc = control(zoom_target_height=0.25, zoom_out_rate_s=0.5, zoom_deadband=0.1)
     zc.sightings.found = seen(0.0, 0.25 * H, zoom=0.5)

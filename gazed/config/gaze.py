@@ -179,8 +179,7 @@ class GazeSection(Section):
         gt=0,
         le=100,
         description="zoom_control: zooming in, the demand moves this fraction of the zoom range "
-        "per second near its goal; from a wider zoom the focal length grows by as many pixels a "
-        "second as it does at the goal (faster in position, up to zoom_out_rate_s).",
+        "per second at most.",
     )
     zoom_out_rate_s: float = Field(
         0.5,

@@ -19,10 +19,8 @@ length it was seen at. The goal is the shorter of the two focal lengths, the set
 the room's: an escaping target is zoomed out just enough to keep it in the frame, not to the
 widest, and the height is held again as soon as it is steady.
 
-Each tick, the zoom demand moves towards a goal, within `zoom_min`..`zoom_max`: out at
-`zoom_out_rate_s` (of the zoom range per second); in with the focal length growing by as many
-pixels a second as `zoom_in_rate_s` makes it grow at the goal (faster from a wider zoom, where
-the lens's focal length grows less with its position, up to `zoom_out_rate_s`):
+Each tick, the zoom demand moves towards a goal, at most `zoom_in_rate_s` or `zoom_out_rate_s`
+(of the zoom range per second) from the last demand, within `zoom_min`..`zoom_max`:
 - in any state but pursuit (and line tracing, which leaves the zoom alone), to the widest:
   a target is reacquired (search, saccade, lost) with the widest view first;
 - in pursuit, with the focal length of the latest frame longer than the goal's by more than
@@ -48,7 +46,6 @@ from gazed.messages import Detection, GazeDemand, GazeStateName, Odometry
 
 LEAVE_ALONE: tuple[GazeStateName, ...] = ("trace", "hold")  # states that never move the zoom
 TICK_MAX_S = 0.5  # a longer gap between ticks ramps the zoom by this much time at most
-SLOPE_STEP = 0.01  # the lens's focal length's slope at a zoom: over this much zoom below it
 SIZE_SAMPLES = 15  # the target's size is the median of this many sightings' (about 0.6 s)
 
 
@@ -150,26 +147,10 @@ class ZoomControl:
         now = self.demanded
         if goal is not None:
             goal = min(max(goal, self.gaze.zoom_min), self.gaze.zoom_max)
-            if goal > now:
-                now = min(goal, self._zoomed_in(now, goal, dt_s))
-            else:
-                now = max(goal, now - rate_s * dt_s)
+            step = rate_s * dt_s
+            now = min(max(goal, now - step), now + step)
         self.demanded = now
         return now
-
-    def _zoomed_in(self, zoom: float, goal: float, dt_s: float) -> float:
-        """One tick's zoom in from `zoom` towards `goal`: the focal length grows by as many
-        pixels a second as `zoom_in_rate_s` makes it grow at the goal. The zoom's flow at the
-        edge of a window that spans a fixed angle (the fovea) grows with the focal length's
-        rate in pixels, so it is no larger on the way in than on arrival; from a wider zoom,
-        where the lens's focal length grows less with its position, that is faster, up to
-        `zoom_out_rate_s`, and never slower than `zoom_in_rate_s`."""
-        lens, gaze = self.lens, self.gaze
-        below = max(goal - SLOPE_STEP, 0.0)
-        slope_px = (lens.focal_px(goal) - lens.focal_px(below)) / (goal - below)
-        paced = lens.zoom_for_focal(lens.focal_px(zoom) + gaze.zoom_in_rate_s * slope_px * dt_s)
-        step = max(min(paced - zoom, gaze.zoom_out_rate_s * dt_s), gaze.zoom_in_rate_s * dt_s)
-        return zoom + step
 
     def _goal(self, state: GazeStateName, wall_ns: int) -> tuple[float | None, float]:
         """Where the zoom should go and how fast (None: stay)."""
