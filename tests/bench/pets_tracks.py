@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-import time
 from collections import Counter
 from pathlib import Path
 
@@ -57,6 +56,8 @@ RIG = ROOT / "configs" / "pets.toml"
 TRUTH = ROOT.parent / "shared" / "data" / "footage" / "pets09-s2l1" / "truth_frames_0000-0399.csv"
 MATCH_M = 1.0  # a track this near a person's ground point is theirs (matched one to one)
 REST = HeadPose(pan_rad=0.0, tilt_rad=0.0)
+# the replay's clock at frame 0: fixed (not the wall clock), so every run computes alike
+T0_NS = 1_000_000_000_000_000_000
 
 
 def replay(rig_path: Path, frames: range, mode: str | None, point: str) -> list[dict]:
@@ -74,16 +75,17 @@ def replay(rig_path: Path, frames: range, mode: str | None, point: str) -> list[
     )
     person = PersonSize.from_rig(rig, view.wide)
     movers = WideMovers(view, rig.vision, point, person)  # type: ignore[arg-type]
-    tracker = TargetTracker(rig, "estimator")
+    now_ns = [0]  # the replay's clock: each frame arrives as it is captured
+    tracker = TargetTracker(rig, "estimator", clock_ns=lambda: now_ns[0])
     capture = cv2.VideoCapture(str(rig.wide_source))
     capture.set(cv2.CAP_PROP_POS_FRAMES, frames.start)
-    t0_ns = time.time_ns()  # the frames are dated on this clock, so the tracker takes them
+    t0_ns = T0_NS
     out = []
     for frame in frames:
         ok, pixels = capture.read()
         if not ok:
             break
-        t_ns = t0_ns + round(frame / rig.wide.rate_hz * 1e9)
+        t_ns = now_ns[0] = t0_ns + round(frame / rig.wide.rate_hz * 1e9)
         movers.observe(CapturedFrame(pixels, "bgr8", t_ns, frame))
         wide = movers._movers[frame]
         seen = movers.in_view(frame, REST) or ()
