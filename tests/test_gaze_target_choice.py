@@ -14,7 +14,6 @@ from gazed.config import GazeSection
 from gazed.gaze.controller import GazeController
 from gazed.gaze.focus import focus
 from gazed.gaze.target_choice import (
-    POSITION_SIGMAS,
     WALK_MAX_M_S,
     TargetChoice,
     track_start_up_s,
@@ -147,7 +146,8 @@ def test_an_operators_choice_is_held_for_its_person_then_ends() -> None:
     assert change.reason == "track 4 ended; held for its person where they were going"
     assert c.on_state(at(4.5, *TRACKS[:3]), None) is None  # still searched for: said once
     assert c.target_id == 4 and c.by_operator and c.counts["held_for_person"] == 1
-    # the gaze searches as long as `lost_after_ms` + `search_after_ms` after 4's last detection
+    # held until the gaze would go back to search: `lost_after_ms` + `search_after_ms` after
+    # 4's last detection
     change = c.on_state(at(4.7, *TRACKS[:3]), None)
     assert change is not None and change.target_id == 1 and not c.by_operator
     assert change.reason == "track 4 ended; rule first chose track 1"
@@ -296,14 +296,14 @@ def test_a_held_choice_is_continued_only_where_its_person_can_have_walked() -> N
     c.on_state(at(1.0, beside, chosen), None)
     c.on_select(GazeSelect(t_capture_ns=1, track_id=2), None)
     c.on_state(at(1.1, beside, chosen.model_copy(update={"coasting": True})), None)
-    change = c.on_state(at(1.2, beside), None)  # 2 ended, its person at about (0.2, 5)
+    change = c.on_state(at(1.2, beside), None)  # 2 ended, its person at about (0.1, 5)
     assert change is not None and change.target_id == 2 and c.holding
     # other tracks' predictions do not reach the pursuit while the choice is held
     assert not c.accepts(Prediction_for(1))
     # a new track behind where 2's person was going, and one too far on: neither is them
     behind, far = walker(5, (-1.6, 5.0), (1.0, 0.0)), walker(6, (4.5, 5.0), (1.0, 0.0))
     assert c.on_state(at(1.5, beside, behind, far), None) is None and c.target_id == 2
-    # half a second on, a new track where 2's person has walked to (0.7, 5) continues it
+    # half a second on, a new track where 2's person has walked to (0.6, 5) continues it
     change = c.on_state(at(1.7, beside, behind, far, walker(7, (0.9, 5.1), (1.0, 0.0))), None)
     assert change is not None and change.target_id == 7 and c.by_operator and not c.holding
     assert change.reason == "track 2 lost; its person continues as 7"
@@ -323,12 +323,39 @@ def test_a_grown_gate_takes_no_track_held_before_the_loss() -> None:
 
 def test_walked_on_moves_along_the_velocity_and_grows_the_covariance() -> None:
     before = walker(2, (0.0, 5.0), (1.0, -0.5))
-    after = walked_on(before, 2.0)
+    gate_d2 = choice().continuation_d2
+    after = walked_on(before, 2.0, gate_d2)
     assert after.ground_xy_m == pytest.approx((2.0, 4.0))
-    stray_m2 = (WALK_MAX_M_S * 2.0 / POSITION_SIGMAS) ** 2
-    grown = 0.04 + stray_m2
-    assert np.asarray(after.ground_cov_m2) == pytest.approx(np.diag([grown, grown]))
-    assert walked_on(before, 0.0) is before
+    # the gate's edge lies as far as a person walks in the time, beyond the track's own spread
+    stray_m2 = np.diag(np.asarray(after.ground_cov_m2)) - 0.04
+    assert np.sqrt(stray_m2 * gate_d2) == pytest.approx([WALK_MAX_M_S * 2.0] * 2)
+    assert walked_on(before, 0.0, gate_d2) is before
+
+
+def test_a_track_born_where_the_person_cannot_have_walked_never_continues_the_choice() -> None:
+    c = choice(select_rule="first")
+    chosen = walker(2, (0.0, 5.0), (1.0, 0.0))
+    beside = walker(1, (-1.0, 5.0), (0.0, 0.0))
+    c.on_state(at(1.0, beside, chosen), None)
+    c.on_select(GazeSelect(t_capture_ns=1, track_id=2), None)
+    c.on_state(at(1.1, beside, chosen.model_copy(update={"coasting": True})), None)
+    c.on_state(at(1.2, beside), None)
+    assert c.holding
+    behind = walker(5, (-1.6, 5.0), (0.0, 0.0))  # born 2 m behind the walking person
+    assert c.on_state(at(1.5, beside, behind), None) is None
+    # a second on, the person's grown region covers it: still not them (born elsewhere)
+    assert c.on_state(at(2.5, beside, behind), None) is None
+    assert c.target_id == 2 and c.holding
+
+
+def test_a_held_id_seen_again_is_followed_and_no_longer_held() -> None:
+    c = choice(select_rule="first")
+    chosen = walker(2, (0.0, 5.0), (1.0, 0.0))
+    c.on_state(at(1.0, chosen), None)
+    c.on_select(GazeSelect(t_capture_ns=1, track_id=2), None)
+    c.on_state(at(1.2), None)
+    assert c.holding
+    assert c.on_state(at(1.4, chosen), None) is None and c.target_id == 2 and not c.holding
 
 
 def test_a_held_point_outlasts_the_start_up_and_is_then_refused() -> None:
@@ -339,14 +366,34 @@ def test_a_held_point_outlasts_the_start_up_and_is_then_refused() -> None:
         start_up_s > frames * rig.camera.frame_period_s + 0.999 * rig.estimator.coast_max_ms / 1e3
     )
     c = TargetChoice(rig, LENS, KINEMATICS)
-    c.on_select(GazeSelect(t_capture_ns=1_000_000_000, ground_xy_m=(0.0, 5.0)), None)
     far = walker(4, (-40.0, 5.0), (0.0, 0.0))  # nobody who can have been at the point
+    c.on_state(at(0.9, far), None)
+    c.on_select(GazeSelect(t_capture_ns=900_000_000, track_id=4), None)
+    assert c.by_operator
+    c.on_select(GazeSelect(t_capture_ns=1_000_000_000, ground_xy_m=(0.0, 5.0)), None)
     assert c.on_state(at(1.0 + 0.99 * start_up_s, far), None) is None and c.pending is not None
     change = c.on_state(at(1.0 + 1.01 * start_up_s, far), None)
     assert change is not None and change.target_id == 4 and c.pending is None
+    assert not change.changed  # the rule picks the track followed meanwhile
     assert change.reason.startswith("operator refused: no track at (0, 5) m in ")
     assert change.reason.endswith("s; back to rule first") and not c.by_operator
     assert c.counts["refused_selections"] == 1
+    # the rule's track, not an operator's: when it ends, the rule picks at once
+    other = walker(8, (3.0, 5.0), (0.0, 0.0))
+    change = c.on_state(at(1.1 + 1.01 * start_up_s, other), None)
+    assert change is not None and change.target_id == 8 and not c.holding
+
+
+def test_a_digital_heads_start_up_counts_wide_frames() -> None:
+    rig = RIG.model_copy(
+        update={
+            "camera": RIG.camera.model_copy(update={"source": "digital", "rate_hz": 25.0}),
+            "wide": RIG.wide.model_copy(update={"rate_hz": 5.0}),
+        }
+    )
+    frames = rig.vision.background_learning_frames + rig.estimator.confirm_frames
+    expected_s = frames / 5.0 + rig.estimator.coast_max_ms / 1e3
+    assert track_start_up_s(rig) == pytest.approx(expected_s)
 
 
 def Prediction_for(track_id: int) -> Prediction:

@@ -36,7 +36,8 @@ def select_arguments(parser: argparse.ArgumentParser) -> None:
         type=float,
         nargs=2,
         metavar=("X", "Y"),
-        help="the confirmed track of the person there (m); held until one is confirmed",
+        help="the confirmed track of the person there (m); held until one is confirmed, "
+        "at most the rig's track start-up (docs/gaze.md)",
     )
     choice.add_argument(
         "--pixel", type=float, nargs=2, metavar=("U", "V"), help="the track nearest this pixel"

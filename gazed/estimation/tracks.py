@@ -155,8 +155,10 @@ class TrackSet:
             pairs, lone_sightings, members = {lone: 0}, (), {}
         else:
             states = self._predicted(t_s)
-            pairs, lone_sightings, costs = self._assign(states, sightings)
-            members, taken = self._groups(states, sightings, pairs, costs)
+            predicted, P = _stacked(states)
+            looks = self._appearances(sightings)
+            pairs, lone_sightings, costs = self._assign(predicted, P, sightings, looks)
+            members, taken = self._groups(states, predicted, P, sightings, pairs, costs, looks)
             pairs = {r: c for r, c in pairs.items() if r not in members and c not in taken}
             lone_sightings = tuple(c for c in lone_sightings if c not in taken)
         for row, track in enumerate(self.tracks):
@@ -203,17 +205,20 @@ class TrackSet:
         return states
 
     def _assign(
-        self, states: list[PredictedState], sightings: list[Sighting]
+        self,
+        predicted: np.ndarray,
+        P: np.ndarray,
+        sightings: list[Sighting],
+        looks: tuple[np.ndarray, ...],
     ) -> tuple[dict[int, int], tuple[int, ...], np.ndarray]:
-        """Track row -> sighting column, the sightings no track took, and the (T, D) costs."""
-        if not sightings or not states:
-            return {}, tuple(range(len(sightings))), np.full((len(states), len(sightings)), np.inf)
-        predicted = np.array([s.position for s in states])  # (T, 2)
-        P = np.array([s.covariance[:2, :2] for s in states])  # (T, 2, 2)
+        """Track row -> sighting column, the sightings no track took, and the (T, D) costs, of
+        the predictions (T, 2) with covariances P (T, 2, 2); `looks` from `_appearances`."""
+        if not sightings or not len(predicted):
+            costs = np.full((len(predicted), len(sightings)), np.inf)
+            return {}, tuple(range(len(sightings))), costs
         measured = np.array([s.measurement.position for s in sightings])  # (D, 2)
         R = np.array([s.measurement.position_cov for s in sightings])  # (D, 2, 2)
         S = P[:, None] + R[None, :]  # (T, D, 2, 2)
-        looks = self._appearances(sightings)
         costs = pair_costs(predicted, S, measured, self.gate_d2, *looks)
         result = associate(costs)
         return dict(result.pairs), result.lone_detections, costs
@@ -221,16 +226,17 @@ class TrackSet:
     def _groups(
         self,
         states: list[PredictedState],
+        predicted: np.ndarray,
+        P: np.ndarray,
         sightings: list[Sighting],
         pairs: dict[int, int],
         costs: np.ndarray,
+        looks: tuple[np.ndarray, ...],
     ) -> tuple[dict[int, Sighting], set[int]]:
         """Row -> its measurement from a blob that holds it and another confirmed track
         (`association.find_blobs`), and the blobs' sighting columns."""
         if not sightings or all(r in pairs for r in range(len(self.tracks))):
             return {}, set()
-        predicted = np.array([s.position for s in states])
-        P = np.array([s.covariance[:2, :2] for s in states])
         confirmed = np.array([t.confirmed for t in self.tracks])
         measured = [s.measurement for s in sightings]
         blobs = find_blobs(
@@ -241,7 +247,7 @@ class TrackSet:
             pairs,
             costs,
             self.gate_d2,
-            self._appearances(sightings),
+            looks,
         )
         members: dict[int, Sighting] = {}
         for blob in blobs:
@@ -369,3 +375,11 @@ def _state_time(estimator: TrackEstimator) -> float:
     """The time of a single-track filter's state (of its held position while it is pending)."""
     running = estimator.status[0] == TRACKING
     return float(estimator.t_s[0] if running else estimator.t_measured_s[0])
+
+
+def _stacked(states: list[PredictedState]) -> tuple[np.ndarray, np.ndarray]:
+    """The predicted positions (T, 2) and their covariances (T, 2, 2), once per frame for the
+    assignment and the blobs alike."""
+    if not states:
+        return np.zeros((0, 2)), np.zeros((0, 2, 2))
+    return np.array([s.position for s in states]), np.array([s.covariance[:2, :2] for s in states])

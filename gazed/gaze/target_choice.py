@@ -51,14 +51,17 @@ point no track has taken by then is refused, and the rule picks.
 An operator chose one person, and a track of someone else is not them: where the chosen track
 ends and no track continues it, the choice is held for its person rather than handed to the
 rule, which would pick another walker. The lost person is taken on along their last velocity,
-their covariance grown by how far a person can stray from that in the time since
-(`WALK_MAX_M_S` over it, as `POSITION_SIGMAS` standard deviations), so a new track born where
-they can have walked continues the choice (the gate above), and none held before (those the
-estimator already kept for someone else) does. Meanwhile the gaze takes no other track's
-predictions: it coasts and searches where the person was going. The hold lasts as long as the
-gaze searches for a lost target (`lost_after_ms` then `search_after_ms`, from the chosen track's
-last detection); past that the rule picks. The rule's own choice is its rule's: a track of it
-that ends is replaced at once.
+their covariance grown so that the gate's edge lies as far as a person can stray from that in
+the time since (`WALK_MAX_M_S` over it), so a new track born where they can have walked
+continues the choice (the gate above). Each new track is judged once, when it first appears: one
+born outside the gate is not them however far the region grows later, and none held before
+(those the estimator already kept for someone else) is. Meanwhile the gaze takes no other
+track's predictions: it coasts and searches where the person was going. The hold lasts until
+the gaze would give a lost target up and go back to search (`lost_after_ms` then
+`search_after_ms`, from the chosen track's last detection; the estimator ends a track only after
+coasting `coast_max_ms` of that); past that the rule picks. A held id that the estimator shows
+again is followed again. The rule's own choice is its rule's: a track of it that ends is
+replaced at once.
 """
 
 from __future__ import annotations
@@ -185,6 +188,7 @@ class TargetChoice:
                 self._known = frozenset(t.id for t in tracks)
                 self._seen_ns = t_ns
             self._chosen, self._chosen_ns = chosen, t_ns
+            self.holding = False
             if not chosen.coasting:
                 return None
         lost = self._chosen
@@ -193,14 +197,17 @@ class TargetChoice:
         # ended at once, in the first state without it: merged (module docstring)
         merged = chosen is None and not lost.coasting and not self.holding
         if chosen is None:
-            lost = walked_on(lost, (t_ns - self._chosen_ns) * 1e-9)
-        best, best_d2 = None, self.continuation_d2
+            lost = walked_on(lost, (t_ns - self._chosen_ns) * 1e-9, self.continuation_d2)
+        best, best_d2, born_elsewhere = None, self.continuation_d2, set()
         for track in tracks:
             if (track.id in self._known and not merged) or track.coasting:
                 continue
             d2 = _ground_distance2(lost, track)
-            if d2 is not None and d2 <= best_d2:
+            if d2 is None or d2 > self.continuation_d2:
+                born_elsewhere.add(track.id)  # not where the person can have walked: never
+            elif d2 <= best_d2:
                 best, best_d2 = track, d2
+        self._known |= born_elsewhere
         if best is None or not best.confirmed:  # none, or wait for the tentative (docstring)
             return None
         self.target_id, self._chosen, self._chosen_ns, self._seen_ns = best.id, best, t_ns, t_ns
@@ -221,14 +228,16 @@ class TargetChoice:
             waited_ns = state.t_capture_ns - self.pending.t_capture_ns
             if waited_ns <= self.pending_max_ns:
                 return None
-            self.pending = None
+            self.pending, self.by_operator, self.holding = None, False, False
             self.counts["refused_selections"] += 1
+            before = self.target_id
             picked = rule_pick(self.rule, state.tracks, self.kinematics, head_rad, self.zone)
             self.target_id = picked.id if picked is not None else None
             return ChoiceChange(
                 self.target_id,
                 f"{REFUSED}: no track at ({x:g}, {y:g}) m in {waited_ns * 1e-9:.1f} s; "
                 f"back to rule {self.rule}",
+                self.target_id != before,
             )
         self.pending, self.target_id, self.by_operator = None, best.id, True
         self._chosen, self._known = best, frozenset(t.id for t in state.tracks)
@@ -308,17 +317,20 @@ class TargetChoice:
 def track_start_up_s(rig: Rig) -> float:
     """How long a person in view can go without a confirmed track (module docstring)."""
     frames = rig.vision.background_learning_frames + rig.estimator.confirm_frames
-    return frames * rig.camera.frame_period_s + rig.estimator.coast_max_ms / 1000.0
+    digital = rig.camera.source == "digital"  # its views come one per wide frame
+    period_s = 1.0 / rig.wide.rate_hz if digital else rig.camera.frame_period_s
+    return frames * period_s + rig.estimator.coast_max_ms / 1000.0
 
 
-def walked_on(track: Track, dt_s: float) -> Track:
+def walked_on(track: Track, dt_s: float, gate_d2: float) -> Track:
     """A track's person `dt_s` after its last state: on along its velocity, its covariance grown
-    by how far a person can stray from that in the time (module docstring)."""
+    so that the edge of the gate `gate_d2` (a squared Mahalanobis distance) lies as far as a
+    person can stray from that in the time (module docstring)."""
     if track.ground_xy_m is None or track.ground_cov_m2 is None or dt_s <= 0.0:
         return track
     velocity = np.asarray(track.ground_velocity_m_s or (0.0, 0.0))
     xy = np.asarray(track.ground_xy_m) + velocity * dt_s
-    stray_m2 = (WALK_MAX_M_S * dt_s / POSITION_SIGMAS) ** 2
+    stray_m2 = (WALK_MAX_M_S * dt_s) ** 2 / gate_d2
     cov = np.asarray(track.ground_cov_m2) + stray_m2 * np.eye(2)
     return track.model_copy(
         update={

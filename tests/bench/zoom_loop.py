@@ -7,7 +7,8 @@ error RMS and fovea fraction, and where the frames not held go.
 
 Each run is one `gazed eval loop` on the zoom rig (the real processes, one after the other): the
 oval with seed 1, then `random` with each seed. The target: the height held in 90 % of the
-frames, and no loss while zooming.
+frames, and no loss while zooming. A run in which the target is never acquired (never held in
+the fovea: the gaze pursued something else) holds it in no frame, its losses unscored (None).
 
 The frames after acquisition whose height is not held are sorted by what the loop was doing:
 `reacq` the gaze not in pursuit (saccade, lost, search: the zoom goes to the widest); in
@@ -101,7 +102,7 @@ def main() -> None:
         + " ".join(f"{name:>6}" for name in CLASSES)
     )
     runs = [("oval", 1)] + [("random", seed) for seed in args.seeds]
-    held_all, zooming_losses = [], 0
+    held_all, zooming_losses, unacquired = [], 0, 0
     for scenario, seed in runs:
         result, record = run(args.rig, scenario, seed, args.seconds)
         zoom = result["zoom"]
@@ -109,6 +110,7 @@ def main() -> None:
         rms = (result["gaze_error_deg"] or {}).get("rms")
         held_all.append(zoom["height_within_fraction"])
         zooming_losses += zoom["losses_while_zooming"] or 0
+        unacquired += zoom["losses"] is None  # the target never held in the fovea
         where = classes(args.rig, record)
         print(
             f"{scenario:>9} {seed:>4} {zoom['height_within_fraction']:>6}"
@@ -121,7 +123,8 @@ def main() -> None:
     met = sum(h >= HELD_TARGET for h in held_all)
     print(
         f"setpoint {zoom.get('setpoint')}: height held in >= {HELD_TARGET:.0%} of the frames in "
-        f"{met} of {len(runs)} runs, lowest {min(held_all)}; losses while zooming {zooming_losses}"
+        f"{met} of {len(runs)} runs, lowest {min(held_all)}; losses while zooming {zooming_losses};"
+        f" never acquired in {unacquired}"
     )
 
 
