@@ -61,7 +61,12 @@ def test_a_fresh_demand_is_written_at_once_limited_and_handed_on() -> None:
     assert math.degrees(command.pan_rad) == pytest.approx(60.0 - UNIT_DEG)  # one unit inside
     assert [stage for stage, _ in command.stamps] == ["test"]
     assert pan_setpoints_deg(w.line.written) == [5.0]  # the set-point, at park yet: no jump
-    assert w.writer.counts == {"commands": 1, "demands": 1, "held_for_the_line": 0}
+    assert w.writer.counts == {
+        "commands": 1,
+        "demands": 1,
+        "held_for_the_line": 0,
+        "held_for_a_socket": 0,
+    }
     assert w.writer.limiter.joint_clamps == 1
     assert not w.writer.holding
 

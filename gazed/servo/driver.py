@@ -12,7 +12,8 @@ next frame written, so a half-duplex line never has two talkers and VISCA never 
 in flight than its sockets. A frame the device has no room for yet (`codec.has_room`: both
 VISCA sockets hold commands) waits for a completion, at most the read timeout; a frame refused
 because the device is busy (`codec.refused_as_busy`: VISCA buffer full) is sent once more when
-it has room. Nothing is queued: each call carries the newest demand. Asynchronous replies (VISCA completions, PTU `!P`/`!T`) are kept in
+it has room. Nothing is queued: each call carries the newest demand, and a caller that must not
+wait asks `has_room` first. Asynchronous replies (VISCA completions, PTU `!P`/`!T`) are kept in
 `notices`. Bytes waiting before a request are stale answers to a request that timed out: they
 are decoded, counted and dropped. The read timeout runs from when the request has left the line
 (`SerialTransport.line_busy_s`), not from when it was handed to the port.
@@ -216,6 +217,14 @@ class ServoDriver:
                 else:
                     replies.append((reply, t_ns - round(len(reply.raw) * byte_time_ns)))
         return replies
+
+    def has_room(self, frames: list[bytes]) -> bool:
+        """True when the device can take the first of `frames` at once (a VISCA socket is
+        free): the replies already in are read first, as a completion frees a socket. Nothing
+        waits, so a caller that must not block holds its frames until this is true."""
+        if not self.codec.has_room(frames[0]):
+            self._drain()
+        return self.codec.has_room(frames[0])
 
     def _await_room(self, frame: bytes) -> None:
         """Read until the device has room for `frame`. When none comes within the read

@@ -5,8 +5,12 @@ device unit, so rounding never crosses them — and rate limits clamped, all cou
 becomes the target of the set-point generator, whose set-points — never a jump — are written at
 once for a fresh demand and every command period while a move is under way — but not behind a
 whole set-point still waiting for the serial line (the newest then replaces it, counted as
-`held_for_the_line`). No fresh demand within the command timeout -> hold (decelerate to rest).
-Each fresh demand, as limited, goes to `on_command` the moment its bytes are written.
+`held_for_the_line`). A set-point never waits for the head to take it: while the head has no
+room for a command (both VISCA sockets hold commands, a move and a zoom) it is held, counted
+once as `held_for_a_socket`, and the writer looks again every `ROOM_RETRY_S`; the set-point then
+written is the one due at that moment, with the newest demand. No fresh demand within the
+command timeout -> hold (decelerate to rest). Each fresh demand, as limited, goes to
+`on_command` the moment its bytes are written.
 """
 
 from __future__ import annotations
@@ -20,6 +24,11 @@ from gazed.messages import GazeDemand
 from gazed.servo.driver import ServoDriver
 from gazed.servo.limits import DemandLimiter, Target
 from gazed.servo.setpoints import SetpointGenerator
+
+# A socket frees when a command ends, which the host cannot see coming; a look costs one read
+# that does not wait. Looking every millisecond, well inside a set-point period and the head's
+# response time, uses a freed socket before the delay matters.
+ROOM_RETRY_S = 0.001
 
 
 class SetpointWriter:
@@ -46,13 +55,14 @@ class SetpointWriter:
         self.limiter = DemandLimiter(head, inset_rad)
         self.setpoints = SetpointGenerator(head, t_s, inset_rad)
         self.holding = True
-        self.counts = {"commands": 0, "demands": 0, "held_for_the_line": 0}
+        self.counts = {"commands": 0, "demands": 0, "held_for_the_line": 0, "held_for_a_socket": 0}
         self.write_ms = 0.0
         self._next_command_s = 0.0
         self._last_demand_s: float | None = None
         self._written: tuple[float, float] | None = None
         self._fresh: GazeDemand | None = None  # the newest demand, as limited, not yet written
         self._setpoint_line_s = 0.0  # how long the last set-point's bytes took on the line
+        self._held_for_a_socket = False  # the due set-point waits for the head to have room
 
     def start_point(self, t_s: float) -> tuple[float, float]:
         """Where a head that cannot report its position is sent when the link opens: the
@@ -70,7 +80,7 @@ class SetpointWriter:
     def wake_times_s(self) -> list[float]:
         """When a set-point is next due and when the demands time out, where either applies."""
         times = []
-        if not self.setpoints.settled or self._fresh is not None:
+        if not self.setpoints.settled or self._fresh is not None or self._held_for_a_socket:
             times.append(self._next_command_s)
         if not self.holding and self._last_demand_s is not None:
             times.append(self._last_demand_s + self.command_timeout_s)
@@ -126,9 +136,16 @@ class SetpointWriter:
         if setpoint == self._written and self._fresh is None:
             self._next_command_s = t_s + self.command_period_s
             return
+        device_rad = device_from_joint(self.head, *setpoint)
+        if not self._has_room(*device_rad):
+            self.counts["held_for_a_socket"] += not self._held_for_a_socket
+            self._held_for_a_socket = True
+            self._next_command_s = t_s + ROOM_RETRY_S
+            return
+        self._held_for_a_socket = False
         started = time.perf_counter()
         busy_before_s = transport.line_busy_s()
-        t_ns = self.driver.set_position(*device_from_joint(self.head, *setpoint))
+        t_ns = self.driver.set_position(*device_rad)
         self.write_ms = (time.perf_counter() - started) * 1000.0
         self._setpoint_line_s = max(0.0, transport.line_busy_s() - busy_before_s)
         self._written = setpoint
@@ -137,6 +154,12 @@ class SetpointWriter:
             self._on_command(self._fresh, t_ns)
             self._fresh = None
         self._next_command_s = t_s + self.command_period_s
+
+    def _has_room(self, pan_rad: float, tilt_rad: float) -> bool:
+        """Whether the head takes a move to device angles now, without waiting."""
+        if not isinstance(self.driver, ServoDriver):
+            return True  # the digital head and speed mode: nothing to wait for here
+        return self.driver.has_room(self.driver.codec.encode_set_position(pan_rad, tilt_rad))
 
     def write_fresh(self, t_s: float) -> None:
         """A demand that came while the head was answering a poll goes out now, not after the

@@ -6,11 +6,18 @@ A zoom is slow (seconds across its range) beside pan and tilt, and each write is
 line has to carry, so the set-point is written at most every `ZOOM_COMMAND_PERIOD_S`, and only
 when it has moved by at least `ZOOM_STEP`. The set-point slews towards the demand at the rate
 limit, so the lens never receives a jump it would take faster than the rig allows.
+
+A zoom command never waits for the head to take it: while the head has no room for a command
+(both VISCA sockets hold commands) the write is left for a later step, which writes the newest
+set-point then (counted as `held_for_a_socket`). The link writes the pan-tilt set-point before
+the zoom in each step, so a socket that frees goes to the pan-tilt first.
 """
 
 from __future__ import annotations
 
 from typing import Protocol
+
+from gazed.servo.driver import ServoDriver
 
 ZOOM_COMMAND_PERIOD_S = 0.1
 ZOOM_STEP = 1.0 / 1024  # below any lens's repeatability, above a VISCA unit at 0x4000
@@ -35,6 +42,7 @@ class ZoomDrive:
         self.setpoint: float | None = None
         self.position: float | None = None
         self.writes = 0
+        self.held_for_a_socket = 0
         self._written: float | None = None
         self._t_s: float | None = None
         self._next_write_s = 0.0
@@ -62,10 +70,19 @@ class ZoomDrive:
         landing = self.setpoint == self.target and self.setpoint != self._written
         if mono_s < self._next_write_s or not (moved or landing):
             return
+        if not self._has_room(self.setpoint):
+            self.held_for_a_socket += 1
+            return
         self.driver.set_zoom(self.setpoint)
         self._written = self.setpoint
         self.writes += 1
         self._next_write_s = mono_s + ZOOM_COMMAND_PERIOD_S
+
+    def _has_room(self, zoom: float) -> bool:
+        """Whether the head takes a zoom command now, without waiting."""
+        if not isinstance(self.driver, ServoDriver):
+            return True  # the digital head and ONVIF: nothing to wait for here
+        return self.driver.has_room(self.driver.codec.encode_set_zoom(zoom))
 
     def read(self) -> float:
         """The lens's present position (raises what the driver raises)."""
