@@ -6,11 +6,14 @@ been executed — for Pan-tiltDrive, stop and CAM_Zoom Direct once they take eff
 then runs to its position, as a drive runs at its speed), for absolute/relative moves, Home and
 Reset when pan and tilt have settled on the target.
 Each command drives one mechanism, pan-tilt or the zoom, and a new command for a mechanism takes
-it over from the one executing there, as a Sony camera follows a new pan-tilt or zoom command
-without waiting for the last to end: the superseded command is reported complete right after
-the new one's ACK (its motion has ended), and its socket is free again. A command needs a free
-socket: one that finds both holding commands (a pan-tilt move and a zoom) is refused with
-buffer full (`z0 60 03 FF`) and changes nothing. Cancel
+it over from the one executing there, without a Cancel first: Sony's SRG cameras take a new
+target for a move under way (Opencast's VISCA steering notes, LS-102, which also say that other
+makes refuse it and need the move cancelled), and Fawkes' EVI-D100 driver sends each new
+absolute move while the last still runs. The superseded command is reported complete right
+after the new one's ACK (its motion has ended), and its socket is free again. A command needs a
+free socket (Sony SRG-HD1 and BRC-X400 technical manuals: two sockets, "command buffer full"
+while both execute): one that finds both holding commands (a pan-tilt move and a zoom) is
+refused with buffer full (`z0 60 03 FF`) and changes nothing. Cancel
 `8x 2y FF` answers `z0 6y 04 FF` (no completion follows) or `z0 6y 05 FF`. Inquiries are
 answered directly and use no socket; IF_Clear empties the sockets and answers `z0 50 FF`.
 CAM_Zoom Direct moves the mechanism's zoom axis (position 0 .. the rig's `zoom_max_units`, the
