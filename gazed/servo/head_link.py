@@ -159,6 +159,8 @@ class HeadLink:
             t_s=mono_s(),
         )
         self.setpoints = self.writer.setpoints
+        if self.zoom is not None:  # the zoom yields its socket to a waiting pan-tilt set-point
+            self.writer.make_room = self.zoom.yield_socket
         if isinstance(self.driver, SpeedHead):  # speed mode runs on where they are heading
             self.driver.follow(self.setpoints)
         self.dating = OdometryDating(rig.head, self.codec.pan_wraps)

@@ -6,9 +6,10 @@ becomes the target of the set-point generator, whose set-points — never a jump
 once for a fresh demand and every command period while a move is under way — but not behind a
 whole set-point still waiting for the serial line (the newest then replaces it, counted as
 `held_for_the_line`). A set-point never waits for the head to take it: while the head has no
-room for a command (both VISCA sockets hold commands, a move and a zoom) it is held, counted
-once as `held_for_a_socket`, and the writer looks again every `ROOM_RETRY_S`; the set-point then
-written is the one due at that moment, with the newest demand. No fresh demand within the
+room for a command (both VISCA sockets hold commands, a move and a zoom) it first asks
+`make_room()` (the link's zoom cancels its command), and if there is still none it is held,
+counted once as `held_for_a_socket`, and the writer looks again every `ROOM_RETRY_S`; the
+set-point then written is the one due at that moment, with the newest demand. No fresh demand within the
 command timeout -> hold (decelerate to rest). Each fresh demand, as limited, goes to
 `on_command` the moment its bytes are written.
 """
@@ -63,6 +64,7 @@ class SetpointWriter:
         self._fresh: GazeDemand | None = None  # the newest demand, as limited, not yet written
         self._setpoint_line_s = 0.0  # how long the last set-point's bytes took on the line
         self._held_for_a_socket = False  # the due set-point waits for the head to have room
+        self.make_room: Callable[[], bool] = lambda: False  # True when it freed a socket
 
     def start_point(self, t_s: float) -> tuple[float, float]:
         """Where a head that cannot report its position is sent when the link opens: the
@@ -137,7 +139,9 @@ class SetpointWriter:
             self._next_command_s = t_s + self.command_period_s
             return
         device_rad = device_from_joint(self.head, *setpoint)
-        if not self._has_room(*device_rad):
+        if not self._has_room(*device_rad) and not (
+            self.make_room() and self._has_room(*device_rad)
+        ):
             self.counts["held_for_a_socket"] += not self._held_for_a_socket
             self._held_for_a_socket = True
             self._next_command_s = t_s + ROOM_RETRY_S

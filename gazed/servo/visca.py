@@ -168,6 +168,9 @@ class ViscaCodec(Codec):
         self._reply_headers = bytes((reply_header(address),))
         self.sockets_busy: set[int] = set()
         self._buffer_full = False  # the camera said both sockets are busy; none freed since
+        self.last_ack: tuple[int, int] | None = None  # the newest ACK: its socket and number
+        self._acks = 0
+        self._filled_by: dict[int, int] = {}  # the number of the ACK that filled each socket
 
     @property
     def resolution_rad(self) -> tuple[float, float]:
@@ -245,6 +248,19 @@ class ViscaCodec(Codec):
         """IF_Clear: empties the camera's command buffers; answered `z0 50 FF`."""
         return [self._packet(*IF_CLEAR)]
 
+    def encode_cancel(self, socket: int) -> list[bytes]:
+        """Cancel `8x 2y FF`: ends the command in socket y, answered `z0 6y 04 FF` (or
+        `z0 6y 05 FF` when it had ended); it needs no socket of its own."""
+        if socket not in SOCKETS:
+            raise CodecError(f"socket {socket} outside {SOCKETS}")
+        return [self._packet(CANCEL | socket)]
+
+    def holds(self, command: tuple[int, int]) -> bool:
+        """Whether the command whose ACK was `command` (`last_ack` then) still holds its
+        socket: not completed, cancelled or refused since, nor its socket taken by another."""
+        socket, number = command
+        return socket in self.sockets_busy and self._filled_by.get(socket) == number
+
     def replies_expected(self, frame_bytes: bytes) -> int:
         # every command, inquiry, IF_Clear and cancel gets exactly one direct answer
         return 1 if len(frame_bytes) >= 3 and frame_bytes[0] == self._header else 0
@@ -269,6 +285,8 @@ class ViscaCodec(Codec):
         super().reset()
         self.sockets_busy.clear()
         self._buffer_full = False
+        self._filled_by.clear()
+        self.last_ack = None
 
     def _parse(self) -> list[Reply]:
         split = split_packets(self._buffer, self._reply_headers, self._decode)
@@ -281,6 +299,9 @@ class ViscaCodec(Codec):
         socket = reply.socket
         if reply.kind == "ack" and socket is not None:
             self.sockets_busy.add(socket)
+            self._acks += 1
+            self._filled_by[socket] = self._acks
+            self.last_ack = (socket, self._acks)
             return reply
         if reply.kind == "error" and reply.reason == BUFFER_FULL:
             self._buffer_full = True

@@ -10,7 +10,13 @@ limit, so the lens never receives a jump it would take faster than the rig allow
 A zoom command never waits for the head to take it: while the head has no room for a command
 (both VISCA sockets hold commands) the write is left for a later step, which writes the newest
 set-point then (counted as `held_for_a_socket`). The link writes the pan-tilt set-point before
-the zoom in each step, so a socket that frees goes to the pan-tilt first.
+the zoom in each step, so a socket that frees goes to the pan-tilt first. The pan-tilt never
+waits behind the zoom either: pursuit keeps a move in one socket, so a zoom in the other leaves
+a new set-point no room until the zoom ends, which a camera may report only once the lens has
+arrived. A set-point that finds no room asks the zoom to yield (`yield_socket`): the zoom's
+command, if it still holds its socket, is cancelled (VISCA Cancel, which needs no socket; the
+lens stops where it is, counted as `cancelled`), and the newest zoom set-point goes out again
+in the link's next step, after the pan-tilt's.
 """
 
 from __future__ import annotations
@@ -18,6 +24,7 @@ from __future__ import annotations
 from typing import Protocol
 
 from gazed.servo.driver import ServoDriver
+from gazed.servo.visca import ViscaCodec
 
 ZOOM_COMMAND_PERIOD_S = 0.1
 ZOOM_STEP = 1.0 / 1024  # below any lens's repeatability, above a VISCA unit at 0x4000
@@ -43,6 +50,8 @@ class ZoomDrive:
         self.position: float | None = None
         self.writes = 0
         self.held_for_a_socket = 0
+        self.cancelled = 0
+        self._executing: tuple[int, int] | None = None  # the VISCA ACK of the last zoom command
         self._written: float | None = None
         self._t_s: float | None = None
         self._next_write_s = 0.0
@@ -56,6 +65,7 @@ class ZoomDrive:
         """The link is (re)opened with the lens at `position`: the set-point starts there."""
         self.position = self.setpoint = self._written = position
         self._t_s = None
+        self._executing = None
 
     def write(self, mono_s: float) -> None:
         """Slew the set-point towards the demand and write it when due (raises what the driver
@@ -74,9 +84,26 @@ class ZoomDrive:
             self.held_for_a_socket += 1
             return
         self.driver.set_zoom(self.setpoint)
+        if isinstance(self.driver, ServoDriver) and isinstance(self.driver.codec, ViscaCodec):
+            self._executing = self.driver.codec.last_ack
         self._written = self.setpoint
         self.writes += 1
         self._next_write_s = mono_s + ZOOM_COMMAND_PERIOD_S
+
+    def yield_socket(self) -> bool:
+        """Cancel the zoom's command if it still holds a socket (a pan-tilt set-point waits for
+        one); True when it was cancelled. The newest set-point is written again when due."""
+        if self._executing is None:
+            return False
+        executing, self._executing = self._executing, None
+        assert isinstance(self.driver, ServoDriver) and isinstance(self.driver.codec, ViscaCodec)
+        if not self.driver.codec.holds(executing):
+            return False
+        self.driver.send(self.driver.codec.encode_cancel(executing[0]))
+        self.cancelled += 1
+        self._written = None  # the lens stopped short: the newest set-point goes out again
+        self._next_write_s = 0.0
+        return True
 
     def _has_room(self, zoom: float) -> bool:
         """Whether the head takes a zoom command now, without waiting."""
