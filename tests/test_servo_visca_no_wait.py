@@ -1,7 +1,8 @@
 """The set-point writer and the zoom drive never wait for a VISCA socket: while a move and a zoom
 hold both, each keeps its newest set-point, writes nothing and reads nothing that waits, and
-writes that newest set-point as soon as a completion frees a socket; odometry inquiries use no
-socket and are answered at once. The driver runs against the emulated camera on a clock of the
+writes that newest set-point as soon as a completion frees a socket; a pan-tilt set-point has
+the zoom's command cancelled (Sony's `8x 2y FF`) rather than wait behind it; one held past the
+read timeout goes to the driver; odometry inquiries use no socket and are answered at once. The driver runs against the emulated camera on a clock of the
 test's own (`test_servo_visca_sockets`), which moves only when something waits for a reply."""
 
 from __future__ import annotations
@@ -14,8 +15,10 @@ from test_servo_visca_sockets import LATENCY_S, Camera, H, driver_on_camera, rig
 
 from gazed.config import parse_rig
 from gazed.messages import GazeDemand
+from gazed.servo.codec import CodecError
 from gazed.servo.driver import ServoDriver
 from gazed.servo.setpoint_writer import ROOM_RETRY_S, SetpointWriter
+from gazed.servo.visca import ViscaCodec
 from gazed.servo.zoom_drive import ZoomDrive
 
 ZOOM_UNIT = 1 / 0x4000
@@ -103,3 +106,71 @@ def test_odometry_inquiries_take_no_socket_and_are_answered_while_both_are_busy(
     assert driver.counters["waits_for_room"] == 0
     assert driver.codec.has_room(H("81 09 06 12 FF"))
     assert not driver.has_room(driver.codec.encode_set_zoom(0.2))  # still both busy
+
+
+def test_cancel_is_sonys_bytes_and_holds_follows_one_command_in_its_socket() -> None:
+    codec = ViscaCodec()
+    assert codec.encode_cancel(1) == [H("81 21 FF")]
+    assert codec.encode_cancel(2) == [H("81 22 FF")]
+    with pytest.raises(CodecError, match="socket 3"):
+        codec.encode_cancel(3)
+    codec.feed(H("90 42 FF"))
+    zoom = codec.last_ack
+    assert zoom is not None and codec.holds(zoom)
+    codec.feed(H("90 52 FF 90 42 FF"))  # it completes; a move takes socket 2
+    assert not codec.holds(zoom) and codec.holds(codec.last_ack)
+    codec.feed(H("90 62 04 FF"))  # cancelled
+    assert codec.sockets_busy == set()
+
+
+def zoom_link() -> tuple[Writer, ZoomDrive]:
+    """The writer and a zoom drive on one camera, wired as the link wires them."""
+    w = Writer()
+    zoom = ZoomDrive(w.driver, rate_max_s=0.5)
+    zoom.reset(0.0)
+    w.writer.make_room = zoom.yield_socket
+    return w, zoom
+
+
+def test_a_set_point_that_finds_a_move_and_a_zoom_executing_has_the_zoom_cancelled() -> None:
+    w, zoom = zoom_link()
+    w.driver.set_position(math.radians(90.0), 0.0)  # socket 1
+    zoom.demand(0.5)
+    zoom.write(0.0)
+    zoom.write(0.1)  # 0.05 into socket 2
+    assert zoom.writes == 1 and w.driver.codec.sockets_busy == {1, 2}
+    w.write(demand(5.0, 0.0))
+    # the zoom's command cancelled, the set-point written at once, the move in socket 1 superseded
+    assert zoom.cancelled == 1 and len(w.commands) == 1
+    assert w.writer.counts["held_for_a_socket"] == 0 and w.driver.counters["waits_for_room"] == 0
+    assert w.driver.codec.sockets_busy == {2}
+    zoom.write(0.11)  # the newest zoom set-point again, though no period has passed
+    assert zoom.writes == 2 and w.driver.codec.sockets_busy == {1, 2}
+
+
+def test_a_zoom_that_has_completed_is_not_cancelled() -> None:
+    w, zoom = zoom_link()
+    zoom.demand(0.5)
+    zoom.write(0.0)
+    zoom.write(0.1)
+    w.camera.t_s += 2 * LATENCY_S  # the zoom completes
+    w.driver.set_position(math.radians(90.0), 0.0)  # reads the completion, takes socket 1
+    written = w.driver.counters["frames_written"]
+    w.write(demand(5.0, 0.0))
+    assert zoom.cancelled == 0 and len(w.commands) == 1
+    assert w.driver.counters["frames_written"] == written + 1  # the set-point, no Cancel
+
+
+def test_a_set_point_held_past_the_read_timeout_goes_to_the_driver() -> None:
+    """Completions lost: the codec keeps both sockets busy though the camera has freed them."""
+    w = Writer()
+    both_sockets_busy(w.driver)
+    w.write(demand(5.0, 0.0))
+    assert w.writer.counts["held_for_a_socket"] == 1 and not w.commands
+    w.driver.codec.sockets_busy.update({1, 2})  # as if the zoom's completion never came
+    the_zoom_completes(w.camera)
+    w.camera.line.service(w.camera.t_s)  # ... and it is lost
+    w.camera.t_s += w.driver.timeout_s
+    w.write()
+    assert len(w.commands) == 1  # the driver waited for room, at most its read timeout
+    assert w.driver.counters["waits_for_room"] == 1

@@ -9,7 +9,9 @@ whole set-point still waiting for the serial line (the newest then replaces it, 
 room for a command (both VISCA sockets hold commands, a move and a zoom) it first asks
 `make_room()` (the link's zoom cancels its command), and if there is still none it is held,
 counted once as `held_for_a_socket`, and the writer looks again every `ROOM_RETRY_S`; the
-set-point then written is the one due at that moment, with the newest demand. No fresh demand within the
+set-point then written is the one due at that moment, with the newest demand. Held for the
+driver's read timeout, the completions that would have freed a socket are taken as lost: the
+set-point goes to the driver, which forgets the sockets and lets the head answer for itself. No fresh demand within the
 command timeout -> hold (decelerate to rest). Each fresh demand, as limited, goes to
 `on_command` the moment its bytes are written.
 """
@@ -64,6 +66,7 @@ class SetpointWriter:
         self._fresh: GazeDemand | None = None  # the newest demand, as limited, not yet written
         self._setpoint_line_s = 0.0  # how long the last set-point's bytes took on the line
         self._held_for_a_socket = False  # the due set-point waits for the head to have room
+        self._held_since_s = 0.0
         self.make_room: Callable[[], bool] = lambda: False  # True when it freed a socket
 
     def start_point(self, t_s: float) -> tuple[float, float]:
@@ -139,10 +142,10 @@ class SetpointWriter:
             self._next_command_s = t_s + self.command_period_s
             return
         device_rad = device_from_joint(self.head, *setpoint)
-        if not self._has_room(*device_rad) and not (
-            self.make_room() and self._has_room(*device_rad)
-        ):
-            self.counts["held_for_a_socket"] += not self._held_for_a_socket
+        if self._must_hold(t_s, device_rad):
+            if not self._held_for_a_socket:
+                self.counts["held_for_a_socket"] += 1
+                self._held_since_s = t_s
             self._held_for_a_socket = True
             self._next_command_s = t_s + ROOM_RETRY_S
             return
@@ -158,6 +161,12 @@ class SetpointWriter:
             self._on_command(self._fresh, t_ns)
             self._fresh = None
         self._next_command_s = t_s + self.command_period_s
+
+    def _must_hold(self, t_s: float, device_rad: tuple[float, float]) -> bool:
+        """No room for the set-point, none made, and not held past the driver's read timeout."""
+        if self._has_room(*device_rad) or (self.make_room() and self._has_room(*device_rad)):
+            return False
+        return not (self._held_for_a_socket and t_s - self._held_since_s >= self.driver.timeout_s)
 
     def _has_room(self, pan_rad: float, tilt_rad: float) -> bool:
         """Whether the head takes a move to device angles now, without waiting."""
