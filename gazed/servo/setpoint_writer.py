@@ -6,8 +6,9 @@ becomes the target of the set-point generator, whose set-points — never a jump
 once for a fresh demand and every command period while a move is under way — but not behind a
 whole set-point still waiting for the serial line (the newest then replaces it, counted as
 `held_for_the_line`). A set-point never waits for the head to take it: while the head has no
-room for a command (both VISCA sockets hold commands, a move and a zoom) it first asks
-`make_room()` (the link's zoom cancels its command), and if there is still none it is held,
+room for a command (both VISCA sockets hold commands, a move and a zoom) and it carries a fresh
+demand, it first asks `make_room()` (the link's zoom cancels its command): new information does
+not wait. A set-point of the generator alone, or one still without room, is held,
 counted once as `held_for_a_socket`, and the writer looks again every `ROOM_RETRY_S`; the
 set-point then written is the one due at that moment, with the newest demand. Held for the
 driver's read timeout, the completions that would have freed a socket are taken as lost: the
@@ -163,8 +164,13 @@ class SetpointWriter:
         self._next_command_s = t_s + self.command_period_s
 
     def _must_hold(self, t_s: float, device_rad: tuple[float, float]) -> bool:
-        """No room for the set-point, none made, and not held past the driver's read timeout."""
-        if self._has_room(*device_rad) or (self.make_room() and self._has_room(*device_rad)):
+        """No room for the set-point, none made for a fresh demand, and not held past the
+        driver's read timeout. The generator's own set-points wait for the zoom to end rather
+        than cut it short: they come every command period, and cancelling the zoom for each
+        would cost the line two more exchanges a period and keep the lens stopping."""
+        if self._has_room(*device_rad):
+            return False
+        if self._fresh is not None and self.make_room() and self._has_room(*device_rad):
             return False
         return not (self._held_for_a_socket and t_s - self._held_since_s >= self.driver.timeout_s)
 
