@@ -174,3 +174,15 @@ def test_a_set_point_held_past_the_read_timeout_goes_to_the_driver() -> None:
     w.write()
     assert len(w.commands) == 1  # the driver waited for room, at most its read timeout
     assert w.driver.counters["waits_for_room"] == 1
+
+
+def test_the_generators_own_set_points_wait_for_the_zoom_rather_than_cancel_it() -> None:
+    w, zoom = zoom_link()
+    w.write(demand(20.0, 0.0))  # a move under way: the generator has set-points to come
+    zoom.demand(0.5)
+    zoom.write(0.0)
+    zoom.write(0.1)
+    assert w.driver.codec.sockets_busy == {1, 2}
+    w.writer.write(w.camera.t_s + 0.02)  # the next set-point, no fresh demand
+    assert zoom.cancelled == 0 and w.writer.counts["held_for_a_socket"] == 1
+    assert len(w.commands) == 1
