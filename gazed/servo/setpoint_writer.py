@@ -5,16 +5,17 @@ device unit, so rounding never crosses them — and rate limits clamped, all cou
 becomes the target of the set-point generator, whose set-points — never a jump — are written at
 once for a fresh demand and every command period while a move is under way — but not behind a
 whole set-point still waiting for the serial line (the newest then replaces it, counted as
-`held_for_the_line`). A set-point never waits for the head to take it: while the head has no
-room for a command (both VISCA sockets hold commands, a move and a zoom) and it carries a fresh
-demand, it first asks `make_room()` (the link's zoom cancels its command): new information does
-not wait. A set-point of the generator alone, or one still without room, is held,
-counted once as `held_for_a_socket`, and the writer looks again every `ROOM_RETRY_S`; the
-set-point then written is the one due at that moment, with the newest demand. Held for the
-driver's read timeout, the completions that would have freed a socket are taken as lost: the
-set-point goes to the driver, which forgets the sockets and lets the head answer for itself. No fresh demand within the
-command timeout -> hold (decelerate to rest). Each fresh demand, as limited, goes to
-`on_command` the moment its bytes are written.
+`held_for_the_line`). No fresh demand within the command timeout -> hold (decelerate to
+rest). Each fresh demand, as limited, goes to `on_command` the moment its bytes are written.
+
+A set-point never waits for the head to take it. While the head has no room for a command (both
+VISCA sockets hold commands, a move and a zoom), one that carries a fresh demand first asks
+`make_room()` (the link's zoom cancels its command): new information does not wait. A set-point
+of the generator alone, or one still without room, is held, counted once as
+`held_for_a_socket`, and the writer looks again every `ROOM_RETRY_S`; the set-point then written
+is the one due at that moment, with the newest demand. Held for the driver's read timeout, the
+completions that would have freed a socket are taken as lost: the set-point goes to the driver,
+which forgets the sockets and lets the head answer for itself.
 """
 
 from __future__ import annotations
