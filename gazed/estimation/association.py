@@ -34,11 +34,7 @@ unknown share each member has of the blob (its visible area), taken as uniform o
 member takes the detection as a measurement of itself (`member_measurement`): the blob's
 centroid less the other members' predictions, with the noise that leaves. Neither track is
 pulled onto the pair's midpoint; both follow the pair's common motion and keep their ids, and
-the separation the predictions carry is kept until the blob splits. A blob is one connected
-silhouette, so it holds only tracks whose predictions lie on the ground it covers (`covers`):
-without that test, two tracks metres apart, each left without a detection, would explain any
-detection between them, take its uninformative member measurements, and drift on their own
-velocities instead of coasting and ending.
+the separation the predictions carry is kept until the blob splits.
 
 The joint assignment is SciPy's; `scipy.optimize` takes long to import (on a busy machine,
 longer than a bus link's lease), so the estimator imports it beside its start-up
@@ -172,7 +168,6 @@ def find_blobs(
     costs: np.ndarray,
     gate_d2: float,
     appearance: tuple[np.ndarray, ...] = (),
-    extents: list[np.ndarray | None] | None = None,
 ) -> list[Blob]:
     """The detections better taken as the blob of two confirmed tracks than as one person.
 
@@ -182,9 +177,7 @@ def find_blobs(
     the group's centroid, its appearance against the mean of the members' templates) is inside
     the gate and below the cost of the detection's own pair; the least costly first, each
     track and detection in one blob at most. predicted (T, m), P (T, m, m), confirmed (T,);
-    `appearance` as `pair_costs` takes it for all tracks and detections, or (); `extents`, per
-    detection, the covariance of the ground its silhouette covers (None: not known), inside
-    which both members must lie (`covers`)."""
+    `appearance` as `pair_costs` takes it for all tracks and detections, or ()."""
     lone = [r for r in range(len(predicted)) if confirmed[r] and r not in pairs]
     holder = {c: r for r, c in pairs.items()}
     options = []
@@ -193,11 +186,8 @@ def find_blobs(
             held = holder.get(column)
             partners = [held] if held is not None and confirmed[held] else lone
             single = costs[held, column] if held is not None else np.inf
-            extent = extents[column] if extents is not None else None
             for partner in (p for p in partners if p != row):
                 rows = [row, partner]
-                if extent is not None and not covers(z, extent, predicted[rows], P[rows], gate_d2):
-                    continue
                 mean, S = group_prediction(predicted[rows], P[rows], z.position_cov)
                 looks = ()
                 if appearance:
@@ -224,19 +214,6 @@ def find_blobs(
     return blobs
 
 
-def covers(
-    z: Measurement, extent_cov: np.ndarray, members: np.ndarray, P: np.ndarray, gate_d2: float
-) -> bool:
-    """Whether one silhouette can hold every member (predictions (n, m), covariances P): a
-    blob is one connected silhouette, so each member's point lies on it. Its points spread
-    over the ground it covers as `extent_cov` (m, m), so each member's offset from the blob's
-    point is tested inside the gate against `extent_cov + P_i + R`."""
-    offsets = members - z.position
-    C = extent_cov + P + z.position_cov
-    d2 = np.einsum("ni,nij,nj->n", offsets, np.linalg.inv(C), offsets)
-    return bool(np.all(d2 <= gate_d2))
-
-
 def same_target(
     a: PredictedState, b: PredictedState, gate_d2: float, extent_cov: np.ndarray | None = None
 ) -> bool:
@@ -244,18 +221,11 @@ def same_target(
     [position, velocity] at most `gate_d2` (the χ² gate of 4 dimensions), where
     `C = Pa + Pb`, plus twice `extent_cov` (2, 2) on the positions where each track may follow
     a different part of one extended target."""
-    return track_distance(a, b, extent_cov) <= gate_d2
-
-
-def track_distance(
-    a: PredictedState, b: PredictedState, extent_cov: np.ndarray | None = None
-) -> float:
-    """`Δᵀ C⁻¹ Δ` of `same_target`."""
     delta = np.concatenate([a.position - b.position, a.velocity - b.velocity])
     C = a.covariance + b.covariance
     if extent_cov is not None:
         C[:2, :2] += 2.0 * extent_cov
-    return float(delta @ np.linalg.solve(C, delta))
+    return float(delta @ np.linalg.solve(C, delta)) <= gate_d2
 
 
 def load_solver() -> threading.Thread:

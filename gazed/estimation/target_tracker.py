@@ -284,24 +284,8 @@ class TargetTracker:
             seen = detection.model_copy(update=_target_fields(mover))
             measurement = self._measure(seen)
             if measurement is not None:
-                extent = self._extent(seen, mover)
-                histogram = _histogram(mover)
-                sightings.append(Sighting(measurement, histogram, mover.box_height_px, extent))
+                sightings.append(Sighting(measurement, _histogram(mover), mover.box_height_px))
         return sightings
-
-    def _extent(self, detection: Detection, mover: Mover) -> np.ndarray | None:
-        """The ground covariance (2, 2) of a point spread evenly over the mover's box, through
-        the ground's pixel Jacobian at its point: where on the ground its silhouette can hold
-        people (a person standing behind another is hidden up to the first one's height, so
-        the box's height reaches along the line of sight). None without a box or a ground."""
-        if self.geometry is None or mover.box_width_px <= 0.0 or mover.box_height_px <= 0.0:
-            return None
-        head = detection.head
-        assert head is not None  # `_sightings` has checked it
-        geometry = self.geometry.with_camera(self.lens.at_pose(head))
-        j = geometry.ground_jacobian(head.pan_rad, head.tilt_rad, mover.u_px, mover.v_px)[:, 2:]
-        box = np.diag([mover.box_width_px**2, mover.box_height_px**2]) / 12.0
-        return j @ box @ j.T
 
     def _measure(self, detection: Detection) -> Measurement | None:
         """The measurement of a detection's target; None above the horizon (counted)."""

@@ -85,7 +85,6 @@ class Sighting:
     measurement: Measurement
     appearance: np.ndarray | None = None  # (B,) normalised colour histogram
     box_height_px: float = 0.0
-    extent_cov: np.ndarray | None = None  # (2, 2) the ground its silhouette covers
 
 
 @dataclass
@@ -249,7 +248,6 @@ class TrackSet:
             costs,
             self.gate_d2,
             looks,
-            [s.extent_cov for s in sightings],
         )
         members: dict[int, Sighting] = {}
         for blob in blobs:
