@@ -128,8 +128,12 @@ def test_a_person_split_into_two_tracks_is_merged_under_the_older_id() -> None:
     assert [(t.id, t.confirmed) for t in tracks.tracks] == [(0, True), (1, True)]
     person = tracks.get(0)
     assert person is not None
-    t = 14 * 0.04  # only the other part now: track 1 takes it where track 0 coasts
-    tracks.step(t, [walking(t, (t, 1.25))])
+    section = tracks.section
+    for k in range(14, 14 + section.confirm_hits):  # only the other part: track 1 takes it
+        t = k * 0.04
+        tracks.step(t, [walking(t, (t, 1.25))])
+        merged = k == 13 + section.confirm_hits  # a duplicate in as many frames as confirm one
+        assert len(tracks.tracks) == (1 if merged else 2)
     assert tracks.tracks == [person] and not person.coasting  # one track, the older id
     assert tracks.counts["tracks_merged"] == 1
     state = person.estimator.predict(t)

@@ -102,6 +102,7 @@ class PersonTrack:
     box_height_px: float = 0.0
     appearance: np.ndarray | None = None
     spread: float = INITIAL_SPREAD
+    twin: tuple[int, int] | None = None  # (id, frames in a row) of the track it duplicates
 
     def take_appearance(self, appearance: np.ndarray | None) -> None:
         """Move the template toward a detection's histogram, and the spread toward the squared
@@ -316,19 +317,23 @@ class TrackSet:
         self.counts["tracks_confirmed"] += int(track.confirmed)
 
     def _merge_duplicates(self, t_s: float) -> None:
-        """Each coasting track that is a duplicate (`same_target`) of a confirmed one that took a
-        detection this frame becomes one track with it (`_merge`), once."""
+        """Each coasting track that has been a duplicate (`same_target`) of one confirmed track
+        that took a detection, in as many frames in a row as confirm a track, becomes one track
+        with it (`_merge`), once: a person hidden for a frame in a walking pair's silhouette
+        agrees with their partner's track as well, but takes their own detections again."""
         seen = [track for track in self.tracks if track.confirmed and not track.coasting]
         ended: set[int] = set()
-        for lost in [track for track in self.tracks if track.coasting]:
-            a = lost.estimator.predict(t_s)
-            if a is None:  # a filter without a state (stopped) is no duplicate of anything
-                continue
-            twin = next(
-                (f for f in seen if f.id not in ended and self._duplicates(a, f, t_s)), None
-            )
-            if twin is not None:
-                ended.add(self._merge(lost, twin))
+        for track in self.tracks:
+            a = track.estimator.predict(t_s) if track.coasting else None
+            twin = None  # a filter without a state (stopped) is no duplicate of anything
+            if a is not None:
+                twin = next(
+                    (f for f in seen if f.id not in ended and self._duplicates(a, f, t_s)), None
+                )
+            same = twin is not None and track.twin is not None and track.twin[0] == twin.id
+            track.twin = None if twin is None else (twin.id, track.twin[1] + 1 if same else 1)
+            if twin is not None and track.twin[1] >= self.section.confirm_hits:
+                ended.add(self._merge(track, twin))
         if ended:
             self.tracks = [track for track in self.tracks if track.id not in ended]
 
