@@ -28,11 +28,12 @@ import cv2
 import numpy as np
 
 from gazed.vision.ego_motion import HeadStep
-from gazed.vision.movers import Blob, MoverRegion, blobs
+from gazed.vision.movers import Blob, MoverRegion, blobs, trimmed
 from gazed.vision.person_size import PersonSize
 from gazed.vision.region_tracks import RegionTracks
 
 VELOCITY_POINTS = 6  # a mover's recent points its velocity is fitted to
+STACKED_HEIGHTS = 1.5  # a body this many people's heights tall holds one behind another
 _OPENING_KERNEL = np.ones((3, 3), np.uint8)
 _CLOSING_KERNEL = np.ones((5, 5), np.uint8)
 
@@ -116,7 +117,35 @@ class SilhouetteModel:
             evidence=opened,
             person_width=None if self.person is None else self._person_width,
         )
+        if self.person is not None:
+            found = [
+                (blob, [b for body in parts for b in self._unstacked(body)])
+                for blob, parts in found
+            ]
         return Foreground(found, float(np.count_nonzero(mask)) * area_scale)
+
+    def _unstacked(self, body: Blob) -> list[Blob]:
+        """A body as the people it holds one behind another: where it is at least
+        `STACKED_HEIGHTS` people tall (a person's height where its bottom stands), the nearer
+        person stands on its bottom edge, a person's height tall, and the farther one's head is
+        its top, down to their own height where their feet would be; otherwise itself."""
+        near = self._person_height(body.x + body.width / 2.0, body.y + body.height)
+        if near is None or body.height < STACKED_HEIGHTS * near:
+            return [body]
+        rows = round(near)
+        far = self._person_height(body.x + body.width / 2.0, body.y + rows)
+        far_rows = round(far) if far is not None else rows
+        parts = [
+            trimmed(body.x, body.y + body.height - rows, body.mask[-rows:]),
+            trimmed(body.x, body.y, body.mask[:far_rows]),
+        ]
+        return [part for part in parts if part is not None]
+
+    def _person_height(self, u: float, v: float) -> float | None:
+        """A person's height (model pixels) whose feet are at model pixel (u, v)."""
+        assert self.person is not None  # `_unstacked` is used with a person's size only
+        size = self.person.at(u * self.scale, v * self.scale)
+        return None if size is None else size[1] / self.scale
 
     def _person_width(self, blob: Blob) -> float | None:
         """A person's width (model pixels) at the middle of the blob's bottom edge."""
