@@ -5,7 +5,9 @@ OpenCV's Gaussian-mixture background model (MOG2, seed 003 §IV) learns the stil
 foreground is cleaned (a 3x3 opening drops speckle, a 5x5 closing joins a silhouette's parts),
 grouped into blobs of at least `min_area_px` full-resolution pixels, and each blob is split into
 the walkers it holds side by side (`gazed.vision.movers.split_blob`), judged against a
-person's size where they stand when the camera is calibrated (`person`, `PersonSize`).
+person's size where they stand when the camera is calibrated (`person`, `PersonSize`). With a
+person's size, a body as tall as people one behind another (the farther one's head above the
+nearer one's) is split in depth as well (`_unstacked`).
 
 A walker who stops would be learnt into the background within a few seconds. So the foreground
 is taken against the model as it stands, and the model then learns the frame with the pixels
