@@ -154,6 +154,21 @@ def test_people_crossing_where_one_hides_the_other_are_not_merged() -> None:
     assert [t.id for t in tracks.tracks] == [0, 1] and tracks.counts["tracks_merged"] == 0
 
 
+def test_a_walking_pair_keeps_its_ids_where_one_is_hidden_for_a_frame() -> None:
+    tracks = TrackSet(load_rig(SIM_RIG).estimator)
+    hidden = 0
+    for k in range(40):  # side by side, 0.3 m apart, at 1 m/s; the farther one hidden now and then
+        t = k * 0.04
+        near, far = walking(t, (t, 1.0)), walking(t, (t, 1.3))
+        hide = k >= 10 and k % 5 == 0  # one frame in five, once both are confirmed
+        hidden += hide
+        tracks.step(t, [near] if hide else [near, far])
+        far_track = tracks.get(1)
+        assert far_track is not None  # never merged into the near one's track
+    assert hidden >= 5 and [t.id for t in tracks.tracks] == [0, 1]
+    assert tracks.counts["tracks_merged"] == 0
+
+
 def test_tentative_tracks_leave_a_lone_person_alone() -> None:
     section = load_rig(SIM_RIG).estimator
     tracks = TrackSet(section)

@@ -37,9 +37,11 @@ Every frame (one detection message, with any number of movers):
    states' position and velocity, `Δ`, against the sum of their covariances and a person's
    extent (`PERSON_WIDTH_M`: each track may follow another part of the person),
    `Δᵀ (P₁ + P₂ + 2E)⁻¹ Δ` inside the χ² gate of four dimensions, against a confirmed track only
-   (a person, with a velocity of its own). The merged track keeps the older id (the person's,
-   and so the gaze's choice) and takes the filter that took the detection. People who cross
-   or pass move apart in velocity, and so are never merged where one hides the other.
+   (a person, with a velocity of its own), in `confirm_hits` frames in a row (as much evidence
+   as confirms a track: a walking pair passes the test while one of them is hidden for a frame).
+   The merged track keeps the older id (the person's, and so the gaze's choice) and takes the
+   filter that took the detection. People who cross or pass move apart in velocity, and so are
+   never merged where one hides the other.
 
 Ids count up from 0 and are never reused, so a track's id names one person for its whole life;
 a person lost for longer than `coast_max_ms` comes back as a new track with a new id.
