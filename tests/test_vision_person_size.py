@@ -86,37 +86,3 @@ def test_a_walker_who_stops_stays_foreground_while_the_model_remembers() -> None
     for _ in range(3 * history):
         last = model.segment(frame(True))
     assert last is not None and not last.found  # learnt once the model's memory is past
-
-
-class _FixedPerson:
-    """A person 12 px wide and 40 px tall wherever they stand."""
-
-    def at(self, u_px: float, v_px: float) -> tuple[float, float]:
-        return 12.0, 40.0
-
-
-def _bodies(height_px: int) -> list[Blob]:
-    model = SilhouetteModel(
-        level=0,
-        history_frames=100,
-        threshold=16.0,
-        min_area_px=50,
-        learning_frames=5,
-        person=_FixedPerson(),  # type: ignore[arg-type]
-    )
-    rng = np.random.default_rng(5)
-    for _ in range(8):
-        model.segment((100 + rng.normal(0, 2, (100, 60))).clip(0, 255).astype(np.uint8))
-    gray = (100 + rng.normal(0, 2, (100, 60))).clip(0, 255).astype(np.uint8)
-    gray[90 - height_px : 90, 25:36] = 200  # one silhouette, a person wide
-    found = model.segment(gray)
-    assert found is not None and len(found.found) == 1
-    return found.found[0][1]
-
-
-def test_a_silhouette_people_tall_holds_one_person_behind_another() -> None:
-    near, far = _bodies(70)  # taller than a person by more than half a person
-    assert (near.y + near.height, near.height) == (90, 40)  # on the silhouette's bottom edge
-    assert (far.y, far.height) == (20, 40)  # from its top, a person's height down
-    (whole,) = _bodies(50)  # a person and their shadow
-    assert whole.height == 50

@@ -37,11 +37,9 @@ Every frame (one detection message, with any number of movers):
    states' position and velocity, `Δ`, against the sum of their covariances and a person's
    extent (`PERSON_WIDTH_M`: each track may follow another part of the person),
    `Δᵀ (P₁ + P₂ + 2E)⁻¹ Δ` inside the χ² gate of four dimensions, against a confirmed track only
-   (a person, with a velocity of its own), in `confirm_hits` frames in a row (as much evidence
-   as confirms a track: a walking pair passes the test while one of them is hidden for a frame).
-   The merged track keeps the older id (the person's, and so the gaze's choice) and takes the
-   filter that took the detection. People who cross or pass move apart in velocity, and so are
-   never merged where one hides the other.
+   (a person, with a velocity of its own). The merged track keeps the older id (the person's,
+   and so the gaze's choice) and takes the filter that took the detection. People who cross
+   or pass move apart in velocity, and so are never merged where one hides the other.
 
 Ids count up from 0 and are never reused, so a track's id names one person for its whole life;
 a person lost for longer than `coast_max_ms` comes back as a new track with a new id.
@@ -104,7 +102,6 @@ class PersonTrack:
     box_height_px: float = 0.0
     appearance: np.ndarray | None = None
     spread: float = INITIAL_SPREAD
-    twin: tuple[int, int] | None = None  # (id, frames in a row) of the track it duplicates
 
     def take_appearance(self, appearance: np.ndarray | None) -> None:
         """Move the template toward a detection's histogram, and the spread toward the squared
@@ -319,23 +316,19 @@ class TrackSet:
         self.counts["tracks_confirmed"] += int(track.confirmed)
 
     def _merge_duplicates(self, t_s: float) -> None:
-        """Each coasting track that has been a duplicate (`same_target`) of one confirmed track
-        that took a detection, in as many frames in a row as confirm a track, becomes one track
-        with it (`_merge`), once: a person hidden for a frame in a walking pair's silhouette
-        agrees with their partner's track as well, but takes their own detections again."""
+        """Each coasting track that is a duplicate (`same_target`) of a confirmed one that took a
+        detection this frame becomes one track with it (`_merge`), once."""
         seen = [track for track in self.tracks if track.confirmed and not track.coasting]
         ended: set[int] = set()
-        for track in self.tracks:
-            a = track.estimator.predict(t_s) if track.coasting else None
-            twin = None  # a filter without a state (stopped) is no duplicate of anything
-            if a is not None:
-                twin = next(
-                    (f for f in seen if f.id not in ended and self._duplicates(a, f, t_s)), None
-                )
-            same = twin is not None and track.twin is not None and track.twin[0] == twin.id
-            track.twin = None if twin is None else (twin.id, track.twin[1] + 1 if same else 1)
-            if twin is not None and track.twin[1] >= self.section.confirm_hits:
-                ended.add(self._merge(track, twin))
+        for lost in [track for track in self.tracks if track.coasting]:
+            a = lost.estimator.predict(t_s)
+            if a is None:  # a filter without a state (stopped) is no duplicate of anything
+                continue
+            twin = next(
+                (f for f in seen if f.id not in ended and self._duplicates(a, f, t_s)), None
+            )
+            if twin is not None:
+                ended.add(self._merge(lost, twin))
         if ended:
             self.tracks = [track for track in self.tracks if track.id not in ended]
 

@@ -5,9 +5,7 @@ OpenCV's Gaussian-mixture background model (MOG2, seed 003 §IV) learns the stil
 foreground is cleaned (a 3x3 opening drops speckle, a 5x5 closing joins a silhouette's parts),
 grouped into blobs of at least `min_area_px` full-resolution pixels, and each blob is split into
 the walkers it holds side by side (`gazed.vision.movers.split_blob`), judged against a
-person's size where they stand when the camera is calibrated (`person`, `PersonSize`). With a
-person's size, a body as tall as people one behind another (the farther one's head above the
-nearer one's) is split in depth as well (`_unstacked`).
+person's size where they stand when the camera is calibrated (`person`, `PersonSize`).
 
 A walker who stops would be learnt into the background within a few seconds. So the foreground
 is taken against the model as it stands, and the model then learns the frame with the pixels
@@ -30,12 +28,11 @@ import cv2
 import numpy as np
 
 from gazed.vision.ego_motion import HeadStep
-from gazed.vision.movers import Blob, MoverRegion, blobs, trimmed
+from gazed.vision.movers import Blob, MoverRegion, blobs
 from gazed.vision.person_size import PersonSize
 from gazed.vision.region_tracks import RegionTracks
 
 VELOCITY_POINTS = 6  # a mover's recent points its velocity is fitted to
-STACKED_HEIGHTS = 1.5  # a body this many people's heights tall holds one behind another
 _OPENING_KERNEL = np.ones((3, 3), np.uint8)
 _CLOSING_KERNEL = np.ones((5, 5), np.uint8)
 
@@ -119,35 +116,7 @@ class SilhouetteModel:
             evidence=opened,
             person_width=None if self.person is None else self._person_width,
         )
-        if self.person is not None:
-            found = [
-                (blob, [b for body in parts for b in self._unstacked(body)])
-                for blob, parts in found
-            ]
         return Foreground(found, float(np.count_nonzero(mask)) * area_scale)
-
-    def _unstacked(self, body: Blob) -> list[Blob]:
-        """A body as the people it holds one behind another: where it is at least
-        `STACKED_HEIGHTS` people tall (a person's height where its bottom stands), the nearer
-        person stands on its bottom edge, a person's height tall, and the farther one's head is
-        its top, down to their own height where their feet would be; otherwise itself."""
-        near = self._person_height(body.x + body.width / 2.0, body.y + body.height)
-        if near is None or body.height < STACKED_HEIGHTS * near:
-            return [body]
-        rows = round(near)
-        far = self._person_height(body.x + body.width / 2.0, body.y + rows)
-        far_rows = round(far) if far is not None else rows
-        parts = [
-            trimmed(body.x, body.y + body.height - rows, body.mask[-rows:]),
-            trimmed(body.x, body.y, body.mask[:far_rows]),
-        ]
-        return [part for part in parts if part is not None]
-
-    def _person_height(self, u: float, v: float) -> float | None:
-        """A person's height (model pixels) whose feet are at model pixel (u, v)."""
-        assert self.person is not None  # `_unstacked` is used with a person's size only
-        size = self.person.at(u * self.scale, v * self.scale)
-        return None if size is None else size[1] / self.scale
 
     def _person_width(self, blob: Blob) -> float | None:
         """A person's width (model pixels) at the middle of the blob's bottom edge."""
