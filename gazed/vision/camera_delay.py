@@ -17,9 +17,7 @@ and the fit repeated. A residual under
 a fifth of the large shifts never counts as far: with the head still half the time, the median
 residual alone would call every moving frame an outlier. A fit counts only when the head's
 rates varied over the window at some lag (a still head, or one turning at a constant rate,
-shows no lag) and the rotation explains most of the shifts. The frame pairs that some lag maps
-onto odometry that was not sampled, where the head may have changed its rate unseen, are left
-out at every lag (`_near_unresolved`): interpolated across, a motion onset moves the fit.
+shows no lag) and the rotation explains most of the shifts.
 
 `CameraDelayEstimator` keeps a sliding window of shifts and odometry and takes the median of
 the recent fits whose spread is within `max_spread_s` as its estimate: the window need not span
@@ -103,21 +101,16 @@ def fit_lag(
     lags_s: np.ndarray,
     min_rate_std_rad_s: float,
     min_explained: float,
-    ramp_tolerance_rad: float = math.inf,
 ) -> LagFit | None:
     """The lag from exposure to arrival. `shifts` (N, 4): a_s, b_s, du_px, dv_px (the arrival
     stamps of a frame pair and the image's shift between them); `odometry` (M, 3): t_s, pan_rad,
     tilt_rad in time order; `lags_s` (K,) the grid, evenly spaced. None when the head's rates
-    did not vary enough, the best lag is on the grid's edge, or the fit explains too little.
-    The pairs some lag maps onto a stretch the odometry did not sample, where the straight ramp
-    it is interpolated by may be off by more than `ramp_tolerance_rad`, are left out
-    (`_near_unresolved`)."""
+    did not vary enough, the best lag is on the grid's edge, or the fit explains too little."""
     if len(odometry) < 2 or len(shifts) < 4 or len(lags_s) < 3:
         return None
     t, angles = odometry[:, 0], odometry[:, 1:]
     a, b, y = shifts[:, 0], shifts[:, 1], shifts[:, 2:]
     covered = (a - lags_s[-1] >= t[0]) & (b - lags_s[0] <= t[-1]) & (b > a)
-    covered &= ~_near_unresolved(t, angles, a, b, lags_s, ramp_tolerance_rad)
     a, b, y = a[covered], b[covered], y[covered]
     if len(a) < 4:
         return None
@@ -172,42 +165,6 @@ def fit_lag(
     return LagFit(lag_s, float(explained), inliers, spread_s)
 
 
-def _near_unresolved(
-    t: np.ndarray,
-    angles: np.ndarray,
-    a: np.ndarray,
-    b: np.ndarray,
-    lags_s: np.ndarray,
-    tolerance_rad: float,
-) -> np.ndarray:
-    """(N,): the frame pairs that some lag of the grid maps onto an odometry interval with a
-    sample missing (longer than one and a half times the median interval) over which the head
-    may have strayed from the straight ramp it is interpolated by by more than
-    `tolerance_rad`. An interval g long whose ramp has the rate r, between intervals with the
-    rates r1 and r2, hides a change of rate when r differs from them: the head may have made
-    that difference at any instant inside it, so it may stray from the ramp by up to
-    max(|r - r1|, |r - r2|) g. A motion onset seen through such an interval moves the best lag
-    to one that maps the onset onto samples instead. Such a pair is left out at every lag,
-    which keeps the lags' residuals comparable; the lag is then found from the motion the
-    odometry did sample."""
-    dt = np.diff(t)
-    if len(dt) < 3 or not math.isfinite(tolerance_rad):
-        return np.zeros(len(a), dtype=bool)
-    rates = np.diff(angles, axis=0) / dt[:, None]
-    change = np.zeros(len(dt))
-    change[1:-1] = np.maximum(
-        np.linalg.norm(rates[1:-1] - rates[:-2], axis=1),
-        np.linalg.norm(rates[1:-1] - rates[2:], axis=1),
-    )
-    hidden = (dt > 1.5 * np.median(dt)) & (change * dt > tolerance_rad)
-    if not hidden.any():
-        return np.zeros(len(a), dtype=bool)
-    starts, ends = t[:-1][hidden], t[1:][hidden]
-    reach_from, reach_to = a - lags_s[-1], b - lags_s[0]
-    overlaps = (ends[None, :] > reach_from[:, None]) & (starts[None, :] < reach_to[:, None])
-    return np.any(overlaps, axis=1)
-
-
 def _rotations(
     t: np.ndarray, angles: np.ndarray, a: np.ndarray, b: np.ndarray, lags_s: np.ndarray
 ) -> np.ndarray:
@@ -255,7 +212,6 @@ class CameraDelayEstimator:
         min_response: float = 0.05,
         max_pair_s: float = 0.25,
         max_spread_s: float = 0.01,
-        ramp_tolerance_rad: float = math.inf,
     ) -> None:
         self.delay_s = initial_s
         self.window_s = window_s
@@ -266,7 +222,6 @@ class CameraDelayEstimator:
         self.min_response = min_response
         self.max_pair_s = max_pair_s
         self.max_spread_s = max_spread_s
-        self.ramp_tolerance_rad = ramp_tolerance_rad
         self.fits = 0
         self.last_fit: LagFit | None = None
         self._recent: deque[float] = deque(maxlen=fits_kept)
@@ -326,7 +281,6 @@ class CameraDelayEstimator:
             self.lags_s,
             self.min_rate_std_rad_s,
             self.min_explained,
-            self.ramp_tolerance_rad,
         )
         if fit is None or fit.spread_s > self.max_spread_s:
             return False  # no lag explains the shifts, or several explain them alike

@@ -31,18 +31,15 @@ SPREAD_PER_FRAME = 0.25
 class CaptureStampCorrection:
     def __init__(self, camera: CameraSection) -> None:
         self.online = camera.delay_estimate
-        # a pixel's angle: a pose known to within it is as good as exact for the detectors, and
-        # odometry interpolated to within it as good as sampled for the estimate
-        self.pixel_rad = 1.0 / CameraModel.from_section(camera).focal_px
         self.estimator = CameraDelayEstimator(
-            camera.delay_ms * 1e-3,
-            max_spread_s=SPREAD_PER_FRAME * camera.frame_period_s,
-            ramp_tolerance_rad=self.pixel_rad,
+            camera.delay_ms * 1e-3, max_spread_s=SPREAD_PER_FRAME * camera.frame_period_s
         )
         self.shift = ImageShift(camera.width_px, camera.height_px)
         self.shift_time = LatencyWindow(default_s=0.0, size=TIMING_WINDOW)
         self.fit_time = LatencyWindow(default_s=0.0, size=TIMING_WINDOW)
         self._last_arrival_s: float | None = None
+        # a pixel's angle: a pose known to within it is as good as exact for the detectors
+        self.pixel_rad = 1.0 / CameraModel.from_section(camera).focal_px
         self.pose_known = True
 
     def add_odometry(self, odometry: Odometry) -> None:
