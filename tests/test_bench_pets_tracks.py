@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 from bench.pets_tracks import id_lifetimes
 
@@ -28,3 +29,32 @@ def test_a_person_split_into_restarts_gives_more_ids_and_shorter_lives():
 def test_no_tracks_no_ids():
     assert id_lifetimes(rows([[]] * 5), rate_hz=7.0)["ids"] == 0
     assert id_lifetimes([], rate_hz=7.0)["ids_per_min"] == 0.0
+
+
+def test_a_track_is_on_the_person_whose_box_holds_the_view_aimed_at_it():
+    from bench.pets_tracks import RIG, aimed_at
+
+    from gazed.config import load_rig
+    from gazed.eval.view_people import ViewPeople
+    from gazed.geometry.camera import CameraModel
+    from gazed.geometry.ground import GroundGeometry
+    from gazed.geometry.kinematics import HeadKinematics
+    from gazed.vision.digital_camera import wide_camera
+    from gazed.vision.digital_view import DigitalView
+
+    rig = load_rig(RIG)
+    view = DigitalView(
+        wide_camera(rig.wide),
+        CameraModel.from_section(rig.camera),
+        HeadKinematics.from_section(rig.head),
+    )
+    people, aim = ViewPeople(view), GroundGeometry.from_rig(rig)
+    track = np.array([[-8.0, -6.0]])
+    # the wide pixel the view's centre sees with the head aimed at the track
+    camera = CameraModel.from_section(rig.camera)
+    ideal = view.homography(*aim.gaze_from_ground(-8.0, -6.0)) @ [*camera.K[:2, 2], 1.0]
+    u, v = view.wide.pixel(view.wide.K_inv @ (ideal / ideal[2]))
+    # a person's box round it, and one beside it
+    boxes = np.array([[u + 3.0, v - 4.0, 20.0, 50.0], [u + 30.0, v, 20.0, 50.0]])
+    angles = aimed_at(people, aim, boxes, track)
+    assert np.isfinite(angles[0, 0]) and angles[1, 0] == np.inf

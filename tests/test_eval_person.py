@@ -168,6 +168,17 @@ def test_a_switch_is_three_frames_on_another_person(
     assert result["gaze_error_deg"]["rms"] == pytest.approx(5.0 * math.sqrt(away / 30), abs=1e-3)
 
 
+def test_overlapping_boxes_are_no_switch(geometry: ViewPeople) -> None:
+    """In frames 10-19 B walks 3 px beside A, nearer the view's centre; A's box still holds
+    it, so the view shows A: no switch. B alone at the centre in frames 25-29 is one."""
+    frames = list(range(30))
+    far, off = (CENTRE[0] + 60.0, CENTRE[1]), (CENTRE[0] + OFF_PX, CENTRE[1])
+    a = [CENTRE] * 10 + [(CENTRE[0] + 5.0, CENTRE[1])] * 10 + [CENTRE] * 5 + [off] * 5
+    b = [far] * 10 + [(CENTRE[0] + 2.0, CENTRE[1])] * 10 + [far] * 5 + [CENTRE] * 5
+    people = {1: person(1, frames, a), 2: person(2, frames, b)}
+    assert score(frames_at_rest(30), people, 1, geometry)["switches"] == 1
+
+
 def test_frames_not_in_pursuit_are_no_switch(geometry: ViewPeople) -> None:
     frames = list(range(30))
     a = [CENTRE] * 12 + [(CENTRE[0] + OFF_PX, CENTRE[1])] * 5 + [CENTRE] * 13

@@ -12,7 +12,9 @@ person annotated in that footage frame in the view. For the scored person:
 - from acquisition to the run's end: `fovea_fraction` (frames with the box centre within the
   fovea over frames in the run), the gaze error RMS / p95 (the angle between the view's axis and
   the box centre), and `switches`: runs of at least `SWITCH_FRAMES` frames in which the gaze
-  pursues another annotated person (`PeopleInView.gaze_on`);
+  pursues another annotated person (`PeopleInView.gaze_on`) and the view's centre is not in the
+  scored person's box (where two boxes overlap at the view's centre, the view shows the scored
+  person too: which of the two the gaze is on is not told by the nearer box centre);
 - `ground_rmse_m`: the estimator's ground point (its chosen track, not coasting) at a frame's
   capture time against the person's annotated ground point in that frame, from acquisition.
 
@@ -91,24 +93,26 @@ class FrameFacts:
     def person(self, person_id: int) -> PersonFrames:
         """The person in every frame."""
         n = len(self.ids)
-        visible, reachable = np.zeros(n, bool), np.zeros(n, bool)
+        visible, reachable, held = np.zeros(n, bool), np.zeros(n, bool), np.zeros(n, bool)
         error = np.full(n, np.nan)
         for k, (own, here) in enumerate(zip(self.ids, self.seen, strict=True)):
             if person_id in own:
                 row = own.index(person_id)
                 visible[k], error[k] = here.in_wide[row], here.error_rad[row]
-                reachable[k] = here.reachable[row]
-        return PersonFrames(visible, error, reachable)
+                reachable[k], held[k] = here.reachable[row], here.held[row]
+        return PersonFrames(visible, error, reachable, held)
 
 
 @dataclass(frozen=True)
 class PersonFrames:
     """Per frame: whether the person is in the wide view, their gaze error (nan where not
-    annotated) and whether the head could foveate them."""
+    annotated), whether the head could foveate them and whether their box holds the view's
+    centre."""
 
     visible: np.ndarray
     error_rad: np.ndarray
     reachable: np.ndarray
+    held: np.ndarray
 
     def scored(self, fovea_rad: float) -> tuple[int, int | None, int] | None:
         """The run's first frame, its acquisition (None: not acquired) and its end."""
@@ -173,7 +177,10 @@ def score_person(
         acquired_after_s=round((frames[start].t_capture_ns - frames[first].t_capture_ns) / 1e9, 3),
         fovea_fraction=round(float(np.mean(after_deg <= fovea_half_angle_deg)), 4),
         switches=count_switches(
-            [on is not None and on != person_id for on in facts.gaze_on[start:end]]
+            [
+                on is not None and on != person_id and not held
+                for on, held in zip(facts.gaze_on[start:end], own.held[start:end], strict=True)
+            ]
         ),
         gaze_error_deg={
             "rms": round(float(np.sqrt(np.mean(after_deg**2))), 4),

@@ -18,7 +18,9 @@ with normalised coordinates x = X/Z, y = Y/Z this gives the rotational part of s
 A zoom lens changes `K` between the two captures (each frame's camera is the lens at the zoom
 of its pose, `ZoomLens.at_pose`): the warp is then K2 C2^T C1 K1^-1, and a focal length f
 changing at the relative rate s = d(ln f)/dt adds the flow s (u - cx, v - cy) of an image
-growing about its principal point.
+growing about its principal point. Across a window that flow is not one shift: a window
+compared with the previous frame samples that frame at its scale f1 / f2 (`HeadStep.scale`),
+which leaves only the rotation's small residual to the linearised correction.
 
 Lens distortion is not modelled here: the flow and the warp are those of the ideal pinhole `K`.
 """
@@ -141,22 +143,38 @@ class HeadStep:
             v_px - ((g10 * u_px + g12) + g11 * v_px) / w,
         )
 
-    def shift_less_displacement(
-        self, shift_px: tuple[float, float], origin_px: tuple[int, int], offsets_px: np.ndarray
+    @property
+    def scale(self) -> float:
+        """The previous frame's focal length over the current one's, f1 / f2: a zooming lens
+        shows the scene at this scale in the previous frame (1 for a fixed lens)."""
+        return 1.0 if self.zoom_rate_s == 0.0 else math.exp(-self.zoom_rate_s * self.dt_s)
+
+    def sampled_less_displacement(
+        self,
+        shift_px: tuple[float, float],
+        centre_px: tuple[float, float],
+        origin_px: tuple[int, int],
+        offsets_px: np.ndarray,
     ) -> np.ndarray:
-        """s - w (px, the shape of `offsets_px`): a displacement s = `shift_px` less the
-        displacement w of the static points now at pixels `origin_px` + `offsets_px` (offsets
-        (..., 2) float64, u then v; a window's grid). w = x - H⁻¹x, so s - w = H⁻¹x - x + s:
-        one perspective transform of the offsets, origin and s folded into the matrix
-        T(s - origin) H⁻¹ T(origin), less the offsets."""
+        """H⁻¹x - P(x) (px, the shape of `offsets_px`): where the static point now at pixel x
+        was in the previous frame, less where a window sampling the previous frame looks for
+        it. x = `origin_px` + `offsets_px` (offsets (..., 2) float64, u then v; a window's
+        grid); the window, centred on c = `centre_px`, samples the previous frame shifted by
+        s = `shift_px` and at the lens's `scale` k about its centre, P(x) = c - s + k (x - c).
+        For a fixed lens (k = 1) this is s - w, w = x - H⁻¹x the displacement of static points.
+        One perspective transform of the offsets, with the origin and the constant folded into
+        the matrix T(a) H⁻¹ T(origin), a = s - origin + (1 - k)(origin - c), less k times the
+        offsets."""
         (g00, g01, g02), (g10, g11, g12), (g20, g21, g22) = self.H_inverse.tolist()
         x0, y0 = origin_px
-        # H⁻¹ T(origin): the origin moves into the last column; T(s - origin) adds (a, b)
-        # times the last row to the first two
+        k = self.scale
+        # H⁻¹ T(origin): the origin moves into the last column; T(a) adds a times the last row
+        # to the first two
         c0 = g00 * x0 + g01 * y0 + g02
         c1 = g10 * x0 + g11 * y0 + g12
         c2 = g20 * x0 + g21 * y0 + g22
-        a, b = shift_px[0] - x0, shift_px[1] - y0
+        a = shift_px[0] - x0 + (1.0 - k) * (x0 - centre_px[0])
+        b = shift_px[1] - y0 + (1.0 - k) * (y0 - centre_px[1])
         folded = np.array(
             [
                 [g00 + a * g20, g01 + a * g21, c0 + a * c2],
@@ -165,7 +183,7 @@ class HeadStep:
             ]
         )
         moved = cv2.perspectiveTransform(offsets_px, folded)
-        moved -= offsets_px
+        moved -= offsets_px if k == 1.0 else k * offsets_px
         return moved
 
     @cached_property

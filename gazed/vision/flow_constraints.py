@@ -9,7 +9,11 @@ gradient gives one constraint on the target's displacement d (px per frame),
 
 with `E_t` taken against the previous frame shifted by s (by s + d where a fit re-samples it
 at hypothesis d), s the ego-rotation displacement of the window's centre and w that of the
-pixel. `FlowConstraints` gathers a region's
+pixel. A zooming lens scales the image about its principal point between the frames, a flow
+that grows across the window beyond the linear range of the constraints: the previous frame
+is then sampled at its scale about the window's centre too (`HeadStep.scale`), and v̂·(s - w)
+becomes v̂·(H⁻¹x - P(x)), P(x) the pixel sampled (`HeadStep.sampled_less_displacement`).
+`FlowConstraints` gathers a region's
 constraints once and fits d by Gauss-Newton steps from several hypotheses, keeping the
 estimate that explains the most constraints.
 """
@@ -111,7 +115,10 @@ class FlowWindow:
         self.shift = su, sv
         # v̂·(s - w), w the ego-rotation displacement of each pixel (px per frame): the ego
         # flow's normal component, relative to the window's shift
-        relative = pair.step.shift_less_displacement((su, sv), (fovea.x0, fovea.y0), offsets_px)
+        self.scale = pair.step.scale  # of the previous frame's sampling: a zoom's, or 1
+        relative = pair.step.sampled_less_displacement(
+            (su, sv), (cu, cv), (fovea.x0, fovea.y0), offsets_px
+        )
         nx, ny = self.normal
         self.ego_normal = nx * relative[..., 0] + ny * relative[..., 1]
         # starting hypotheses for the target's own displacement d (px per frame, (k, 2)): still
@@ -130,6 +137,7 @@ class FlowWindow:
         reach_x, reach_y = [su + du for du, _ in starts], [sv + dv for _, dv in starts]
         high_x, high_y, low_x, low_y = max(reach_x), max(reach_y), min(reach_x), min(reach_y)
         slack = self.margin + 2.0 * LINEAR_RANGE_PX * COARSE_SIGMA_PX / SMOOTHING_SIGMA_PX
+        slack += max(self.scale - 1.0, 0.0) * n / 2.0  # a zoom out samples a wider patch
         h, w = previous.shape
         x0 = max(0, math.floor(f.x0 - high_x - slack))
         y0 = max(0, math.floor(f.y0 - high_y - slack))
@@ -148,10 +156,23 @@ class FlowWindow:
         return minus_e_t * self.inverse_gradient + self.ego_normal
 
     def previous_at(self, d: Sequence[float]) -> np.ndarray:
-        """The previous frame over the window, shifted by s + d (smoothed, float32)."""
+        """The previous frame over the window, shifted by s + d, at the lens's scale about the
+        window's centre (smoothed, float32)."""
         (cu, cv), (x0, y0) = self._shifted_centre, self._previous_origin
         centre = (cu - d[0] - x0, cv - d[1] - y0)
-        return cv2.getRectSubPix(self._previous, (self.fovea.side,) * 2, centre)
+        n, k = self.fovea.side, self.scale
+        if k == 1.0:
+            return cv2.getRectSubPix(self._previous, (n, n), centre)
+        # window pixel j -> the previous region's centre + k (j - (n - 1) / 2)
+        half = (n - 1) / 2.0
+        to_previous = np.array([[k, 0.0, centre[0] - k * half], [0.0, k, centre[1] - k * half]])
+        return cv2.warpAffine(
+            self._previous,
+            to_previous,
+            (n, n),
+            flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
+            borderMode=cv2.BORDER_REPLICATE,
+        )
 
     def constraints(self, pixels: np.ndarray) -> FlowConstraints:
         return FlowConstraints(self, pixels)

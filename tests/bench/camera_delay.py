@@ -17,8 +17,11 @@ Every run is `gazed run` on a private bus with the delay hidden (frames stamped 
 `loop`, on the oval and on `random`, per seed, in each mode: gaze error RMS and fovea fraction
 after acquisition (as `gazed eval loop`), and the online RMS over the told one. `online`: the
 delay hidden and estimated; `told`: `[camera] delay_ms` is the true delay and the estimate is
-off; `off`: hidden and not corrected. Then per scenario each mode's mean RMS and fovea, and the
-online mean RMS over the told one (the target: at most 1.2). The seeds and the run length are
+off; `off`: hidden and not corrected. Per run also the head's first move (`first_move`): how far
+it lands behind the target and the RMS from its landing, which counts the pursuit's onset in
+every run (the RMS after acquisition counts it only where the landing is inside the fovea).
+Then per scenario each mode's mean RMS and fovea, the first moves' median lag and mean RMS
+from the landing, and the online mean RMS over the told one (the target: at most 1.2). The seeds and the run length are
 the maneuver benchmark's, the random sweep (`tests/bench/random_sweep.py`).
 """
 
@@ -124,6 +127,7 @@ def loop_run(
         FieldOfRegard.for_scoring(rig),
     )
     result["rms_per_second_deg"] = rms_per_second_deg(record.truth, CameraPose.from_rig(rig))
+    result.update(first_move(record.truth, CameraPose.from_rig(rig)))
     period_ms = rig.camera.frame_period_s * 1e3
     result.update(stamp_errors_ms(got["detections"], got["truth"], period_ms))
     notes: list[Health] = got["health"]
@@ -143,6 +147,46 @@ def rms_per_second_deg(truth: list[Any], pose: CameraPose) -> list[float]:
     return [
         round(float(np.sqrt(np.mean(errors[second == k] ** 2))), 2) for k in range(int(second[-1]))
     ]
+
+
+def first_move(truth: list[Any], pose: CameraPose) -> dict[str, Any]:
+    """The head's first move, from the truth: when it starts (the head turning faster than the
+    target moves in angle), when it lands (no faster than the target again), how far the head
+    is then behind the target along the target's motion (negative: ahead), and the gaze error's
+    RMS from the landing to the end. A move planned before the delay is known aims from a stamp
+    the delay too late, so it lands behind by the target's angular speed times the delay; the
+    RMS from the landing counts the pursuit's onset in every run, where the RMS after
+    acquisition counts it only when the landing is inside the fovea."""
+    truth = sorted(truth, key=lambda t: t.t_capture_ns)
+    t_s = np.array([(t.t_capture_ns - truth[0].t_capture_ns) / 1e9 for t in truth])
+    head = np.array([(t.head.pan_rad, t.head.tilt_rad) for t in truth])
+    middles = np.array([(*t.target_xy_m, t.target_height_m / 2.0) for t in truth])
+    target = np.stack(pose.gaze_angles(middles), axis=-1)
+    if len(t_s) < 3:
+        return {"first_move": None}
+    head_rate = np.linalg.norm(np.gradient(head, t_s, axis=0), axis=1)
+    target_velocity = np.gradient(target, t_s, axis=0)
+    target_rate = np.linalg.norm(target_velocity, axis=1)
+    faster = np.flatnonzero(head_rate > 2.0 * target_rate)
+    if not faster.size:
+        return {"first_move": None}
+    start = int(faster[0])
+    landed = np.flatnonzero(head_rate[start:] <= target_rate[start:])
+    if not landed.size:
+        return {"first_move": None}
+    k = start + int(landed[0])
+    error = target[k] - head[k]
+    direction = target_velocity[k] / max(float(target_rate[k]), 1e-9)
+    errors = np.degrees(gaze_errors_rad(truth[k:], pose))
+    return {
+        "first_move": {
+            "started_s": round(float(t_s[start]), 2),
+            "landed_s": round(float(t_s[k]), 2),
+            "behind_deg": round(float(np.degrees(error @ direction)), 2),
+            "target_deg_s": round(float(np.degrees(target_rate[k])), 1),
+            "rms_from_landing_deg": round(float(np.sqrt(np.mean(errors**2))), 4),
+        }
+    }
 
 
 def stamp_errors_ms(
@@ -238,6 +282,14 @@ def loop(args: argparse.Namespace) -> list[dict[str, Any]]:
                 f"{_rms(r)!s:>11} {r['fovea_fraction']:>6}" for r in by_mode.values()
             )
             print(f"{seed:>4} | {cells} | {_ratio(by_mode, 'online', 'told')!s:>11}", flush=True)
+            for mode, r in by_mode.items():
+                move = r.get("first_move") or {}
+                print(
+                    f"     {mode:>6} first move landed {move.get('behind_deg', '-')} deg behind"
+                    f" the target ({move.get('target_deg_s', '-')} deg/s), rms from the landing"
+                    f" {move.get('rms_from_landing_deg', '-')} deg",
+                    flush=True,
+                )
             if args.per_second:
                 for mode, r in by_mode.items():
                     print(
@@ -254,9 +306,14 @@ def loop(args: argparse.Namespace) -> list[dict[str, Any]]:
                 "gaze_error_deg": {"rms": round(float(np.mean(rms)), 4) if rms else None},
                 "fovea_fraction": round(float(np.mean([r["fovea_fraction"] for r in mine])), 4),
             }
+            moves = [r["first_move"] for r in mine if r.get("first_move")]
+            landing = [m["rms_from_landing_deg"] for m in moves]
+            behind = [m["behind_deg"] for m in moves]
             print(
                 f"{scenario} {mode}: mean rms {_rms(means[mode])} deg, mean fovea"
-                f" {means[mode]['fovea_fraction']}, never acquired {len(mine) - len(rms)}"
+                f" {means[mode]['fovea_fraction']}, never acquired {len(mine) - len(rms)};"
+                f" first move: median behind {_median(behind)} deg, mean rms from the landing"
+                f" {_mean(landing)} deg"
             )
         ratio = _ratio(means, "online", "told")
         if ratio is not None:
@@ -266,6 +323,14 @@ def loop(args: argparse.Namespace) -> list[dict[str, Any]]:
             )
         results += runs
     return results
+
+
+def _median(values: list[float]) -> float | None:
+    return round(float(np.median(values)), 2) if values else None
+
+
+def _mean(values: list[float]) -> float | None:
+    return round(float(np.mean(values)), 4) if values else None
 
 
 def _rms(result: dict[str, Any]) -> float | None:

@@ -11,8 +11,13 @@ Per person visible for at least `--min-seconds`:
 - out of reach: frames whose box centre the head cannot foveate within its limits
   (`ViewPeople`, `FieldOfRegard.for_scoring`);
 - missed: frames in which no mover's point lies within the person's box (the detector);
-- lost: frames in which no confirmed track is within `MATCH_M` of the person's ground point
-  (matched one to one, nearest first);
+- lost: frames in which no confirmed track is on the person, matched one to one, nearest
+  first. `--match view` (the default) scores as the closed loop does: a track is on a person
+  when the view aimed at its ground point (`GroundGeometry.gaze_from_ground`, at the rig's
+  target height) has its centre in the person's box, nearest by the angle to the box's centre;
+  `--match ground`: when it is within `MATCH_M` of the person's ground point (people walking
+  side by side are closer than the detector's point is to their feet, so this one also counts
+  the tracks of a walking pair as changing places where the view does not);
 - changes of the person's track: `restart` (a new id, after a loss or a merge), `swap` (an id
   that was on another person before), each with the nearest other person's distance then.
 
@@ -41,6 +46,7 @@ from gazed.eval.person_score import people_at  # noqa: E402
 from gazed.eval.truth import read_truth  # noqa: E402
 from gazed.eval.view_people import ViewPeople  # noqa: E402
 from gazed.geometry.camera import CameraModel  # noqa: E402
+from gazed.geometry.ground import GroundGeometry  # noqa: E402
 from gazed.geometry.kinematics import HeadKinematics  # noqa: E402
 from gazed.geometry.zoom import ZoomLens  # noqa: E402
 from gazed.messages import Detection, HeadPose  # noqa: E402
@@ -112,6 +118,18 @@ def replay(rig_path: Path, frames: range, mode: str | None, point: str) -> list[
     return out
 
 
+def aimed_at(
+    people: ViewPeople, aim: GroundGeometry, boxes: np.ndarray, track_xy: np.ndarray
+) -> np.ndarray:
+    """(people, tracks): the angle from each person's box centre to the view's centre with the
+    head aimed at each track, inf where that centre is outside the person's box."""
+    out = np.full((len(boxes), len(track_xy)), np.inf)
+    for t, (x_m, y_m) in enumerate(track_xy):
+        seen = people.at_pose(boxes, *aim.gaze_from_ground(float(x_m), float(y_m)))
+        out[seen.held, t] = seen.error_rad[seen.held]
+    return out
+
+
 def id_lifetimes(replayed: list[dict], rate_hz: float) -> dict[str, float]:
     """The truth-free figure of a replay (module docstring): ids born, ids per minute, and
     their lifetimes' median and mean in seconds."""
@@ -137,6 +155,7 @@ def main() -> None:
     parser.add_argument("--filter", default=None, help="estimation mode (default: the rig's)")
     parser.add_argument("--min-seconds", type=float, default=10.0)
     parser.add_argument("--rig", type=Path, default=RIG)
+    parser.add_argument("--match", choices=("view", "ground"), default="view")
     parser.add_argument(
         "--point", default="centroid", help="the movers' point: centroid or ground-contact"
     )
@@ -153,6 +172,7 @@ def main() -> None:
         ),
         FieldOfRegard.for_scoring(rig),
     )
+    aim = GroundGeometry.from_rig(rig)
     scored = sorted(p.id for p in people.values() if p.seconds_visible >= args.min_seconds)
     stats = {pid: Counter() for pid in scored}
     owner: dict[int, int] = {}  # track id -> the person it was last on
@@ -168,11 +188,15 @@ def main() -> None:
         wide = np.array(row["wide"]).reshape(-1, 2)
         track_ids = list(row["tracks"])
         track_xy = np.array([row["tracks"][t] for t in track_ids]).reshape(-1, 2)
-        distance = np.linalg.norm(ground[:, None] - track_xy[None], axis=-1)
+        if args.match == "view":
+            distance = aimed_at(geometry, aim, boxes, track_xy)
+        else:
+            distance = np.linalg.norm(ground[:, None] - track_xy[None], axis=-1)
+            distance[distance > MATCH_M] = np.inf
         matched: dict[int, int] = {}
         for k in np.argsort(distance, axis=None):
             p, t = divmod(int(k), len(track_ids))
-            if distance[p, t] > MATCH_M:
+            if not np.isfinite(distance[p, t]):
                 break
             if p not in matched and track_ids[t] not in matched.values():
                 matched[p] = track_ids[t]
@@ -200,7 +224,10 @@ def main() -> None:
                 )
             held[pid] = track
             owner[track] = pid
-    print(f"frames {first}-{last}, filter {args.filter or rig.estimator.filter}, {args.point}")
+    print(
+        f"frames {first}-{last}, filter {args.filter or rig.estimator.filter}, {args.point}, "
+        f"matched by {args.match}"
+    )
     print(
         f"  {'person':>6} {'frames':>6} {'out of reach':>12} {'missed':>6} {'lost':>5} "
         f"{'restarts':>8} {'swaps':>5}"
