@@ -10,6 +10,7 @@ import pytest
 from gazed.config import Rig, parse_rig
 from gazed.gaze.aim import move_duration_s
 from gazed.gaze.controller import GazeController
+from gazed.gaze.sightings import CANDIDATE_VELOCITY_FRAMES
 from gazed.geometry.camera import CameraModel
 from gazed.messages import Candidate, Candidates, Detection, HeadPose, Odometry, Prediction
 
@@ -178,6 +179,16 @@ def test_detection_outside_the_fovea_draws_a_saccade_to_where_the_target_will_be
     )
 
 
+def measured_run(c: GazeController, clock: Clock, frame: Candidates) -> None:
+    """CANDIDATE_VELOCITY_FRAMES frames of `frame`, each a frame period after the last, the last
+    captured now: a velocity measured over the fit's window; no saccade before the last."""
+    for k in range(CANDIDATE_VELOCITY_FRAMES):
+        if k:
+            assert c.tick(clock.wall_ns, clock.mono_s).transition is None
+        clock.advance(0.04)
+        c.on_candidates(frame.model_copy(update={"t_capture_ns": clock.wall_ns}))
+
+
 def test_motion_candidate_draws_a_saccade_and_weak_ones_do_not() -> None:
     clock = Clock()
     c = in_search(clock)
@@ -192,12 +203,9 @@ def test_motion_candidate_draws_a_saccade_and_weak_ones_do_not() -> None:
     )
     c.on_candidates(weak)
     assert c.tick(clock.wall_ns, clock.mono_s).transition is None
-    strong = weak.model_copy(
-        update={
-            "candidates": (Candidate(u_px=100.0, v_px=239.5, area_px=400.0, energy=9.0, score=3.0),)
-        }
-    )
-    c.on_candidates(strong)
+    # moving down the image: a tilt rate only, at tilt 0
+    strong = Candidate(u_px=100.0, v_px=239.5, dv_px_s=1.0, area_px=400.0, energy=9.0, score=3.0)
+    measured_run(c, clock, weak.model_copy(update={"candidates": (strong,)}))
     decision = c.tick(clock.wall_ns, clock.mono_s)
     assert (
         decision.transition.state == "saccade" and decision.transition.reason == "motion candidate"
@@ -212,7 +220,9 @@ def test_candidates_seen_while_the_head_turns_are_not_searched() -> None:
     whatever the ego-rotation compensation missed as motion: no saccade to it."""
     clock = Clock()
     c = in_search(clock)
-    candidate = Candidate(u_px=100.0, v_px=239.5, area_px=400.0, energy=9.0, score=3.0)
+    candidate = Candidate(
+        u_px=100.0, v_px=239.5, du_px_s=10.0, area_px=400.0, energy=9.0, score=3.0
+    )
     turning = Candidates(
         t_capture_ns=clock.wall_ns,
         seq=2,
@@ -224,11 +234,7 @@ def test_candidates_seen_while_the_head_turns_are_not_searched() -> None:
     c.on_candidates(turning)
     assert c.tick(clock.wall_ns, clock.mono_s).transition is None
     assert c.counts["ignored_while_moving"] == 1
-    clock.advance(0.04)
-    at_rest = turning.model_copy(
-        update={"t_capture_ns": clock.wall_ns, "head": HeadPose(pan_rad=0.0, tilt_rad=0.0)}
-    )
-    c.on_candidates(at_rest)
+    measured_run(c, clock, turning.model_copy(update={"head": HeadPose(pan_rad=0.0, tilt_rad=0.0)}))
     assert c.tick(clock.wall_ns, clock.mono_s).transition.state == "saccade"
 
 

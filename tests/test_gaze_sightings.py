@@ -9,7 +9,7 @@ import pytest
 from test_gaze_controller import T0, Clock, detection
 
 from gazed.config import parse_rig
-from gazed.gaze.sightings import Sightings
+from gazed.gaze.sightings import CANDIDATE_VELOCITY_FRAMES, Sightings
 from gazed.geometry.camera import CameraModel
 from gazed.geometry.kinematics import HeadKinematics
 from gazed.geometry.zoom import ZoomLens
@@ -34,7 +34,14 @@ def seen(t_ns: int, u_px: float = 319.5) -> Detection:
     return detection(Clock(), u_px, 239.5, age_s=(T0 - t_ns) / 1e9)
 
 
-def candidates(t_ns: int, scores: tuple[float, ...], tilt_rate_deg_s: float = 0.0) -> Candidates:
+def candidates(
+    t_ns: int,
+    scores: tuple[float, ...],
+    tilt_rate_deg_s: float = 0.0,
+    du_px_s: float = 0.0,
+) -> Candidates:
+    """Candidates 100 px apart from the centre rightwards, each moving `du_px_s` (0: regions
+    seen for the first time)."""
     return Candidates(
         t_capture_ns=t_ns,
         seq=1,
@@ -42,7 +49,14 @@ def candidates(t_ns: int, scores: tuple[float, ...], tilt_rate_deg_s: float = 0.
         height_px=480,
         head=HeadPose(pan_rad=0.0, tilt_rad=0.0, tilt_rate_rad_s=math.radians(tilt_rate_deg_s)),
         candidates=tuple(
-            Candidate(u_px=319.5 + 100.0 * k, v_px=239.5, area_px=100.0, energy=1.0, score=s)
+            Candidate(
+                u_px=319.5 + 100.0 * k,
+                v_px=239.5,
+                du_px_s=du_px_s,
+                area_px=100.0,
+                energy=1.0,
+                score=s,
+            )
             for k, s in enumerate(scores)
         ),
     )
@@ -77,19 +91,49 @@ def test_recent_means_since_the_state_began_and_within_lost_after_ms() -> None:
     assert s.found is None and s.recent(T0, since_ns=0) is None
 
 
+def measured(s: Sightings, last_ns: int, scores: tuple[float, ...], du_px_s: float = 0.0) -> None:
+    """A run of CANDIDATE_VELOCITY_FRAMES frames ending at `last_ns` whose best candidate has a
+    measured velocity (the last `du_px_s`)."""
+    for k in range(CANDIDATE_VELOCITY_FRAMES - 1, 0, -1):
+        s.on_candidates(candidates(last_ns - 40 * MS * k, scores, du_px_s=1.0))
+    s.on_candidates(candidates(last_ns, scores, du_px_s=du_px_s or 1.0))
+
+
 def test_the_best_candidate_is_the_strongest_from_a_head_at_rest() -> None:
     s = sightings()
-    s.candidates = candidates(T0, (2.0, 5.0, 0.5))
+    measured(s, T0, (2.0, 5.0, 0.5))
     aim = s.best_candidate(T0 + 40 * MS, since_ns=T0)
     assert aim is not None and aim.t_ns == T0
     assert aim.pan_rad == pytest.approx(math.atan(100.0 / F))  # the second: 100 px right
     assert s.best_candidate(T0 + 301 * MS, since_ns=T0) is None  # too old
     assert s.best_candidate(T0, since_ns=T0 + 1) is None  # from before the state began
-    s.candidates = candidates(T0, (0.9,))
+    measured(s, T0, (0.9,))
     assert s.best_candidate(T0, since_ns=0) is None  # too weak
     s.candidates = candidates(T0, (5.0,), tilt_rate_deg_s=3.0)
     assert s.best_candidate(T0, since_ns=0) is None  # seen from a turning head: counted
     assert s.turning_candidates == 1
+
+
+def test_a_candidate_draws_a_saccade_once_its_velocity_is_measured_over_the_fit_window() -> None:
+    """A region seen for the first time has no velocity, and one over a frame or two is far off:
+    a saccade aiming with it over the latency and the move would land behind the target."""
+    s = sightings()
+    s.on_candidates(candidates(T0, (5.0,)))  # first seen: no velocity
+    assert s.measured_in_a_row == 0 and s.best_candidate(T0, since_ns=0) is None
+    for k in range(1, CANDIDATE_VELOCITY_FRAMES):
+        s.on_candidates(candidates(T0 + 40 * MS * k, (5.0,), du_px_s=10.0))
+        s.on_candidates(candidates(T0 + 40 * MS * k, (5.0,), du_px_s=10.0))  # a repeat
+        assert s.measured_in_a_row == k
+        assert s.best_candidate(T0 + 40 * MS * k, since_ns=0) is None
+    last_ns = T0 + 40 * MS * CANDIDATE_VELOCITY_FRAMES
+    s.on_candidates(candidates(last_ns, (5.0,), du_px_s=10.0))
+    aim = s.best_candidate(last_ns, since_ns=0)
+    assert aim is not None and aim.pan_rate_rad_s == pytest.approx(10.0 / F)
+    s.on_candidates(candidates(last_ns + 40 * MS, (5.0,), tilt_rate_deg_s=3.0, du_px_s=10.0))
+    assert s.measured_in_a_row == 0  # seen from a turning head: the run starts again
+    measured(s, last_ns + 400 * MS, (5.0,))
+    s.on_candidates(candidates(last_ns + 440 * MS, (5.0,)))  # a new region: no velocity
+    assert s.best_candidate(last_ns + 440 * MS, since_ns=0) is None
 
 
 def test_a_detection_aims_from_its_head_pose() -> None:

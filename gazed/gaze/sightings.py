@@ -1,5 +1,6 @@
 """What vision has shown of the target: its latest detection with the run of frames in a row
-that have shown it, and the latest whole-frame motion candidates.
+that have shown it, and the latest whole-frame motion candidates with the run of frames in a
+row, from a head at rest, whose best candidate has a measured image velocity.
 
 A detection is taken up only after `reacquire_detections` in a row, so that a lone false
 detection draws no move. Candidates are searched only in frames taken from a head at rest: a
@@ -17,12 +18,20 @@ from gazed.geometry.zoom import ZoomLens
 from gazed.messages import Candidates, Detection
 
 RUN_GAP_FRAMES = 2.5  # a detection this many frame periods after the last still continues a run
+# A motion candidate's image velocity is vision's fit over its region's recent centroids
+# (`gazed.vision.candidates.VELOCITY_POINTS`): none in the frame a region first shows, far off
+# over two frames. A saccade aims with that velocity over the visual latency and the move, so a
+# candidate draws one only once this many frames in a row have measured its velocity: the
+# fit's whole window.
+CANDIDATE_VELOCITY_FRAMES = 5
 
 
 class Sightings:
     """`found`: the latest detection of the target taken into account; `in_a_row`: how many
     consecutive frames have shown it since the run was last restarted; `candidates`: the
-    latest motion candidates; `turning_candidates` counts those seen from a turning head."""
+    latest motion candidates; `measured_in_a_row`: how many consecutive candidate frames, from a
+    head at rest, have given their best candidate an image velocity; `turning_candidates`
+    counts those seen from a turning head."""
 
     def __init__(
         self,
@@ -39,6 +48,7 @@ class Sightings:
         self.found: Detection | None = None
         self.in_a_row = 0
         self.candidates: Candidates | None = None
+        self.measured_in_a_row = 0
         self.turning_candidates = 0
 
     def take(self, detection: Detection, count: bool) -> None:
@@ -48,7 +58,20 @@ class Sightings:
         self.found = detection
 
     def on_candidates(self, candidates: Candidates) -> None:
-        self.candidates = candidates
+        """The newest candidates; a frame whose best candidate has no velocity (a region seen
+        for the first time, (0, 0) from vision) or seen from a turning head restarts the run
+        (a repeat of a frame counts nothing)."""
+        previous, self.candidates = self.candidates, candidates
+        if previous is not None and candidates.t_capture_ns <= previous.t_capture_ns:
+            return
+        best = max(candidates.candidates, key=lambda k: k.score, default=None)
+        measured = (
+            candidates.head is not None
+            and at_rest(candidates.head)
+            and best is not None
+            and (best.du_px_s, best.dv_px_s) != (0.0, 0.0)
+        )
+        self.measured_in_a_row = self.measured_in_a_row + 1 if measured else 0
 
     def restart_run(self) -> None:
         self.in_a_row = 0
@@ -73,8 +96,9 @@ class Sightings:
 
     def best_candidate(self, wall_ns: int, since_ns: int) -> Aim | None:
         """The strongest motion candidate of the latest frame, if it was captured since
-        `since_ns`, at most `max_age_ms` ago, from a head at rest, and scores at least
-        `candidate_min_score`."""
+        `since_ns`, at most `max_age_ms` ago, from a head at rest, scores at least
+        `candidate_min_score`, and ends a run of CANDIDATE_VELOCITY_FRAMES frames with a
+        measured velocity."""
         c = self.candidates
         if c is None or c.head is None or not c.candidates or c.t_capture_ns < since_ns:
             return None
@@ -85,6 +109,8 @@ class Sightings:
             return None
         best = max(c.candidates, key=lambda k: k.score)
         if best.score < self.candidate_min_score:
+            return None
+        if self.measured_in_a_row < CANDIDATE_VELOCITY_FRAMES:
             return None
         return image_aim(
             self.lens.at_pose(c.head),
