@@ -55,4 +55,4 @@ def test_pets_rig_acquires_a_walker_and_streams_its_view(tmp_path: Path) -> None
     finally:
         code = supervisor.stop()
     assert code == 0, "".join(supervisor.stderr)
-    assert re.search(r"saccade -> pursuit", "".join(supervisor.stderr))
+    assert re.search(r"(saccade|search) -> pursuit", "".join(supervisor.stderr))
