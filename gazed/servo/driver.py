@@ -258,3 +258,11 @@ class ServoDriver:
     def _notice(self, reply: Reply) -> None:
         self.counters[f"notices:{reply.kind}"] += 1
         self.notices.append(reply)
+
+
+def takes_now(driver: object, frames: Callable[[Codec], list[bytes]]) -> bool:
+    """Whether `driver` takes the frames `frames` encodes with its codec without waiting (a
+    head without a serial codec, the digital head, ONVIF or speed mode, always does)."""
+    if not isinstance(driver, ServoDriver):
+        return True
+    return driver.has_room(frames(driver.codec))

@@ -26,7 +26,7 @@ from collections.abc import Callable, Iterable
 from gazed.config import HeadSection
 from gazed.geometry.kinematics import device_from_joint
 from gazed.messages import GazeDemand
-from gazed.servo.driver import ServoDriver
+from gazed.servo.driver import ServoDriver, takes_now
 from gazed.servo.limits import DemandLimiter, Target
 from gazed.servo.setpoints import SetpointGenerator
 
@@ -177,9 +177,7 @@ class SetpointWriter:
 
     def _has_room(self, pan_rad: float, tilt_rad: float) -> bool:
         """Whether the head takes a move to device angles now, without waiting."""
-        if not isinstance(self.driver, ServoDriver):
-            return True  # the digital head and speed mode: nothing to wait for here
-        return self.driver.has_room(self.driver.codec.encode_set_position(pan_rad, tilt_rad))
+        return takes_now(self.driver, lambda codec: codec.encode_set_position(pan_rad, tilt_rad))
 
     def write_fresh(self, t_s: float) -> None:
         """A demand that came while the head was answering a poll goes out now, not after the

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 from typing import Protocol
 
-from gazed.servo.driver import ServoDriver
+from gazed.servo.driver import ServoDriver, takes_now
 from gazed.servo.visca import ViscaCodec
 
 ZOOM_COMMAND_PERIOD_S = 0.1
@@ -107,9 +107,7 @@ class ZoomDrive:
 
     def _has_room(self, zoom: float) -> bool:
         """Whether the head takes a zoom command now, without waiting."""
-        if not isinstance(self.driver, ServoDriver):
-            return True  # the digital head and ONVIF: nothing to wait for here
-        return self.driver.has_room(self.driver.codec.encode_set_zoom(zoom))
+        return takes_now(self.driver, lambda codec: codec.encode_set_zoom(zoom))
 
     def read(self) -> float:
         """The lens's present position (raises what the driver raises)."""
