@@ -20,9 +20,15 @@ from gazed.messages import Candidates, Detection
 RUN_GAP_FRAMES = 2.5  # a detection this many frame periods after the last still continues a run
 # A motion candidate's image velocity is vision's fit over its region's recent centroids
 # (`gazed.vision.candidates.VELOCITY_POINTS`): none in the frame a region first shows, far off
-# over two frames. A saccade aims with that velocity over the visual latency and the move, so a
-# candidate draws one only once this many frames in a row have measured its velocity: the
-# fit's whole window.
+# over two frames. A saccade aims with that velocity over a horizon H (the visual latency, the
+# move and its settling), so a candidate draws one only once this many frames in a row have
+# measured its velocity: the fit's whole window. The wait is counted in frames, not seconds: a
+# least-squares slope over n centroids, each known to σ, errs by σ·sqrt(12 / (n(n²-1))) / T at
+# frame period T, so over H it adds no more than the position's own σ once
+# n(n²-1) / 12 >= (H/T)². At the camera rates in use, a saccade across a good part of the view
+# spans enough frame periods for that to ask for the whole window or more, and only the shortest
+# saccades at the slowest cameras would be allowed a frame less: a shorter wait would aim with a
+# velocity whose error over the move outweighs the position's.
 CANDIDATE_VELOCITY_FRAMES = 5
 
 
