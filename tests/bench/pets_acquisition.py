@@ -1,18 +1,29 @@
 """How the gaze takes up a person selected in PETS 2009 S2.L1, and where the fovea fraction goes.
 
     python tests/bench/pets_acquisition.py [--people 9,15] [--delays 0,150] [--filter imm]
+                                           [--second-half]
 
 For each person visible for at least `--min-seconds`, one `gazed eval loop --truth …
---start-frame FIRST --select-id ID` run (`footage_loop.run_footage`, its recording kept), and
-per run:
+--start-frame FIRST --select-id ID` run (`footage_loop.run_footage`, its recording kept, with
+vision's candidates added), and per run, in seconds after the person's first frame:
 
-- select: when the operator's choice took a track, after the person's first frame (s);
-- saccade: when the first saccade began (s), and the person's angle from the view's axis in
-  the first frame after it (deg): where it landed;
-- pursuit: when the gaze first pursued (s); acquired: the scored acquisition (s);
+- select: when the operator's choice took a track, and the changes of choice with their reasons;
+  chosen_born / chosen_confirmed: when that track first appeared, and was first confirmed;
+- saccade: when the first saccade began, why, and the person's angle from the view's axis in
+  the first pursued frame after it (landed_deg: where it landed);
+- pursuit: when the gaze first pursued; acquired: the scored acquisition;
+- track_on: runs of the chosen track's nearest annotated person, "track:person(median
+  distance)xframes": whom the choice followed on the ground;
 - fovea: the fovea fraction, and its shortfall split by what the gaze was doing in the frames
-  from acquisition where the person was outside the fovea: pursuing them (pursuit error),
-  pursuing another person (switch), in saccade, lost, or in search.
+  from acquisition where the person was outside the fovea: pursuing them or nobody (pursuit
+  error, with its median angle), pursuing another person (switch), in saccade, lost, or in
+  search; the share of frames out of the head's reach, and the ground RMSE.
+
+With `--second-half`: one run from frame 400 (no truth; the rule chooses), the share of frames
+in each state from the first pursuit, every transition with its reason, and for each search
+what vision showed meanwhile: candidate frames, those whose best candidate had a measured
+velocity and their longest run (a run of `CANDIDATE_VELOCITY_FRAMES` draws a saccade),
+detections found, and where the head looked.
 """
 
 from __future__ import annotations
