@@ -4,7 +4,8 @@ A codec turns head commands into the frames the device understands (`encode_*`, 
 device radians, see `gazed.geometry.kinematics.device_from_joint`) and turns whatever bytes come
 back, in any chunking, into typed `Reply`s (`feed`). It keeps only what the protocol makes it
 keep: a receive buffer, and for protocols whose replies do not say what they answer (PTU lines,
-Dynamixel status packets) the queue of requests sent and not yet answered.
+Dynamixel status packets) the queue of requests sent and not yet answered. The PTU codec
+follows the wire from the frames the driver says it wrote (`sent`): encoding changes nothing.
 
 Request/reply matching (DESIGN §8): `replies_expected(frame)` says how many synchronous replies
 a frame sent elicits; replies marked `asynchronous` (VISCA completions, PTU limit notices) are
@@ -134,6 +135,13 @@ class Codec(ABC):
         """Synchronous replies the device sends to one of this codec's frames."""
         del frame_bytes
         return 0
+
+    def sent(self, frame_bytes: bytes) -> None:
+        """The driver wrote `frame_bytes` to the device. A codec that follows what is on the
+        wire (the requests awaiting an answer, the device's mode) takes it in here, never when
+        encoding: a frame encoded only to ask `has_room`, or left unsent after a timeout, then
+        leaves no trace."""
+        del frame_bytes
 
     def has_room(self, frame_bytes: bytes) -> bool:
         """True when the device can take `frame_bytes` now (VISCA: a command socket is free)."""

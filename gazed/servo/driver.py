@@ -118,6 +118,7 @@ class ServoDriver:
             self._await_room(frame)
             self._drain()
             t_ns = self.transport.write(frame)
+            self.codec.sent(frame)
             self.counters["frames_written"] += 1
             replies = self._collect(self.codec.replies_expected(frame))
             busy = any(self.codec.refused_as_busy(reply) for reply, _ in replies)
