@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
-from collections.abc import Callable
+from collections.abc import Callable, Hashable
 from dataclasses import dataclass
 from typing import ClassVar, Literal, TypeVar
 
@@ -153,6 +153,20 @@ class Codec(ABC):
         buffer full): the frame is sent again once the device has room."""
         del reply
         return False
+
+    @property
+    def last_acked(self) -> Hashable | None:
+        """The command the device acknowledged last, named so that `encode_cancel_acked` can
+        end it later (VISCA: its socket and the ACK's number); None where commands are not
+        acknowledged, or none was since the link opened."""
+        return None
+
+    def encode_cancel_acked(self, acked: Hashable) -> list[bytes]:
+        """Frames that end the command `acked` (a `last_acked`) while it still executes: none
+        once it has ended (completed, cancelled, refused, its socket taken by another), nor
+        where the protocol cannot cancel a command."""
+        del acked
+        return []
 
     def handshake(self, exchange: Exchange) -> None:
         """Bring the device into the state the codec assumes; `exchange` does the I/O. Raises
