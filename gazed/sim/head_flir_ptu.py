@@ -8,7 +8,8 @@ default) answers queries in sentences (`* Current Pan position is 1000`), terse 
 number alone. Positions are steps of the rig's `pan_arcsec_per_position`; the position limits
 (`PN`/`PX`/`TN`/`TX`) are the rig's joint limits rounded outwards to whole positions, the upper
 speed (`PU`/`TU`) the rig's rate limit. In pure velocity mode (`CV`) `PS`/`TS` are signed speeds
-(a separate register from the move speeds of `CI`) and an axis that runs into a limit stops there with the asynchronous notice `!P` / `!T`.
+(a separate register from the move speeds of `CI`) and an axis that runs into a limit stops
+there with the asynchronous notice `!P` / `!T`.
 `A` (await) answers once the commanded moves are complete; commands sent meanwhile wait.
 """
 
