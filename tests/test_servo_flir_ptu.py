@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from gazed.servo import HandshakeError, Reply, make_codec
+from gazed.servo import CodecError, HandshakeError, Reply, make_codec
 from gazed.servo.flir_ptu import parse_line, positions_from_rad, rad_from_positions
 
 
@@ -30,9 +30,16 @@ def test_set_position_and_query_frames(codec) -> None:
     assert all(codec.replies_expected(f) == 1 for f in (b"PP828 ", b"PP ", b"H "))
 
 
+def sent(codec, frames: list[bytes]) -> list[bytes]:
+    """Tell the codec the frames went on the wire, as the driver does."""
+    for frame in frames:
+        codec.sent(frame)
+    return frames
+
+
 def test_replies_are_matched_to_the_queries_in_order(codec) -> None:
     codec.reset()
-    codec.encode_query_position()
+    sent(codec, codec.encode_query_position())
     replies = codec.feed(b"* 828\r\n!P\r\n* -778\r\n")
     assert [r.kind for r in replies] == ["position", "limit", "position"]
     assert math.degrees(replies[0].pan_rad) == pytest.approx(828 * 92.5714 / 3600)
@@ -59,7 +66,7 @@ def test_cr_alone_and_crlf_both_end_lines(codec) -> None:
 
 def test_velocity_mode_and_back(codec) -> None:
     rate = math.radians(1000 * 92.5714 / 3600)
-    assert codec.encode_set_velocity(rate, 0.0) == [b"CV ", b"PS1000 ", b"TS0 "]
+    assert sent(codec, codec.encode_set_velocity(rate, 0.0)) == [b"CV ", b"PS1000 ", b"TS0 "]
     assert codec.encode_set_velocity(-rate, 0.0) == [b"PS-1000 ", b"TS0 "]
 
 
@@ -69,6 +76,7 @@ def scripted(answers: dict[bytes, bytes]):
 
     def exchange(frame: bytes) -> list[Reply]:
         sent.append(frame)
+        exchange.codec.sent(frame)
         return exchange.codec.feed(answers[frame])
 
     exchange.sent = sent
@@ -102,7 +110,7 @@ def test_handshake_reads_resolution_limits_and_speeds(codec) -> None:
         "tilt_max": 604,
     }
     rate = math.radians(10 * 185.1428 / 3600)
-    codec.encode_set_velocity(rate, 0.0)
+    sent(codec, codec.encode_set_velocity(rate, 0.0))
     # back to positions: independent mode and the move speeds read at start-up
     assert codec.encode_set_position(0.0, 0.0) == [
         b"CI ",
@@ -118,3 +126,25 @@ def test_handshake_fails_on_an_error_line(codec) -> None:
     exchange.codec = codec
     with pytest.raises(HandshakeError, match="Illegal"):
         codec.handshake(exchange)
+
+
+def test_frames_encoded_but_not_sent_await_no_answer(codec) -> None:
+    """A `has_room` probe encodes a set-point it does not send: the answers to the query sent
+    next are still read as pan and tilt, not as the probe's acks."""
+    for _ in range(3):
+        codec.encode_set_position(math.radians(1.0), math.radians(2.0))
+    sent(codec, codec.encode_query_position())
+    pan, tilt = codec.feed(b"* 828\r\n* -778\r\n")
+    assert pan.kind == tilt.kind == "position"
+    assert math.degrees(pan.pan_rad) == pytest.approx(828 * 92.5714 / 3600)
+    assert math.degrees(tilt.tilt_rad) == pytest.approx(-778 * 46.2857 / 3600)
+
+
+def test_the_control_mode_follows_the_frames_sent(codec) -> None:
+    """Velocity frames encoded and never sent leave the unit, and the codec, in independent
+    mode: the next set-point needs no `CI`."""
+    codec.encode_set_velocity(math.radians(1.0), 0.0)
+    assert codec.encode_set_position(0.0, 0.0) == [b"PP0 ", b"TP0 "]
+    sent(codec, codec.encode_set_velocity(math.radians(1.0), 0.0))
+    with pytest.raises(CodecError, match="leaving velocity mode"):  # CI and the move speeds
+        codec.encode_set_position(0.0, 0.0)

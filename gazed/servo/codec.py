@@ -4,7 +4,8 @@ A codec turns head commands into the frames the device understands (`encode_*`, 
 device radians, see `gazed.geometry.kinematics.device_from_joint`) and turns whatever bytes come
 back, in any chunking, into typed `Reply`s (`feed`). It keeps only what the protocol makes it
 keep: a receive buffer, and for protocols whose replies do not say what they answer (PTU lines,
-Dynamixel status packets) the queue of requests sent and not yet answered.
+Dynamixel status packets) the queue of requests sent and not yet answered. The PTU codec
+follows the wire from the frames the driver says it wrote (`sent`): encoding changes nothing.
 
 Request/reply matching (DESIGN §8): `replies_expected(frame)` says how many synchronous replies
 a frame sent elicits; replies marked `asynchronous` (VISCA completions, PTU limit notices) are
@@ -16,7 +17,7 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
-from collections.abc import Callable
+from collections.abc import Callable, Hashable
 from dataclasses import dataclass
 from typing import ClassVar, Literal, TypeVar
 
@@ -135,6 +136,13 @@ class Codec(ABC):
         del frame_bytes
         return 0
 
+    def sent(self, frame_bytes: bytes) -> None:
+        """The driver wrote `frame_bytes` to the device. A codec that follows what is on the
+        wire (the requests awaiting an answer, the device's mode) takes it in here, never when
+        encoding: a frame encoded only to ask `has_room`, or left unsent after a timeout, then
+        leaves no trace."""
+        del frame_bytes
+
     def has_room(self, frame_bytes: bytes) -> bool:
         """True when the device can take `frame_bytes` now (VISCA: a command socket is free)."""
         del frame_bytes
@@ -145,6 +153,20 @@ class Codec(ABC):
         buffer full): the frame is sent again once the device has room."""
         del reply
         return False
+
+    @property
+    def last_acked(self) -> Hashable | None:
+        """The command the device acknowledged last, named so that `encode_cancel_acked` can
+        end it later (VISCA: its socket and the ACK's number); None where commands are not
+        acknowledged, or none was since the link opened."""
+        return None
+
+    def encode_cancel_acked(self, acked: Hashable) -> list[bytes]:
+        """Frames that end the command `acked` (a `last_acked`) while it still executes: none
+        once it has ended (completed, cancelled, refused, its socket taken by another), nor
+        where the protocol cannot cancel a command."""
+        del acked
+        return []
 
     def handshake(self, exchange: Exchange) -> None:
         """Bring the device into the state the codec assumes; `exchange` does the I/O. Raises

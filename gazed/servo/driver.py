@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import time
 from collections import Counter, deque
-from collections.abc import Callable
+from collections.abc import Callable, Hashable
 from dataclasses import dataclass
 
 from gazed.servo.codec import Codec, Reply
@@ -118,6 +118,7 @@ class ServoDriver:
             self._await_room(frame)
             self._drain()
             t_ns = self.transport.write(frame)
+            self.codec.sent(frame)
             self.counters["frames_written"] += 1
             replies = self._collect(self.codec.replies_expected(frame))
             busy = any(self.codec.refused_as_busy(reply) for reply, _ in replies)
@@ -258,6 +259,22 @@ class ServoDriver:
     def _notice(self, reply: Reply) -> None:
         self.counters[f"notices:{reply.kind}"] += 1
         self.notices.append(reply)
+
+
+def last_acked(driver: object) -> Hashable | None:
+    """The command `driver`'s device acknowledged last (`Codec.last_acked`); None for a head
+    without a serial codec."""
+    return driver.codec.last_acked if isinstance(driver, ServoDriver) else None
+
+
+def cancel_acked(driver: object, acked: Hashable) -> bool:
+    """End the command `acked` names if it still executes (`Codec.encode_cancel_acked`); True
+    when a cancel was sent."""
+    frames = driver.codec.encode_cancel_acked(acked) if isinstance(driver, ServoDriver) else []
+    if not frames:
+        return False
+    driver.send(frames)
+    return True
 
 
 def takes_now(driver: object, frames: Callable[[Codec], list[bytes]]) -> bool:

@@ -16,6 +16,12 @@ mode, so the handshake asks the unit (`PR`, `TR`) instead of trusting the rig fi
 Set position is `PP<n>` then `TP<n>`; query `PP` then `TP`; stop `H`. Velocity uses pure
 velocity mode (`CV`, signed `PS`/`TS`); going back to positions restores independent mode
 (`CI`) and the position-move speeds read at start-up.
+
+A reply line does not say what it answers: it is matched to the oldest frame written and not
+yet answered. So the codec learns what is on the wire only from the frames the driver wrote
+(`sent`), never from encoding: a frame encoded and not sent (a `has_room` probe, the rest of a
+request cut short by a timeout) would otherwise take the answer of the next one, and a pan
+position could be read as tilt. The control mode follows the `CV` / `CI` frames sent.
 """
 
 from __future__ import annotations
@@ -43,6 +49,7 @@ SUCCESS = "*"
 FAILURE = "!"
 LIMIT_NOTICES = {"!P": "pan limit", "!T": "tilt limit"}
 NUMBER = re.compile(r"[-+]?\d+(?:\.\d+)?")
+COMMAND = re.compile(r"^([A-Za-z]+)([-+]?\d+)?$")
 
 # op codes used by gazed (PTU-D300 §4, E-series command reference)
 OPS = {
@@ -73,6 +80,7 @@ OPS = {
     "halt_tilt": "HT",
     "await": "A",
 }
+POSITION_QUERIES = (OPS["pan_position"], OPS["tilt_position"])
 HANDSHAKE_QUERIES = (
     "pan_resolution",
     "tilt_resolution",
@@ -88,6 +96,16 @@ HANDSHAKE_QUERIES = (
 def command(op: str, value: int | None = None) -> bytes:
     """`PP1000 ` or, for a query, `PP `."""
     return f"{op}{'' if value is None else value}{DELIMITER}".encode("ascii")
+
+
+def parse_command(text: str) -> tuple[str, int | None] | None:
+    """(`PP`, 1000) for `PP1000`, (`PP`, None) for the query `PP` (op codes upper-cased,
+    delimiters stripped); None for no command."""
+    match = COMMAND.match(text.strip())
+    if match is None:
+        return None
+    op, value = match.group(1).upper(), match.group(2)
+    return op, None if value is None else int(value)
 
 
 def positions_from_rad(angle_rad: float, arcsec_per_position: float) -> int:
@@ -150,7 +168,7 @@ class FlirPtuCodec(Codec):
         self.limits_positions: dict[str, int] = {}
         self._move_speeds: tuple[int, int] | None = None
         self._velocity_mode = False
-        self._pending: deque[str] = deque()
+        self._pending: deque[str] = deque()  # per frame sent: the position query it is, or ""
 
     @property
     def resolution_rad(self) -> tuple[float, float]:
@@ -159,63 +177,55 @@ class FlirPtuCodec(Codec):
             rad_from_positions(1, self.tilt_arcsec_per_position),
         )
 
-    def _frames(self, *items: tuple[str, int | None, str]) -> list[bytes]:
-        """Frames for (op, value, what its answer means) and the answers they now await."""
-        frames = []
-        for op, value, expect in items:
-            frames.append(command(op, value))
-            self._pending.append(expect)
-        return frames
-
     def encode_set_position(self, pan_rad: float, tilt_rad: float) -> list[bytes]:
         pan = positions_from_rad(pan_rad, self.pan_arcsec_per_position)
         tilt = positions_from_rad(tilt_rad, self.tilt_arcsec_per_position)
-        items: list[tuple[str, int | None, str]] = []
+        frames = []
         if self._velocity_mode:
             if self._move_speeds is None:
                 raise CodecError("leaving velocity mode needs the move speeds (run the handshake)")
-            items += [
-                (OPS["independent_mode"], None, "ack"),
-                (OPS["pan_speed"], self._move_speeds[0], "ack"),
-                (OPS["tilt_speed"], self._move_speeds[1], "ack"),
+            frames += [
+                command(OPS["independent_mode"]),
+                command(OPS["pan_speed"], self._move_speeds[0]),
+                command(OPS["tilt_speed"], self._move_speeds[1]),
             ]
-        items += [(OPS["pan_position"], pan, "ack"), (OPS["tilt_position"], tilt, "ack")]
-        frames = self._frames(*items)
-        self._velocity_mode = False
-        return frames
+        return [*frames, command(OPS["pan_position"], pan), command(OPS["tilt_position"], tilt)]
 
     def encode_set_velocity(self, pan_rad_s: float, tilt_rad_s: float) -> list[bytes]:
         pan = positions_from_rad(pan_rad_s, self.pan_arcsec_per_position)
         tilt = positions_from_rad(tilt_rad_s, self.tilt_arcsec_per_position)
-        items: list[tuple[str, int | None, str]] = []
-        if not self._velocity_mode:
-            items.append((OPS["velocity_mode"], None, "ack"))
-        items += [(OPS["pan_speed"], pan, "ack"), (OPS["tilt_speed"], tilt, "ack")]
-        frames = self._frames(*items)
-        self._velocity_mode = True
-        return frames
+        frames = [] if self._velocity_mode else [command(OPS["velocity_mode"])]
+        return [*frames, command(OPS["pan_speed"], pan), command(OPS["tilt_speed"], tilt)]
 
     def encode_stop(self) -> list[bytes]:
-        return self._frames((OPS["halt"], None, "ack"))
+        return [command(OPS["halt"])]
 
     def encode_query_position(self) -> list[bytes]:
-        return self._frames(
-            (OPS["pan_position"], None, "pan_position"),
-            (OPS["tilt_position"], None, "tilt_position"),
-        )
+        return [command(OPS["pan_position"]), command(OPS["tilt_position"])]
 
     def encode_query(self, op: str) -> list[bytes]:
         """Any query by op code (`PR`, `PN`, …); answered `ok` with the value."""
-        return self._frames((op, None, "value"))
+        return [command(op)]
 
     def replies_expected(self, frame_bytes: bytes) -> int:
         return 1 if frame_bytes.endswith(DELIMITER.encode()) else 0
+
+    def sent(self, frame_bytes: bytes) -> None:
+        """The frame's answer is the next line awaited; `CV` / `CI` switch the control mode."""
+        if not self.replies_expected(frame_bytes):
+            return
+        op, value = parse_command(frame_bytes.decode("latin-1")) or ("", None)
+        self._pending.append(op if value is None and op in POSITION_QUERIES else "")
+        if op == OPS["velocity_mode"]:
+            self._velocity_mode = True
+        elif op == OPS["independent_mode"]:
+            self._velocity_mode = False
 
     def handshake(self, exchange: Exchange) -> None:
         """Echo off, terse feedback, independent mode; read resolutions, limits and move speeds
         (PROTOCOLS §3: query the resolution at start-up instead of hard-coding it)."""
         for op in (OPS["echo_off"], OPS["feedback_terse"], OPS["independent_mode"]):
-            handshake_reply(exchange(self._frames((op, None, "ack"))[0]), "PTU", op)
+            handshake_reply(exchange(command(op)), "PTU", op)
         values = {name: self._value(exchange, OPS[name]) for name in HANDSHAKE_QUERIES}
         if values["pan_resolution"] <= 0 or values["tilt_resolution"] <= 0:
             raise HandshakeError(
@@ -253,14 +263,15 @@ class FlirPtuCodec(Codec):
         return replies
 
     def _answer(self, reply: Reply) -> Reply:
-        """Match a `*`/`!` line to the oldest request still waiting for one."""
-        expect = self._pending.popleft() if self._pending else "value"
+        """Match a `*`/`!` line to the oldest frame sent still waiting for one: the answer to
+        a position query is a position."""
+        asked = self._pending.popleft() if self._pending else ""
         if reply.kind != "ok" or reply.value is None:
             return reply
-        if expect == "pan_position":
+        if asked == OPS["pan_position"]:
             pan = rad_from_positions(reply.value, self.pan_arcsec_per_position)
             return Reply("position", pan_rad=pan, raw=reply.raw)
-        if expect == "tilt_position":
+        if asked == OPS["tilt_position"]:
             tilt = rad_from_positions(reply.value, self.tilt_arcsec_per_position)
             return Reply("position", tilt_rad=tilt, raw=reply.raw)
         return reply

@@ -28,7 +28,7 @@ optical zoom; the rig's `zoom_max_units`), which gazed calls zoom 1.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Hashable
 from dataclasses import replace
 from typing import ClassVar, TypeVar
 
@@ -254,6 +254,16 @@ class ViscaCodec(Codec):
         if socket not in SOCKETS:
             raise CodecError(f"socket {socket} outside {SOCKETS}")
         return [self._packet(CANCEL | socket)]
+
+    @property
+    def last_acked(self) -> tuple[int, int] | None:
+        return self.last_ack
+
+    def encode_cancel_acked(self, acked: Hashable) -> list[bytes]:
+        """Cancel for the socket of the command ACKed as `acked`, if it still holds it."""
+        if not isinstance(acked, tuple) or not self.holds(acked):
+            return []
+        return self.encode_cancel(acked[0])
 
     def holds(self, command: tuple[int, int]) -> bool:
         """Whether the command whose ACK was `command` (`last_ack` then) still holds its

@@ -21,10 +21,10 @@ set-point goes out again in the link's next step, after the pan-tilt's.
 
 from __future__ import annotations
 
+from collections.abc import Hashable
 from typing import Protocol
 
-from gazed.servo.driver import ServoDriver, takes_now
-from gazed.servo.visca import ViscaCodec
+from gazed.servo.driver import cancel_acked, last_acked, takes_now
 
 ZOOM_COMMAND_PERIOD_S = 0.1
 ZOOM_STEP = 1.0 / 1024  # below any lens's repeatability, above a VISCA unit at 0x4000
@@ -51,7 +51,7 @@ class ZoomDrive:
         self.writes = 0
         self.held_for_a_socket = 0
         self.cancelled = 0
-        self._executing: tuple[int, int] | None = None  # the VISCA ACK of the last zoom command
+        self._executing: Hashable | None = None  # the acknowledgement of the last zoom command
         self._written: float | None = None
         self._t_s: float | None = None
         self._next_write_s = 0.0
@@ -84,8 +84,7 @@ class ZoomDrive:
             self.held_for_a_socket += 1
             return
         self.driver.set_zoom(self.setpoint)
-        if isinstance(self.driver, ServoDriver) and isinstance(self.driver.codec, ViscaCodec):
-            self._executing = self.driver.codec.last_ack
+        self._executing = last_acked(self.driver)
         self._written = self.setpoint
         self.writes += 1
         self._next_write_s = mono_s + ZOOM_COMMAND_PERIOD_S
@@ -96,10 +95,8 @@ class ZoomDrive:
         if self._executing is None:
             return False
         executing, self._executing = self._executing, None
-        assert isinstance(self.driver, ServoDriver) and isinstance(self.driver.codec, ViscaCodec)
-        if not self.driver.codec.holds(executing):
+        if not cancel_acked(self.driver, executing):
             return False
-        self.driver.send(self.driver.codec.encode_cancel(executing[0]))
         self.cancelled += 1
         self._written = None  # the lens stopped short: the newest set-point goes out again
         self._next_write_s = 0.0

@@ -8,24 +8,23 @@ default) answers queries in sentences (`* Current Pan position is 1000`), terse 
 number alone. Positions are steps of the rig's `pan_arcsec_per_position`; the position limits
 (`PN`/`PX`/`TN`/`TX`) are the rig's joint limits rounded outwards to whole positions, the upper
 speed (`PU`/`TU`) the rig's rate limit. In pure velocity mode (`CV`) `PS`/`TS` are signed speeds
-(a separate register from the move speeds of `CI`) and an axis that runs into a limit stops there with the asynchronous notice `!P` / `!T`.
+(a separate register from the move speeds of `CI`) and an axis that runs into a limit stops
+there with the asynchronous notice `!P` / `!T`.
 `A` (await) answers once the commanded moves are complete; commands sent meanwhile wait.
 """
 
 from __future__ import annotations
 
 import math
-import re
 from collections.abc import Callable
 
 from gazed.config import FlirPtuServo
 from gazed.servo.axis_motion import AxisMotion
-from gazed.servo.flir_ptu import OPS, rad_from_positions
+from gazed.servo.flir_ptu import OPS, parse_command, rad_from_positions
 from gazed.servo.resync import Cut, Skip, Take, resync
 from gazed.sim.head_mechanics import HeadMechanics
 
 TOKEN_ENDS = b" \r\n"
-TOKEN = re.compile(r"^([A-Za-z]+)([-+]?\d+)?$")
 MAX_TOKEN = 64
 EOL = "\r\n"
 AXIS_NAMES = {"P": "Pan", "T": "Tilt"}
@@ -106,11 +105,10 @@ class FlirPtuDevice:
         return f"{token} {answer}{EOL}" if echo else f"{answer}{EOL}"
 
     def _execute(self, token: str, t_s: float) -> str:
-        match = TOKEN.match(token)
-        if match is None:
+        parsed = parse_command(token)
+        if parsed is None:
             return "! Illegal Command"
-        op, arg = match.group(1).upper(), match.group(2)
-        value = None if arg is None else int(arg)
+        op, value = parsed
         simple: dict[str, Callable[[], None]] = {
             OPS["echo_on"]: lambda: setattr(self, "echo", True),
             OPS["echo_off"]: lambda: setattr(self, "echo", False),
