@@ -5,9 +5,10 @@ from __future__ import annotations
 import pytest
 from pydantic import ValidationError
 
-from gazed.config import CameraSection, GazeSection, Rig
+from gazed.config import CalibrationSection, CameraSection, GazeSection, Rig
 from gazed.gaze.sightings import Sightings
 from gazed.gaze.zoom import ZoomControl, target_height_px
+from gazed.gaze.zoom_size import TargetSize
 from gazed.geometry.kinematics import HeadKinematics
 from gazed.geometry.zoom import ZoomLens
 from gazed.messages import Detection, GazeDemand, HeadPose, Mover, Odometry
@@ -27,7 +28,12 @@ def control(table: list[list[float]] = TABLE, **gaze: object) -> ZoomControl:
     section = GazeSection(**{"zoom_control": True, "zoom_in_steady_ms": 500.0, **gaze})
     zoom_lens = lens(table)
     sightings = Sightings(section, 0.04, zoom_lens, HeadKinematics())
-    return ZoomControl(section, zoom_lens, sightings)
+    # no camera position: the size is the recent sightings' median
+    return ZoomControl(section, zoom_lens, sightings, TargetSize(CalibrationSection(), Unranged()))
+
+
+class Unranged:
+    prediction = None
 
 
 def seen(
