@@ -25,9 +25,10 @@ Each tick, the zoom demand moves towards a goal, at most `zoom_in_rate_s` or `zo
 - in any state but pursuit (and line tracing, which leaves the zoom alone), to the widest:
   a target is reacquired (search, saccade, lost) with the widest view first;
 - in pursuit, with the focal length of the latest frame longer than the goal's by more than
-  the deadband: out, to the goal; shorter: in, to it, but only once the target has been
-  steady (its room at least 1) for `zoom_in_steady_ms`, and never on a detection older than
-  `lost_after_ms`;
+  the deadband: out, to the goal; shorter: in, to it (or to the recent sightings' setpoint,
+  `TargetSize.recent_size`, if that is nearer: the zoom goes in only as far as the boxes of
+  now also say the target is small), but only once the target has been steady (its room at
+  least 1) for `zoom_in_steady_ms`, and never on a detection older than `lost_after_ms`;
 - otherwise the demand stays.
 
 Off (`zoom_control = false`, or a fixed lens) every demand goes out unchanged: no zoom.
@@ -115,7 +116,7 @@ class ZoomControl:
         height_px = target_height_px(detection)
         if height_px is not None:
             height = max(height_px - self.gaze.zoom_box_margin_px, 1.0) / h
-            self.size.add(detection.t_capture_ns, height / focal_px)
+            self.size.add(detection.t_capture_ns, height / focal_px, focal_px)
         if room < 1.0:
             self.unsteady_ns = detection.t_capture_ns
 
@@ -174,13 +175,16 @@ class ZoomControl:
         size = self.size.size()
         goal_px = min(goal_px, seen.focal_px if size is None else gaze.zoom_target_height / size)
         ratio = seen.focal_px / goal_px  # the height it has now, of the goal's
-        if abs(ratio - 1.0) <= gaze.zoom_deadband:
-            return None, 0.0
-        goal = self.lens.zoom_for_focal(goal_px)
-        if ratio > 1.0:
-            return goal, gaze.zoom_out_rate_s
+        if ratio > 1.0 + gaze.zoom_deadband:
+            return self.lens.zoom_for_focal(goal_px), gaze.zoom_out_rate_s
+        # in only as far as the recent boxes also say the target is small
+        recent = self.size.recent_size()
+        if recent is not None:
+            goal_px = min(goal_px, gaze.zoom_target_height / recent)
         steady = self.unsteady_ns is None or seen.t_capture_ns - self.unsteady_ns >= self.steady_ns
-        return (goal, gaze.zoom_in_rate_s) if steady else (None, 0.0)
+        if seen.focal_px / goal_px >= 1.0 - gaze.zoom_deadband or not steady:
+            return None, 0.0
+        return self.lens.zoom_for_focal(goal_px), gaze.zoom_in_rate_s
 
 
 def _room(allowed: float, now: float) -> float:
