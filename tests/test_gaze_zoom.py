@@ -5,13 +5,12 @@ from __future__ import annotations
 import pytest
 from pydantic import ValidationError
 
-from gazed.config import CalibrationSection, CameraSection, GazeSection, Rig
+from gazed.config import CameraSection, GazeSection, Rig
 from gazed.gaze.sightings import Sightings
 from gazed.gaze.zoom import ZoomControl, target_height_px
-from gazed.gaze.zoom_size import TargetSize
 from gazed.geometry.kinematics import HeadKinematics
 from gazed.geometry.zoom import ZoomLens
-from gazed.messages import Detection, GazeDemand, HeadPose, Mover, Odometry, Prediction
+from gazed.messages import Detection, GazeDemand, HeadPose, Mover, Odometry
 
 W, H = 640, 480
 TABLE = [[0.0, 500.0], [1.0, 5000.0]]  # f = 500 + 4500 z
@@ -28,12 +27,7 @@ def control(table: list[list[float]] = TABLE, **gaze: object) -> ZoomControl:
     section = GazeSection(**{"zoom_control": True, "zoom_in_steady_ms": 500.0, **gaze})
     zoom_lens = lens(table)
     sightings = Sightings(section, 0.04, zoom_lens, HeadKinematics())
-    # no camera position: the size is the recent sightings' median
-    return ZoomControl(section, zoom_lens, sightings, TargetSize(CalibrationSection(), Unranged()))
-
-
-class Unranged:
-    prediction: Prediction | None = None
+    return ZoomControl(section, zoom_lens, sightings)
 
 
 def seen(
@@ -217,44 +211,3 @@ def test_zoom_control_needs_a_zoom_lens_and_a_range() -> None:
         gaze={"zoom_control": True},
     )
     assert rig.gaze.zoom_control
-
-
-def test_with_a_range_it_zooms_in_only_as_far_as_the_recent_boxes_agree() -> None:
-    """The body's height says the target is small; boxes of a clutter the track has moved to
-    say it is twice the setpoint: the zoom stays (it neither goes in on the range nor out on
-    a short run of boxes)."""
-    section = GazeSection(zoom_control=True, zoom_target_height=0.25, zoom_in_steady_ms=0.0)
-    zoom_lens = lens()
-    source = Unranged()
-    calibration = CalibrationSection(camera_xyz_m=(0.0, 0.0, 3.0), target_height_m=1.0)
-    zc = ZoomControl(
-        section,
-        zoom_lens,
-        Sightings(section, 0.04, zoom_lens, HeadKinematics()),
-        TargetSize(calibration, source),
-    )
-    source.prediction = Prediction(
-        t_capture_ns=0,
-        filter="imm",
-        t_effect_ns=0,
-        horizon_s=0.0,
-        pan_rad=0.0,
-        tilt_rad=0.0,
-        pan_rate_rad_s=0.0,
-        tilt_rate_rad_s=0.0,
-        ground_xy_m=(6.0, 0.0),
-        visual_latency_s=0.1,
-        actuation_latency_s=0.1,
-    )
-    for k in range(100):  # 4 s of the target at half the setpoint at zoom 0.2 (f = 1400)
-        zc.on_detection(seen(0.04 * k, 0.125 * H, zoom=0.2))
-    for k in range(100, 120):  # then the clutter's boxes
-        zc.on_detection(seen(0.04 * k, 0.5 * H, zoom=0.2))
-    zc.sightings.found = seen(4.8, 0.5 * H, zoom=0.2)
-    assert run(zc, "pursuit", 4.8, zoom_now=0.2) == 0.2
-    assert run(zc, "pursuit", 5.2, zoom_now=0.2) == 0.2
-    # the boxes agree again: in, at the zoom-in rate
-    for k in range(121, 140):
-        zc.on_detection(seen(0.04 * k, 0.125 * H, zoom=0.2))
-    zc.sightings.found = seen(5.6, 0.125 * H, zoom=0.2)
-    assert run(zc, "pursuit", 5.6, zoom_now=0.2) == pytest.approx(0.2 + 0.1 * 0.4)

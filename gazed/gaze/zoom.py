@@ -5,12 +5,11 @@ pursues. The target's height is that of its box in the frame, the mover at the d
 pixel (`Detection.movers`, `Mover.box_height_px`) less `zoom_box_margin_px` (the detector's
 box reaches past the body by its smoothing), as a fraction h of the frame's height. Divided
 by the lens's focal length at the frame's own zoom (the pose it was captured at), f_capture,
-it is the target's angular height a = h / f_capture, which the zoom does not change.
-`zoom_size.TargetSize` turns the sightings into the size to hold now (the body's height over
-a long window at the estimator's predicted range, so a box the detector merged for a while
-with an edge behind the target does not move the zoom), and the focal length that shows the
-target at the setpoint h* is h* / a: a goal that does not depend on how far the zoom has
-moved since the frames were taken, so the loop's latency does not make it overshoot.
+it is the target's size a = h / f_capture, which the zoom does not change; the median of the
+last `SIZE_SAMPLES` sizes (a box the detector merged for a few frames with an edge behind the
+target does not move the zoom) gives the focal length that shows the target at the setpoint
+h*, h* / a: a goal that does not depend on how far the zoom has moved since the frames were
+taken, so the loop's latency does not make it overshoot.
 
 The frame must also hold the target: its centre at least `zoom_out_edge` of the frame's size
 from the edge, and its independent image velocity at most `zoom_out_speed` frame heights per
@@ -25,10 +24,9 @@ Each tick, the zoom demand moves towards a goal, at most `zoom_in_rate_s` or `zo
 - in any state but pursuit (and line tracing, which leaves the zoom alone), to the widest:
   a target is reacquired (search, saccade, lost) with the widest view first;
 - in pursuit, with the focal length of the latest frame longer than the goal's by more than
-  the deadband: out, to the goal; shorter: in, to it (or to the recent sightings' setpoint,
-  `TargetSize.recent_size`, if that is nearer: the zoom goes in only as far as the boxes of
-  now also say the target is small), but only once the target has been steady (its room at
-  least 1) for `zoom_in_steady_ms`, and never on a detection older than `lost_after_ms`;
+  the deadband: out, to the goal; shorter: in, to it, but only once the target has been
+  steady (its room at least 1) for `zoom_in_steady_ms`, and never on a detection older than
+  `lost_after_ms`;
 - otherwise the demand stays.
 
 Off (`zoom_control = false`, or a fixed lens) every demand goes out unchanged: no zoom.
@@ -37,16 +35,18 @@ Off (`zoom_control = false`, or a fixed lens) every demand goes out unchanged: n
 from __future__ import annotations
 
 import math
+import statistics
+from collections import deque
 from dataclasses import dataclass
 
-from gazed.config import GazeSection, Rig
+from gazed.config import GazeSection
 from gazed.gaze.sightings import Sightings
-from gazed.gaze.zoom_size import PredictionSource, TargetSize
 from gazed.geometry.zoom import ZoomLens
 from gazed.messages import Detection, GazeDemand, GazeStateName, Odometry
 
 LEAVE_ALONE: tuple[GazeStateName, ...] = ("trace", "hold")  # states that never move the zoom
 TICK_MAX_S = 0.5  # a longer gap between ticks ramps the zoom by this much time at most
+SIZE_SAMPLES = 15  # the target's size is the median of this many sightings' (about 0.6 s)
 
 
 @dataclass(frozen=True)
@@ -72,28 +72,19 @@ def target_height_px(detection: Detection) -> float | None:
 class ZoomControl:
     """`apply` sets the zoom of each demand, from the detections `sightings` takes."""
 
-    def __init__(
-        self, gaze: GazeSection, lens: ZoomLens, sightings: Sightings, size: TargetSize
-    ) -> None:
+    def __init__(self, gaze: GazeSection, lens: ZoomLens, sightings: Sightings) -> None:
         self.gaze = gaze
         self.lens = lens
         self.sightings = sightings
-        self.size = size
         self.enabled = gaze.zoom_control and lens.zooms_lens
         self.width_px, self.height_px = lens.base.width_px, lens.base.height_px
         self.stale_ns = round(gaze.lost_after_ms * 1e6)
         self.steady_ns = round(gaze.zoom_in_steady_ms * 1e6)
         self.seen: ZoomSighting | None = None
+        self.sizes: deque[float] = deque(maxlen=SIZE_SAMPLES)  # h / f_capture (1/px)
         self.unsteady_ns: int | None = None  # the last time the target was not steady
         self.demanded: float | None = None
         self.last_s: float | None = None
-
-    @classmethod
-    def of_rig(
-        cls, rig: Rig, lens: ZoomLens, sightings: Sightings, source: PredictionSource
-    ) -> ZoomControl:
-        """The rig's zoom control, ranging the target with the predictions `source` holds."""
-        return cls(rig.gaze, lens, sightings, TargetSize(rig.calibration, source))
 
     def on_detection(self, detection: Detection) -> None:
         """A found detection of the target the gaze follows; one without a head pose, or not
@@ -116,7 +107,7 @@ class ZoomControl:
         height_px = target_height_px(detection)
         if height_px is not None:
             height = max(height_px - self.gaze.zoom_box_margin_px, 1.0) / h
-            self.size.add(detection.t_capture_ns, height / focal_px, focal_px)
+            self.sizes.append(height / focal_px)
         if room < 1.0:
             self.unsteady_ns = detection.t_capture_ns
 
@@ -145,7 +136,7 @@ class ZoomControl:
             return None
         if state != "pursuit":
             self.unsteady_ns = wall_ns  # steady again only after a while in pursuit
-            self.size.restart()
+            self.sizes.clear()  # and sized afresh
         elif self.sightings.found is not None:
             self.on_detection(self.sightings.found)
         if self.demanded is None:
@@ -172,19 +163,16 @@ class ZoomControl:
             return None, 0.0
         goal_px = seen.focal_px * seen.room  # the longest focal length the frame allows
         # and the setpoint's; with no size yet, only out
-        size = self.size.size()
-        goal_px = min(goal_px, seen.focal_px if size is None else gaze.zoom_target_height / size)
+        size_px = gaze.zoom_target_height / statistics.median(self.sizes) if self.sizes else 0.0
+        goal_px = min(goal_px, size_px or seen.focal_px)
         ratio = seen.focal_px / goal_px  # the height it has now, of the goal's
-        if ratio > 1.0 + gaze.zoom_deadband:
-            return self.lens.zoom_for_focal(goal_px), gaze.zoom_out_rate_s
-        # in only as far as the recent boxes also say the target is small
-        recent = self.size.recent_size()
-        if recent is not None:
-            goal_px = min(goal_px, gaze.zoom_target_height / recent)
-        steady = self.unsteady_ns is None or seen.t_capture_ns - self.unsteady_ns >= self.steady_ns
-        if seen.focal_px / goal_px >= 1.0 - gaze.zoom_deadband or not steady:
+        if abs(ratio - 1.0) <= gaze.zoom_deadband:
             return None, 0.0
-        return self.lens.zoom_for_focal(goal_px), gaze.zoom_in_rate_s
+        goal = self.lens.zoom_for_focal(goal_px)
+        if ratio > 1.0:
+            return goal, gaze.zoom_out_rate_s
+        steady = self.unsteady_ns is None or seen.t_capture_ns - self.unsteady_ns >= self.steady_ns
+        return (goal, gaze.zoom_in_rate_s) if steady else (None, 0.0)
 
 
 def _room(allowed: float, now: float) -> float:
