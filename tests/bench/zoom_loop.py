@@ -12,9 +12,12 @@ the fovea: the gaze pursued something else) holds it in no frame, its losses uns
 
 The frames after acquisition whose height is not held are sorted by what the loop was doing:
 `reacq` the gaze not in pursuit (saccade, lost, search: the zoom goes to the widest); in
-pursuit, with the target too small, `in` the true zoom rising (ramping in), `out` falling,
-`still` unchanged (capped by the room, or waiting to be steady); `big` too tall. Each is a
-fraction of the frames after acquisition.
+pursuit, `ramp` before the height has been held since pursuit began (zooming in from the
+widest, or waiting to be steady), then `lag` the lens more than `LAG_ZOOM` from the zoom the
+gaze last demanded (the head not following), `small` too small otherwise (the room caps the
+zoom, or the size the gaze holds is off), `big` too tall. Each is a fraction of the frames after
+acquisition. `box` and `bad`: in pursuit, the median of the target track's box height (less
+`zoom_box_margin_px`) over its true height, and the share of boxes more than 20 % off it.
 """
 
 from __future__ import annotations
@@ -30,13 +33,14 @@ import gazed.eval.loop as loop
 from gazed.config import load_rig
 from gazed.eval.loop_metrics import LoopRecord
 from gazed.eval.zoom_score import TOLERANCE, zoom_scoring
+from gazed.messages import SimTruth
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from loop_runs import ROOT, seeds
 
 HELD_TARGET = 0.9
-CLASSES = ("reacq", "in", "out", "still", "big")
-STILL_ZOOM = 1e-4  # a truth frame's zoom moved by less than this since the last: still
+CLASSES = ("reacq", "ramp", "lag", "small", "big", "box", "bad")
+LAG_ZOOM = 0.05  # the lens this far (of the zoom range) from the demand: not following it
 
 
 def run(rig: Path, scenario: str, seed: int, seconds: float) -> tuple[dict[str, Any], LoopRecord]:
@@ -57,37 +61,68 @@ def run(rig: Path, scenario: str, seed: int, seconds: float) -> tuple[dict[str, 
 
 
 def classes(rig_path: Path, record: LoopRecord) -> dict[str, float]:
-    """Of the frames after acquisition, the fraction not held in each class (docstring)."""
+    """Of the frames after acquisition, the fraction not held in each class, and the boxes'
+    error (docstring)."""
     rig = load_rig(rig_path)
     scoring = zoom_scoring(rig)
     assert scoring is not None
     truth = sorted(record.truth, key=lambda t: t.t_capture_ns)
     states = sorted(record.states, key=lambda s: s.t_capture_ns)
+    commands = sorted(record.commands, key=lambda c: c.t_capture_ns)
     state_ns = np.array([s.t_capture_ns for s in states])
-    pursuing = np.array(
-        [
-            bool(states)
-            and (i := int(np.searchsorted(state_ns, t.t_capture_ns, "right")) - 1) >= 0
-            and states[i].state == "pursuit"
-            for t in truth
-        ]
-    )
+    command_ns = np.array([c.t_capture_ns for c in commands])
+    latest = [int(np.searchsorted(state_ns, t.t_capture_ns, "right")) - 1 for t in truth]
+    pursuing = np.array([i >= 0 and states[i].state == "pursuit" for i in latest])
     if not pursuing.any():
         return {}
     start = int(np.argmax(pursuing))
-    ratio = scoring.heights(truth[start:]) / scoring.setpoint
-    zooms = np.array([t.head.zoom or 0.0 for t in truth[start:]])
-    dz = np.diff(zooms, prepend=zooms[0])
-    pursue = pursuing[start:]
-    small = (ratio < 1.0 - TOLERANCE) & pursue
+    truth, latest, pursue = truth[start:], latest[start:], pursuing[start:]
+    ratio = scoring.heights(truth) / scoring.setpoint
+    missed = np.abs(ratio - 1.0) > TOLERANCE
+    ramp = np.zeros(len(truth), bool)
+    held_since: dict[int, bool] = {}  # per entry into pursuit (its state message's index)
+    lag = np.zeros(len(truth), bool)
+    for k, t in enumerate(truth):
+        if not pursue[k]:
+            continue
+        held_since[latest[k]] = held_since.get(latest[k], False) or not missed[k]
+        ramp[k] = not held_since[latest[k]]
+        c = int(np.searchsorted(command_ns, t.t_capture_ns, "right")) - 1
+        demanded = commands[c].zoom if c >= 0 else None
+        lag[k] = demanded is not None and abs(demanded - (t.head.zoom or 0.0)) > LAG_ZOOM
+    steady = pursue & ~ramp & missed
     counts = {
-        "reacq": ~pursue & (np.abs(ratio - 1.0) > TOLERANCE),
-        "in": small & (dz > STILL_ZOOM),
-        "out": small & (dz < -STILL_ZOOM),
-        "still": small & (np.abs(dz) <= STILL_ZOOM),
-        "big": pursue & (ratio > 1.0 + TOLERANCE),
+        "reacq": ~pursue & missed,
+        "ramp": pursue & ramp & missed,
+        "lag": steady & lag,
+        "small": steady & ~lag & (ratio < 1.0),
+        "big": steady & ~lag & (ratio > 1.0),
     }
-    return {name: round(float(np.mean(mask)), 3) for name, mask in counts.items()}
+    where = {name: round(float(np.mean(mask)), 3) for name, mask in counts.items()}
+    frame_px = rig.gaze.zoom_box_margin_px, rig.camera.height_px
+    boxes = box_errors(frame_px, record, truth, ratio * scoring.setpoint)
+    if boxes.size:
+        where["box"] = round(float(np.median(boxes)), 2)
+        where["bad"] = round(float(np.mean(np.abs(boxes - 1.0) > TOLERANCE)), 3)
+    return where
+
+
+def box_errors(
+    frame_px: tuple[float, int], record: LoopRecord, truth: list[SimTruth], heights: np.ndarray
+) -> np.ndarray:
+    """Per truth frame with the target track's fresh box: its height less the margin over the
+    true height (`heights`, fractions of the frame's); `frame_px`: the margin, the frame's
+    height."""
+    margin_px, height_px = frame_px
+    estimates = {e.t_capture_ns: e for e in record.estimates if e.target_id is not None}
+    errors = []
+    for t, height in zip(truth, heights, strict=True):
+        e = estimates.get(t.t_capture_ns)
+        track = next((k for k in e.tracks if k.id == e.target_id), None) if e else None
+        if track is None or track.coasting or track.box_height_px <= 0 or not height > 0:
+            continue
+        errors.append((track.box_height_px - margin_px) / (height * height_px))
+    return np.asarray(errors)
 
 
 def main() -> None:
