@@ -168,6 +168,7 @@ def find_blobs(
     costs: np.ndarray,
     gate_d2: float,
     appearance: tuple[np.ndarray, ...] = (),
+    inside: np.ndarray | None = None,
 ) -> list[Blob]:
     """The detections better taken as the blob of two confirmed tracks than as one person.
 
@@ -177,7 +178,8 @@ def find_blobs(
     the group's centroid, its appearance against the mean of the members' templates) is inside
     the gate and below the cost of the detection's own pair; the least costly first, each
     track and detection in one blob at most. predicted (T, m), P (T, m, m), confirmed (T,);
-    `appearance` as `pair_costs` takes it for all tracks and detections, or ()."""
+    `appearance` as `pair_costs` takes it for all tracks and detections, or (); `inside` (T, D):
+    whether each track can lie in each detection's silhouette (`silhouette_reach`), None: any."""
     lone = [r for r in range(len(predicted)) if confirmed[r] and r not in pairs]
     holder = {c: r for r, c in pairs.items()}
     options = []
@@ -187,6 +189,8 @@ def find_blobs(
             partners = [held] if held is not None and confirmed[held] else lone
             single = costs[held, column] if held is not None else np.inf
             for partner in (p for p in partners if p != row):
+                if inside is not None and not (inside[row, column] and inside[partner, column]):
+                    continue
                 rows = [row, partner]
                 mean, S = group_prediction(predicted[rows], P[rows], z.position_cov)
                 looks = ()

@@ -36,6 +36,7 @@ from gazed.estimation.estimator_messages import EstimatorMessages, maneuver_mess
 from gazed.estimation.loop_latency import LoopLatency
 from gazed.estimation.measurement import Measurement
 from gazed.estimation.observation import gaze_measurement, ground_measurement
+from gazed.estimation.silhouette_reach import ToPixel, reach_box
 from gazed.estimation.tracks import PersonTrack, Sighting, TrackSet
 from gazed.geometry.ground import GroundGeometry, MeasurementNoise
 from gazed.geometry.homography import HorizonError
@@ -264,7 +265,7 @@ class TargetTracker:
         self.counts["detections"] += 1
         self.latency.detection_arrived(detection.t_capture_ns, now_ns)
         sightings = self._sightings(detection)
-        self.tracks.step(detection.t_capture_ns / 1e9, sightings)
+        self.tracks.step(detection.t_capture_ns / 1e9, sightings, self._to_pixel(detection))
         self.counts["measured" if sightings else "coasted"] += 1
 
     def _sightings(self, detection: Detection) -> list[Sighting]:
@@ -284,20 +285,35 @@ class TargetTracker:
             seen = detection.model_copy(update=_target_fields(mover))
             measurement = self._measure(seen)
             if measurement is not None:
-                sightings.append(Sighting(measurement, _histogram(mover), mover.box_height_px))
+                box = reach_box(mover.u_px, mover.v_px, mover.box_width_px, mover.box_height_px)
+                sightings.append(Sighting(measurement, _histogram(mover), mover.box_height_px, box))
         return sightings
+
+    def _ground_geometry(self, detection: Detection) -> GroundGeometry | None:
+        """The geometry a detection's points are measured with (None: on gaze angles)."""
+        if self.geometry is None or detection.head is None:
+            return None
+        geometry = self.contact_geometry if detection.point == "ground-contact" else self.geometry
+        assert geometry is not None
+        return geometry.with_camera(self.lens.at_pose(detection.head))
+
+    def _to_pixel(self, detection: Detection) -> ToPixel | None:
+        """Where a track's ground point appears in the detection's frame (None: on gaze
+        angles, or without a head pose)."""
+        geometry = self._ground_geometry(detection)
+        if geometry is None:
+            return None
+        head = detection.head
+        assert head is not None
+        return lambda x_m, y_m: geometry.pixel_from_ground(x_m, y_m, head.pan_rad, head.tilt_rad)
 
     def _measure(self, detection: Detection) -> Measurement | None:
         """The measurement of a detection's target; None above the horizon (counted)."""
         try:
-            if self.geometry is None:
+            geometry = self._ground_geometry(detection)
+            if geometry is None:
                 camera = self.lens.at_pose(detection.head)
                 return gaze_measurement(detection, camera, self.kinematics, self.noise)
-            geometry = (
-                self.contact_geometry if detection.point == "ground-contact" else self.geometry
-            )
-            assert geometry is not None
-            geometry = geometry.with_camera(self.lens.at_pose(detection.head))
             return ground_measurement(detection, geometry, self.noise)
         except HorizonError:
             self.counts["above_horizon"] += 1

@@ -67,6 +67,7 @@ from gazed.estimation.estimator import TRACKING, TrackEstimator
 from gazed.estimation.factory import build_estimator
 from gazed.estimation.measurement import Measurement
 from gazed.estimation.results import Outcome, PredictedState
+from gazed.estimation.silhouette_reach import ToPixel, held
 
 MAX_TRACKS = 256  # an EstimatorState carries at most this many
 APPEARANCE_SMOOTHING = 0.1  # weight of each new histogram in a track's template and its spread
@@ -85,6 +86,7 @@ class Sighting:
     measurement: Measurement
     appearance: np.ndarray | None = None  # (B,) normalised colour histogram
     box_height_px: float = 0.0
+    box_px: np.ndarray | None = None  # (u0, v0, u1, v1) its box can cover (`silhouette_reach`)
 
 
 @dataclass
@@ -141,9 +143,10 @@ class TrackSet:
                 return track
         return None
 
-    def step(self, t_s: float, sightings: list[Sighting]) -> None:
+    def step(self, t_s: float, sightings: list[Sighting], to_pixel: ToPixel | None = None) -> None:
         """One frame captured at t_s: associate, update, coast, start and end tracks. A frame
-        older than a track's state (out of order) changes nothing and is counted."""
+        older than a track's state (out of order) changes nothing and is counted. `to_pixel`
+        (the frame's camera) lets a mover's box bound its blob (`silhouette_reach`)."""
         if any(t_s <= _state_time(track.estimator) for track in self.tracks):
             self.counts["late_frames"] += 1
             return
@@ -158,7 +161,9 @@ class TrackSet:
             predicted, P = _stacked(states)
             looks = self._appearances(sightings)
             pairs, lone_sightings, costs = self._assign(predicted, P, sightings, looks)
-            members, taken = self._groups(states, predicted, P, sightings, pairs, costs, looks)
+            members, taken = self._groups(
+                states, predicted, P, sightings, pairs, costs, looks, to_pixel
+            )
             pairs = {r: c for r, c in pairs.items() if r not in members and c not in taken}
             lone_sightings = tuple(c for c in lone_sightings if c not in taken)
         for row, track in enumerate(self.tracks):
@@ -232,22 +237,22 @@ class TrackSet:
         pairs: dict[int, int],
         costs: np.ndarray,
         looks: tuple[np.ndarray, ...],
+        to_pixel: ToPixel | None,
     ) -> tuple[dict[int, Sighting], set[int]]:
         """Row -> its measurement from a blob that holds it and another confirmed track
-        (`association.find_blobs`), and the blobs' sighting columns."""
+        (`association.find_blobs`, inside the mover's box where the frame's camera is known),
+        and the blobs' sighting columns."""
         if not sightings or all(r in pairs for r in range(len(self.tracks))):
             return {}, set()
         confirmed = np.array([t.confirmed for t in self.tracks])
         measured = [s.measurement for s in sightings]
+        inside = None
+        if to_pixel is not None:
+            boxes = [s.box_px for s in sightings]
+            pixel_var = self.section.pixel_noise_px**2
+            inside = held(predicted, P, boxes, to_pixel, pixel_var, self.gate_d2)
         blobs = find_blobs(
-            predicted,
-            P,
-            confirmed,
-            measured,
-            pairs,
-            costs,
-            self.gate_d2,
-            looks,
+            predicted, P, confirmed, measured, pairs, costs, self.gate_d2, looks, inside
         )
         members: dict[int, Sighting] = {}
         for blob in blobs:
