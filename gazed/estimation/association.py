@@ -34,7 +34,8 @@ unknown share each member has of the blob (its visible area), taken as uniform o
 member takes the detection as a measurement of itself (`member_measurement`): the blob's
 centroid less the other members' predictions, with the noise that leaves. Neither track is
 pulled onto the pair's midpoint; both follow the pair's common motion and keep their ids, and
-the separation the predictions carry is kept until the blob splits.
+the separation the predictions carry is kept until the blob splits. Where the caller knows which
+tracks can lie inside each detection's silhouette (`silhouette_reach`), only those are members.
 
 The joint assignment is SciPy's; `scipy.optimize` takes long to import (on a busy machine,
 longer than a bus link's lease), so the estimator imports it beside its start-up

@@ -12,7 +12,8 @@ Every frame (one detection message, with any number of movers):
    a mover's image velocity is a difference over one frame interval and too noisy to tell people
    apart; the filter itself then takes the mover's full measurement and gates it again;
 3. a confirmed track left without a mover may be one of two people the detector saw as one
-   blob: where the blob hypothesis costs less than the one-person one (`association.find_blobs`),
+   blob: where the blob hypothesis costs less than the one-person one (`association.find_blobs`)
+   and both can lie in the mover's box seen through the frame's camera (`silhouette_reach`),
    both tracks take the blob as a measurement of each (the centroid less the other's
    prediction, its noise widened accordingly), keep their ids and are not ended while the blob
    holds them; the blob does not change their appearance templates;
