@@ -66,6 +66,7 @@ def test_a_fresh_demand_is_written_at_once_limited_and_handed_on() -> None:
         "demands": 1,
         "held_for_the_line": 0,
         "held_for_a_socket": 0,
+        "superseded": 0,
     }
     assert w.writer.limiter.joint_clamps == 1
     assert not w.writer.holding

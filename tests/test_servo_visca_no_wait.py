@@ -1,7 +1,8 @@
 """The set-point writer and the zoom drive never wait for a VISCA socket: while a move and a zoom
 hold both, each keeps its newest set-point, writes nothing and reads nothing that waits, and
-writes that newest set-point as soon as a completion frees a socket; a pan-tilt set-point has
-the zoom's command cancelled (Sony's `8x 2y FF`) rather than wait behind it; one held past the
+writes that newest set-point as soon as a completion frees a socket; a pan-tilt set-point with
+a fresh demand has the move it supersedes cancelled (Sony's `8x 2y FF`), or where that frees
+nothing the zoom's command, rather than wait behind them; one held past the
 read timeout goes to the driver; odometry inquiries use no socket and are answered at once. The driver runs against the emulated camera on a clock of the
 test's own (`test_servo_visca_sockets`), which moves only when something waits for a reply."""
 
@@ -146,6 +147,22 @@ def test_a_set_point_that_finds_a_move_and_a_zoom_executing_has_the_zoom_cancell
     assert w.driver.codec.sockets_busy == {2}
     zoom.write(0.11)  # the newest zoom set-point again, though no period has passed
     assert zoom.writes == 2 and w.driver.codec.sockets_busy == {1, 2}
+
+
+def test_a_fresh_demand_cancels_the_move_it_supersedes_and_the_zoom_runs_on() -> None:
+    w, zoom = zoom_link()
+    w.write(demand(90.0, 0.0))  # the writer's own move, socket 1
+    zoom.demand(0.5)
+    zoom.write(0.0)
+    zoom.write(0.1)  # socket 2
+    assert w.driver.codec.sockets_busy == {1, 2}
+    written = w.driver.counters["frames_written"]
+    w.write(demand(5.0, 0.0))
+    # the out-of-date move cancelled, the new set-point in its socket, the zoom left running
+    assert w.writer.counts["superseded"] == 1 and zoom.cancelled == 0 and len(w.commands) == 2
+    assert w.driver.counters["frames_written"] == written + 2  # Cancel, then the set-point
+    assert w.writer.counts["held_for_a_socket"] == 0 and w.driver.counters["waits_for_room"] == 0
+    assert w.driver.codec.sockets_busy == {1, 2}
 
 
 def test_a_zoom_that_has_completed_is_not_cancelled() -> None:

@@ -9,9 +9,12 @@ whole set-point still waiting for the serial line (the newest then replaces it, 
 rest). Each fresh demand, as limited, goes to `on_command` the moment its bytes are written.
 
 A set-point never waits for the head to take it. While the head has no room for a command (both
-VISCA sockets hold commands, a move and a zoom), one that carries a fresh demand first asks
-`make_room()` (the link's zoom cancels its command): new information does not wait. A set-point
-of the generator alone, or one still without room, is held, counted once as
+VISCA sockets hold commands, a move and a zoom), one that carries a fresh demand first cancels
+the move it supersedes, if that still holds its socket (counted as `superseded`: the new
+set-point replaces its target, and makes that refuse a new move while one runs need the cancel
+anyway), and only then asks `make_room()` (the link's zoom cancels its command): new
+information does not wait, and the zoom is not cut short for a move already out of date. A
+set-point of the generator alone, or one still without room, is held, counted once as
 `held_for_a_socket`, and the writer looks again every `ROOM_RETRY_S`; the set-point then written
 is the one due at that moment, with the newest demand. Held for the driver's read timeout, the
 completions that would have freed a socket are taken as lost: the set-point goes to the driver,
@@ -21,12 +24,12 @@ which forgets the sockets and lets the head answer for itself.
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Hashable, Iterable
 
 from gazed.config import HeadSection
 from gazed.geometry.kinematics import device_from_joint
 from gazed.messages import GazeDemand
-from gazed.servo.driver import ServoDriver, takes_now
+from gazed.servo.driver import ServoDriver, cancel_acked, last_acked, takes_now
 from gazed.servo.limits import DemandLimiter, Target
 from gazed.servo.setpoints import SetpointGenerator
 
@@ -60,7 +63,13 @@ class SetpointWriter:
         self.limiter = DemandLimiter(head, inset_rad)
         self.setpoints = SetpointGenerator(head, t_s, inset_rad)
         self.holding = True
-        self.counts = {"commands": 0, "demands": 0, "held_for_the_line": 0, "held_for_a_socket": 0}
+        self.counts = {
+            "commands": 0,
+            "demands": 0,
+            "held_for_the_line": 0,
+            "held_for_a_socket": 0,
+            "superseded": 0,
+        }
         self.write_ms = 0.0
         self._next_command_s = 0.0
         self._last_demand_s: float | None = None
@@ -69,6 +78,7 @@ class SetpointWriter:
         self._setpoint_line_s = 0.0  # how long the last set-point's bytes took on the line
         self._held_for_a_socket = False  # the due set-point waits for the head to have room
         self._held_since_s = 0.0
+        self._executing: Hashable | None = None  # the acknowledgement of the last set-point
         self.make_room: Callable[[], bool] = lambda: False  # True when it freed a socket
 
     def start_point(self, t_s: float) -> tuple[float, float]:
@@ -80,6 +90,7 @@ class SetpointWriter:
         """At rest where the head is (the link was just opened), holding."""
         self.setpoints.reset(pan_rad, tilt_rad, t_s)
         self._written = (pan_rad, tilt_rad)
+        self._executing = None
         self.holding = True
         self._last_demand_s = None
         self._fresh = None
@@ -157,6 +168,7 @@ class SetpointWriter:
         t_ns = self.driver.set_position(*device_rad)
         self.write_ms = (time.perf_counter() - started) * 1000.0
         self._setpoint_line_s = max(0.0, transport.line_busy_s() - busy_before_s)
+        self._executing = last_acked(self.driver)
         self._written = setpoint
         self.counts["commands"] += 1
         if self._fresh is not None:
@@ -171,9 +183,21 @@ class SetpointWriter:
         would cost the line two more exchanges a period and keep the lens stopping."""
         if self._has_room(*device_rad):
             return False
+        if self._fresh is not None and self._cancel_superseded() and self._has_room(*device_rad):
+            return False
         if self._fresh is not None and self.make_room() and self._has_room(*device_rad):
             return False
         return not (self._held_for_a_socket and t_s - self._held_since_s >= self.driver.timeout_s)
+
+    def _cancel_superseded(self) -> bool:
+        """Cancel the last set-point's move if it still holds its socket; True when it was."""
+        if self._executing is None:
+            return False
+        executing, self._executing = self._executing, None
+        if not cancel_acked(self.driver, executing):
+            return False
+        self.counts["superseded"] += 1
+        return True
 
     def _has_room(self, pan_rad: float, tilt_rad: float) -> bool:
         """Whether the head takes a move to device angles now, without waiting."""

@@ -80,7 +80,8 @@ def main() -> None:
         f"ms, max {delays_ms[-1]:.2f} ms"
     )
     print(
-        f"set-points {counters['commands']}, held for a socket {counters['held_for_a_socket']}; "
+        f"set-points {counters['commands']}, held for a socket {counters['held_for_a_socket']}, "
+        f"moves cancelled for a fresh demand {counters['superseded']}; "
         f"zoom commands {zoom.writes}, cancelled for a fresh demand {zoom.cancelled}; "
         f"errors {counters['errors']}, poll timeouts {counters['timeouts']}"
     )
