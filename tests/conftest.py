@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import gc
 import os
 import signal
 import socket
@@ -27,6 +28,14 @@ T = TypeVar("T")
 REPO = Path(__file__).resolve().parents[1]
 SHARED_DATA = REPO.parent / "shared" / "data"
 SUPPORT = Path(__file__).resolve().parent / "support"
+
+
+def pytest_collection_finish(session: pytest.Session) -> None:
+    """What the collection imported lives until the session ends: frozen out of the garbage
+    collector (after a pass that frees what is already garbage), whose full passes would
+    otherwise walk all of it again during the tests."""
+    gc.collect()
+    gc.freeze()
 
 
 def poll_until(predicate: Callable[[], T], timeout_s: float, interval_s: float = 0.01) -> T:

@@ -7,6 +7,7 @@ unreadable file) name a position or the file instead of a key."""
 from __future__ import annotations
 
 import datetime as dt
+import functools
 import math
 import re
 import tomllib
@@ -147,13 +148,29 @@ def value_for(annotation: Any) -> st.SearchStrategy[Any]:
     return st.one_of(st.text(max_size=30), st.just("../../etc/passwd"))
 
 
+# Each strategy is built once: hypothesis works out a strategy's properties on its first draw
+SECTION_NAMES = st.sampled_from(sorted(SECTIONS))
+SECTION_MODELS = {section: st.sampled_from(models) for section, models in SECTIONS.items()}
+MODEL_FIELDS = {
+    model: st.sampled_from(sorted(model.model_fields))
+    for models in SECTIONS.values()
+    for model in models
+}
+
+
+@functools.cache
+def field_values(model: type[BaseModel], field: str) -> st.SearchStrategy[Any]:
+    """Values for one field of a section: typed for it, or anything."""
+    return st.one_of(value_for(model.model_fields[field].annotation), VALUES)
+
+
 @st.composite
 def section_values(draw: st.DrawFn) -> dict[str, Any]:
     """A valid [rig] plus random values (typed or not) for random keys of random sections."""
     document: dict[str, Any] = {"rig": {"name": "r"}}
     for _ in range(draw(st.integers(1, 4))):
-        section = draw(st.sampled_from(sorted(SECTIONS)))
-        model = draw(st.sampled_from(SECTIONS[section]))
+        section = draw(SECTION_NAMES)
+        model = draw(SECTION_MODELS[section])
         table = document.setdefault(section, {})
         if not isinstance(table, dict):
             continue
@@ -161,9 +178,8 @@ def section_values(draw: st.DrawFn) -> dict[str, Any]:
             table.setdefault(
                 "protocol", typing.get_args(model.model_fields["protocol"].annotation)[0]
             )
-        field = draw(st.sampled_from(sorted(model.model_fields)))
-        annotation = model.model_fields[field].annotation
-        table[field] = draw(st.one_of(value_for(annotation), VALUES))
+        field = draw(MODEL_FIELDS[model])
+        table[field] = draw(field_values(model, field))
     return document
 
 

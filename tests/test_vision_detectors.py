@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
 
 import cv2
 import numpy as np
@@ -52,6 +53,24 @@ def run(frames: Frames, detector: str, **vision: object) -> list[tuple[VisionRes
         gray = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
         results.append((pipeline.process(gray, round(truth.t_s * 1e9), truth.head), truth))
     return results
+
+
+Runs = Callable[..., list[tuple[VisionResult, SceneTruth]]]
+
+
+@pytest.fixture(scope="module")
+def runs() -> Runs:
+    """`run`, each (frames, detector, settings) worked out once for the module: tests that check
+    different claims of the same run read the same (read-only) results."""
+    done: dict[tuple, tuple[Frames, list[tuple[VisionResult, SceneTruth]]]] = {}
+
+    def cached(frames: Frames, detector: str, **vision: object):
+        key = (id(frames), detector, tuple(sorted(vision.items())))
+        if key not in done:  # the frames are kept with their results: their id stays theirs
+            done[key] = (frames, run(frames, detector, **vision))
+        return done[key][1]
+
+    return cached
 
 
 def errors(results: list[tuple[VisionResult, SceneTruth]]) -> tuple[np.ndarray, np.ndarray, float]:
@@ -120,9 +139,9 @@ IDS = ["flow", "pyramid-full", "pyramid-predictive"]
 
 @pytest.mark.parametrize(("detector", "settings"), DETECTORS, ids=IDS)
 def test_target_with_the_head_still(
-    still_head_walker: Frames, detector: str, settings: dict
+    still_head_walker: Frames, runs: Runs, detector: str, settings: dict
 ) -> None:
-    position, velocity, found = errors(run(still_head_walker, detector, **settings))
+    position, velocity, found = errors(runs(still_head_walker, detector, **settings))
     assert found >= 0.8
     assert np.median(position) <= 2.0
     assert np.median(velocity) <= 0.10
@@ -130,9 +149,9 @@ def test_target_with_the_head_still(
 
 @pytest.mark.parametrize(("detector", "settings"), DETECTORS, ids=IDS)
 def test_target_pursued_by_a_head_turning_at_60_deg_per_s(
-    pursuit: Frames, detector: str, settings: dict
+    pursuit: Frames, runs: Runs, detector: str, settings: dict
 ) -> None:
-    results = run(pursuit, detector, **settings)
+    results = runs(pursuit, detector, **settings)
     position, velocity, found = errors(results)
     assert all(r.compensated for r, _ in results[1:])
     assert found >= 0.85  # acquisition takes a few frames
@@ -141,8 +160,10 @@ def test_target_pursued_by_a_head_turning_at_60_deg_per_s(
 
 
 @pytest.mark.parametrize(("detector", "settings"), DETECTORS, ids=IDS)
-def test_pure_rotation_is_compensated(rotation_only: Frames, detector: str, settings: dict) -> None:
-    results = run(rotation_only, detector, **settings)
+def test_pure_rotation_is_compensated(
+    rotation_only: Frames, runs: Runs, detector: str, settings: dict
+) -> None:
+    results = runs(rotation_only, detector, **settings)
     false = sum(r.output.found for r, _ in results)
     assert false <= 0.01 * len(results)
 
@@ -330,11 +351,11 @@ def test_candidates_rank_two_movers(still_head_walker: Frames) -> None:
     assert np.median(speeds) == pytest.approx(expected, rel=0.25)
 
 
-def candidate_velocity_errors(frames: Frames) -> list[float]:
+def candidate_velocity_errors(runs: Runs, frames: Frames) -> list[float]:
     """Per frame from the `VELOCITY_POINTS`th on where the target is in view and there are
     candidates: the velocity error of the candidate nearest the target, relative to its speed."""
     relative = []
-    for k, (result, truth) in enumerate(run(frames, "flow")):
+    for k, (result, truth) in enumerate(runs(frames, "flow")):
         if k < VELOCITY_POINTS or not result.candidates or not truth.target_visible:
             continue
         nearest = min(
@@ -346,22 +367,24 @@ def candidate_velocity_errors(frames: Frames) -> list[float]:
     return relative
 
 
-def test_a_candidates_velocity_is_fitted_over_its_recent_frames(still_head_walker: Frames) -> None:
+def test_a_candidates_velocity_is_fitted_over_its_recent_frames(
+    still_head_walker: Frames, runs: Runs
+) -> None:
     """A saccade is aimed with the candidate's velocity over the visual latency and the move,
     so its error counts many times over. A coarse level's centroid wobbles by a pixel or two:
     fitted over the region's last `VELOCITY_POINTS` frames the velocity is off by about a
     tenth (median; 0.29, and up to 0.68, from the last two frames alone)."""
-    relative = candidate_velocity_errors(still_head_walker)
+    relative = candidate_velocity_errors(runs, still_head_walker)
     assert len(relative) >= 40
     assert np.median(relative) <= 0.15
     assert np.percentile(relative, 90) <= 0.3
 
 
-def test_a_candidates_track_moves_with_the_turning_head(pursuit: Frames) -> None:
+def test_a_candidates_track_moves_with_the_turning_head(pursuit: Frames, runs: Runs) -> None:
     """The head pursues at up to 60°/s: a track's older centroids are moved by its rotation,
     so the fitted velocity is the target's own (independent) image velocity, not the flow
     of the head's turning (hundreds of px/s)."""
-    relative = candidate_velocity_errors(pursuit)
+    relative = candidate_velocity_errors(runs, pursuit)
     assert len(relative) >= 28  # of 36 frames, the first VELOCITY_POINTS left out
     assert np.median(relative) <= 0.1
     assert max(relative) <= 0.2
@@ -389,8 +412,8 @@ def test_a_flicker_beside_a_mover_does_not_take_its_track() -> None:
     assert flicker.speed_px_s == 0.0
 
 
-def test_candidates_are_silent_under_pure_rotation(rotation_only: Frames) -> None:
-    results = run(rotation_only, "flow")
+def test_candidates_are_silent_under_pure_rotation(rotation_only: Frames, runs: Runs) -> None:
+    results = runs(rotation_only, "flow")
     with_candidates = sum(bool(r.candidates) for r, _ in results)
     assert with_candidates <= 0.01 * len(results)
 
