@@ -6,9 +6,14 @@ light hit the sensor. Between two consecutive frames the background shifts by th
 rotation between their exposures. `ImageShift` measures that shift by phase correlation on a
 small grey copy of each frame. `fit_lag` finds the lag tau for which the odometry's rotation
 between (a - tau) and (b - tau), a and b the two frames' arrival stamps, explains the shifts
-best: for each lag on a grid, a least-squares map from the rotation (pan, tilt) to the shift
-(u, v) — sign and scale fitted, so no axis convention or focal length is assumed — and its
-residual; the best grid lag is refined by a parabola through its neighbours, and the lags
+best: for each lag on a grid, the least-squares similarity (a scale and a rotation, mirrored
+or not) from the rotation (pan, tilt) to the shift (u, v), so no axis convention, roll or focal
+length is assumed, and its residual. A rotating camera's image moves whichever way the head
+turns, by the focal length times the angle; a free 2x2 map could be near singular and hide one
+direction of the head's motion, and then a lag that maps the frames before a move onto the
+part of it along that direction explains them as well as the true one. The similarity is the
+camera's map for a square pixel and a head near level (pan's image scale falls with the
+cosine of the tilt); away from level the difference stays in the residual. The best grid lag is refined by a parabola through its neighbours, and the lags
 whose residual exceeds the best one's by less than a likelihood-ratio test's threshold (99 %,
 one degree of freedom, the residual's own variance) give the fit's spread: how closely the
 data identify the lag. Shifts far from the fit (three robust standard deviations, from the
@@ -55,7 +60,6 @@ SHIFT_FRACTION = (
     0.2  # nor those below this share of the large shifts (the head still half the time)
 )
 CHI2_1DOF_99 = 6.635  # chi-square, one degree of freedom: a likelihood-ratio test at 99 %
-RIDGE = 1e-9  # keeps the per-lag least squares solvable when one axis does not move
 
 
 class ImageShift:
@@ -155,10 +159,10 @@ def fit_lag(
     offset = 0.5 * (c0 - c2) / curvature if curvature > 0 else 0.0
     step_s = float(lags_s[1] - lags_s[0])
     inliers = int(keep.sum())
-    # the residual's variance per component (two per shift, four gains fitted); the lags whose
+    # the residual's variance per component (two per shift, two gains fitted); the lags whose
     # residual energy exceeds the best one's by less than the test's threshold times it
     # explain the shifts as well, to the residual's noise
-    variance = costs[k] / max(2 * inliers - 4, 1)
+    variance = costs[k] / max(2 * inliers - 2, 1)
     lag_s = float(lags_s[k] + offset * step_s)
     alike = lags_s[costs <= costs[k] + CHI2_1DOF_99 * variance]
     spread_s = float(np.max(np.abs(alike - lag_s))) if alike.size else 0.0
@@ -178,19 +182,25 @@ def _rotations(
 
 
 def _costs(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Per lag: the residual energy of y (N, 2) ~ x (K, N, 2) @ G (2x2 least squares), and the
-    gains G (K, 2, 2). With the normal equations S G = B (S = x'x, B = x'y), the residual
-    energy is |y|^2 - sum(G * B)."""
-    pan, tilt = x[..., 0], x[..., 1]
-    s_pp, s_pt, s_tt = np.sum(pan * pan, 1), np.sum(pan * tilt, 1), np.sum(tilt * tilt, 1)
-    ridge = RIDGE * (s_pp + s_tt) + 1e-30
-    s_pp, s_tt = s_pp + ridge, s_tt + ridge
-    det = s_pp * s_tt - s_pt * s_pt
-    b_p, b_t = pan @ y, tilt @ y  # (K, 2): the rows of B
-    g_p = (s_tt[:, None] * b_p - s_pt[:, None] * b_t) / det[:, None]
-    g_t = (s_pp[:, None] * b_t - s_pt[:, None] * b_p) / det[:, None]
-    explained = np.sum(g_p * b_p + g_t * b_t, axis=1)
-    return float(np.sum(y * y)) - explained, np.stack([g_p, g_t], axis=1)
+    """Per lag: the residual energy of y (N, 2) ~ x (K, N, 2) @ G, G the similarity (a rotation
+    and a scale, mirrored or not) that fits best, and G (K, 2, 2). In complex numbers
+    (u + iv, pan + i tilt) the similarity is y = g x or, mirrored, y = g conj(x), and the least
+    squares g = sum(y conj(x)) / sum|x|^2 (or sum(y x) / sum|x|^2) leaves the residual energy
+    |y|^2 - |sum(y conj(x))|^2 / sum|x|^2."""
+    xc = x[..., 0] + 1j * x[..., 1]  # (K, N)
+    yc = y[:, 0] + 1j * y[:, 1]
+    energy = np.sum(xc.real**2 + xc.imag**2, axis=1) + 1e-30
+    direct, mirrored = xc.conj() @ yc, xc @ yc  # (K,)
+    explained_direct = np.abs(direct) ** 2 / energy
+    explained_mirrored = np.abs(mirrored) ** 2 / energy
+    is_direct = explained_direct >= explained_mirrored
+    g = np.where(is_direct, direct, mirrored) / energy
+    # rows of G (y_row = x_row @ G): pan's (g.re, g.im); tilt's (-g.im, g.re), or
+    # (g.im, -g.re) mirrored
+    tilt_row = np.where(is_direct[:, None], 1.0, -1.0) * np.stack([-g.imag, g.real], axis=-1)
+    gains = np.stack([np.stack([g.real, g.imag], axis=-1), tilt_row], axis=1)
+    residual = float(np.sum(y * y)) - np.maximum(explained_direct, explained_mirrored)
+    return residual, gains
 
 
 class CameraDelayEstimator:
