@@ -161,8 +161,8 @@ FIRST_SACCADE_ODOMETRY = [
 def test_a_map_that_hides_part_of_the_motion_is_not_fitted() -> None:
     """Two frames show the head's first saccade. A free 2x2 map from the rotation to the shift
     could make the saccade's first part (pan = -tilt) invisible and match its tilt-only end to
-    those frames a lag 90 ms short; a camera's rotation moves its image in every direction, and
-    the similarity the fit allows finds the true lag."""
+    those frames a lag 90 ms short; pan moves a camera's image along one axis and tilt along
+    the other, and the fit that allows only such maps finds the true lag."""
     arrivals = np.array(FIRST_SACCADE_ARRIVALS_S)
     shifts = np.column_stack([arrivals[:-1], arrivals[1:], FIRST_SACCADE_SHIFTS_PX])
     fit = fit_lag(shifts, np.array(FIRST_SACCADE_ODOMETRY), LAGS_S, math.radians(2.0), 0.6)

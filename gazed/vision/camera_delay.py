@@ -6,14 +6,17 @@ light hit the sensor. Between two consecutive frames the background shifts by th
 rotation between their exposures. `ImageShift` measures that shift by phase correlation on a
 small grey copy of each frame. `fit_lag` finds the lag tau for which the odometry's rotation
 between (a - tau) and (b - tau), a and b the two frames' arrival stamps, explains the shifts
-best: for each lag on a grid, the least-squares similarity (a scale and a rotation, mirrored
-or not) from the rotation (pan, tilt) to the shift (u, v), so no axis convention, roll or focal
-length is assumed, and its residual. A rotating camera's image moves whichever way the head
-turns, by the focal length times the angle; a free 2x2 map could be near singular and hide one
-direction of the head's motion, and then a lag that maps the frames before a move onto the
-part of it along that direction explains them as well as the true one. The similarity is the
-camera's map for a square pixel and a head near level (pan's image scale falls with the
-cosine of the tilt); away from level the difference stays in the residual. The best grid lag is refined by a parabola through its neighbours, and the lags
+best: for each lag on a grid, the least-squares map from the rotation (pan, tilt) to the shift
+(u, v) in which pan moves the image along one axis and tilt along the other, each by its own
+gain (u from pan and v from tilt, or swapped for a camera turned a quarter), and its residual.
+Signs and scales are fitted, so no axis direction or focal length is assumed, and each axis
+has its own scale because pan's falls with the cosine of the tilt. A free 2x2 map could be
+near singular and hide one direction of the head's motion (pan = -tilt, say), and a similarity
+could turn the motion to any direction: either lets a lag that maps a few moving frames onto
+the wrong part of a move explain them as well as the true one. This map hides a direction only
+by dropping a whole axis, which the image's motion along that axis contradicts, and it keeps
+the motion on its axes; a camera rolled on its mount leaves the small cross term in the
+residual. The best grid lag is refined by a parabola through its neighbours, and the lags
 whose residual exceeds the best one's by less than a likelihood-ratio test's threshold (99 %,
 one degree of freedom, the residual's own variance) give the fit's spread: how closely the
 data identify the lag. Shifts far from the fit (three robust standard deviations, from the
@@ -182,25 +185,29 @@ def _rotations(
 
 
 def _costs(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Per lag: the residual energy of y (N, 2) ~ x (K, N, 2) @ G, G the similarity (a rotation
-    and a scale, mirrored or not) that fits best, and G (K, 2, 2). In complex numbers
-    (u + iv, pan + i tilt) the similarity is y = g x or, mirrored, y = g conj(x), and the least
-    squares g = sum(y conj(x)) / sum|x|^2 (or sum(y x) / sum|x|^2) leaves the residual energy
-    |y|^2 - |sum(y conj(x))|^2 / sum|x|^2."""
-    xc = x[..., 0] + 1j * x[..., 1]  # (K, N)
-    yc = y[:, 0] + 1j * y[:, 1]
-    energy = np.sum(xc.real**2 + xc.imag**2, axis=1) + 1e-30
-    direct, mirrored = xc.conj() @ yc, xc @ yc  # (K,)
-    explained_direct = np.abs(direct) ** 2 / energy
-    explained_mirrored = np.abs(mirrored) ** 2 / energy
-    is_direct = explained_direct >= explained_mirrored
-    g = np.where(is_direct, direct, mirrored) / energy
-    # rows of G (y_row = x_row @ G): pan's (g.re, g.im); tilt's (-g.im, g.re), or
-    # (g.im, -g.re) mirrored
-    tilt_row = np.where(is_direct[:, None], 1.0, -1.0) * np.stack([-g.imag, g.real], axis=-1)
-    gains = np.stack([np.stack([g.real, g.imag], axis=-1), tilt_row], axis=1)
-    residual = float(np.sum(y * y)) - np.maximum(explained_direct, explained_mirrored)
-    return residual, gains
+    """Per lag: the residual energy of y (N, 2) ~ x (K, N, 2) @ G, G the map that fits best of
+    those where pan moves the image along one axis and tilt along the other (u from pan and v
+    from tilt, or swapped), each by its own gain; and G (K, 2, 2). Each axis is a
+    one-dimensional least squares: the gain sum(x y) / sum(x^2) explains (sum(x y))^2 / sum(x^2)
+    of the axis's energy."""
+    pan, tilt = x[..., 0], x[..., 1]
+    s_pp = np.sum(pan * pan, axis=1) + 1e-30
+    s_tt = np.sum(tilt * tilt, axis=1) + 1e-30
+    u_pan, v_tilt = pan @ y[:, 0], tilt @ y[:, 1]
+    u_tilt, v_pan = tilt @ y[:, 0], pan @ y[:, 1]
+    straight = u_pan**2 / s_pp + v_tilt**2 / s_tt
+    swapped = u_tilt**2 / s_tt + v_pan**2 / s_pp
+    is_straight = (straight >= swapped)[:, None]
+    zero = np.zeros_like(u_pan)
+    # rows of G (y_row = x_row @ G): pan's, then tilt's
+    pan_row = np.where(
+        is_straight, np.stack([u_pan / s_pp, zero], -1), np.stack([zero, v_pan / s_pp], -1)
+    )
+    tilt_row = np.where(
+        is_straight, np.stack([zero, v_tilt / s_tt], -1), np.stack([u_tilt / s_tt, zero], -1)
+    )
+    gains = np.stack([pan_row, tilt_row], axis=1)
+    return float(np.sum(y * y)) - np.maximum(straight, swapped), gains
 
 
 class CameraDelayEstimator:
