@@ -1,8 +1,9 @@
 """The camera-delay estimator on synthetic signals: a known lag between the image's shifts and
 the odometry is recovered; a still head or one turning at a constant rate gives no update;
 wrong shifts among the good ones do not move the estimate; one motion onset identifies the lag,
-a stretch that several lags explain alike is not taken; the window is fitted on every frame
-until the first fit, then every `fit_every_s`. `ImageShift` measures a known translation of a textured image."""
+a stretch that several lags explain alike is not taken; a map from the head's rotation to
+the image's shift that hides a direction of the head's motion is not fitted; the window is
+fitted on every frame until the first fit, then every `fit_every_s`. `ImageShift` measures a known translation of a textured image."""
 
 from __future__ import annotations
 
@@ -134,6 +135,39 @@ def test_one_motion_onset_identifies_the_lag(lag_s: float) -> None:
     assert fit is not None
     assert fit.lag_s == pytest.approx(lag_s, abs=0.004)
     assert fit.spread_s < 0.005
+
+
+# a closed-loop run's window at the frame that first showed the head's first saccade (a hidden
+# 200 ms delay): arrival stamps (s), shifts (px), odometry (s, rad); the head's first move runs
+# along pan = -tilt, then in tilt alone, and two frames show it
+FIRST_SACCADE_ARRIVALS_S = [-0.04, 0.0, 0.04, 0.08, 0.12, 0.16, 0.2, 0.24, 0.28, 0.32, 0.4]
+FIRST_SACCADE_ARRIVALS_S += [0.44, 0.48, 0.52, 0.56, 0.6, 0.64, 0.68, 0.72]
+FIRST_SACCADE_SHIFTS_PX = [
+    [-0.03, -0.12], [0.12, -0.02], [0.12, -0.02], [0.11, -0.01], [0.09, -0.01], [-0.06, -0.01],
+    [0.19, -0.03], [-0.08, 0.16], [0.1, 0.07], [1.47, -0.13], [-0.25, 0.09], [0.2, -0.05],
+    [-0.31, 0.04], [0.22, -0.06], [-0.07, 0.11], [-0.09, -0.12], [-3.54, -3.43], [-10.6, -11.65],
+]  # fmt: skip
+FIRST_SACCADE_ODOMETRY = [
+    [-1.194, 0.0, 0.0], [0.426, 0.0, 0.0], [0.446, 0.00153, -0.00153],
+    [0.466, 0.00307, -0.00307], [0.486, 0.0092, -0.0092], [0.507, 0.01841, -0.01841],
+    [0.537, 0.03835, -0.03835], [0.565, 0.05522, -0.05983], [0.58, 0.06443, -0.07517],
+    [0.601, 0.0721, -0.09357], [0.621, 0.0767, -0.10891], [0.646, 0.0767, -0.12425],
+    [0.667, 0.0767, -0.13499], [0.688, 0.0767, -0.13959], [0.709, 0.0767, -0.14113],
+    [0.78, 0.0767, -0.14113], [0.784, 0.0767, -0.14113], [0.81, 0.0767, -0.14113],
+    [0.822, 0.0767, -0.14113],
+]  # fmt: skip
+
+
+def test_a_map_that_hides_part_of_the_motion_is_not_fitted() -> None:
+    """Two frames show the head's first saccade. A free 2x2 map from the rotation to the shift
+    could make the saccade's first part (pan = -tilt) invisible and match its tilt-only end to
+    those frames a lag 90 ms short; pan moves a camera's image along one axis and tilt along
+    the other, and the fit that allows only such maps finds the true lag."""
+    arrivals = np.array(FIRST_SACCADE_ARRIVALS_S)
+    shifts = np.column_stack([arrivals[:-1], arrivals[1:], FIRST_SACCADE_SHIFTS_PX])
+    fit = fit_lag(shifts, np.array(FIRST_SACCADE_ODOMETRY), LAGS_S, math.radians(2.0), 0.6)
+    assert fit is not None
+    assert fit.lag_s == pytest.approx(0.2, abs=0.01)
 
 
 def slow(t_s: np.ndarray) -> np.ndarray:

@@ -6,9 +6,17 @@ light hit the sensor. Between two consecutive frames the background shifts by th
 rotation between their exposures. `ImageShift` measures that shift by phase correlation on a
 small grey copy of each frame. `fit_lag` finds the lag tau for which the odometry's rotation
 between (a - tau) and (b - tau), a and b the two frames' arrival stamps, explains the shifts
-best: for each lag on a grid, a least-squares map from the rotation (pan, tilt) to the shift
-(u, v) — sign and scale fitted, so no axis convention or focal length is assumed — and its
-residual; the best grid lag is refined by a parabola through its neighbours, and the lags
+best: for each lag on a grid, the least-squares map from the rotation (pan, tilt) to the shift
+(u, v) in which pan moves the image along one axis and tilt along the other, each by its own
+gain (u from pan and v from tilt, or swapped for a camera turned a quarter), and its residual.
+Signs and scales are fitted, so no axis direction or focal length is assumed, and each axis
+has its own scale because pan's falls with the cosine of the tilt. A free 2x2 map could be
+near singular and hide one direction of the head's motion (pan = -tilt, say), and a similarity
+could turn the motion to any direction: either lets a lag that maps a few moving frames onto
+the wrong part of a move explain them as well as the true one. This map hides a direction only
+by dropping a whole axis, which the image's motion along that axis contradicts, and it keeps
+the motion on its axes; a camera rolled on its mount leaves the small cross term in the
+residual. The best grid lag is refined by a parabola through its neighbours, and the lags
 whose residual exceeds the best one's by less than a likelihood-ratio test's threshold (99 %,
 one degree of freedom, the residual's own variance) give the fit's spread: how closely the
 data identify the lag. Shifts far from the fit (three robust standard deviations, from the
@@ -55,7 +63,6 @@ SHIFT_FRACTION = (
     0.2  # nor those below this share of the large shifts (the head still half the time)
 )
 CHI2_1DOF_99 = 6.635  # chi-square, one degree of freedom: a likelihood-ratio test at 99 %
-RIDGE = 1e-9  # keeps the per-lag least squares solvable when one axis does not move
 
 
 class ImageShift:
@@ -155,10 +162,10 @@ def fit_lag(
     offset = 0.5 * (c0 - c2) / curvature if curvature > 0 else 0.0
     step_s = float(lags_s[1] - lags_s[0])
     inliers = int(keep.sum())
-    # the residual's variance per component (two per shift, four gains fitted); the lags whose
+    # the residual's variance per component (two per shift, two gains fitted); the lags whose
     # residual energy exceeds the best one's by less than the test's threshold times it
     # explain the shifts as well, to the residual's noise
-    variance = costs[k] / max(2 * inliers - 4, 1)
+    variance = costs[k] / max(2 * inliers - 2, 1)
     lag_s = float(lags_s[k] + offset * step_s)
     alike = lags_s[costs <= costs[k] + CHI2_1DOF_99 * variance]
     spread_s = float(np.max(np.abs(alike - lag_s))) if alike.size else 0.0
@@ -178,19 +185,29 @@ def _rotations(
 
 
 def _costs(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Per lag: the residual energy of y (N, 2) ~ x (K, N, 2) @ G (2x2 least squares), and the
-    gains G (K, 2, 2). With the normal equations S G = B (S = x'x, B = x'y), the residual
-    energy is |y|^2 - sum(G * B)."""
+    """Per lag: the residual energy of y (N, 2) ~ x (K, N, 2) @ G, G the map that fits best of
+    those where pan moves the image along one axis and tilt along the other (u from pan and v
+    from tilt, or swapped), each by its own gain; and G (K, 2, 2). Each axis is a
+    one-dimensional least squares: the gain sum(x y) / sum(x^2) explains (sum(x y))^2 / sum(x^2)
+    of the axis's energy."""
     pan, tilt = x[..., 0], x[..., 1]
-    s_pp, s_pt, s_tt = np.sum(pan * pan, 1), np.sum(pan * tilt, 1), np.sum(tilt * tilt, 1)
-    ridge = RIDGE * (s_pp + s_tt) + 1e-30
-    s_pp, s_tt = s_pp + ridge, s_tt + ridge
-    det = s_pp * s_tt - s_pt * s_pt
-    b_p, b_t = pan @ y, tilt @ y  # (K, 2): the rows of B
-    g_p = (s_tt[:, None] * b_p - s_pt[:, None] * b_t) / det[:, None]
-    g_t = (s_pp[:, None] * b_t - s_pt[:, None] * b_p) / det[:, None]
-    explained = np.sum(g_p * b_p + g_t * b_t, axis=1)
-    return float(np.sum(y * y)) - explained, np.stack([g_p, g_t], axis=1)
+    s_pp = np.sum(pan * pan, axis=1) + 1e-30
+    s_tt = np.sum(tilt * tilt, axis=1) + 1e-30
+    u_pan, v_tilt = pan @ y[:, 0], tilt @ y[:, 1]
+    u_tilt, v_pan = tilt @ y[:, 0], pan @ y[:, 1]
+    straight = u_pan**2 / s_pp + v_tilt**2 / s_tt
+    swapped = u_tilt**2 / s_tt + v_pan**2 / s_pp
+    is_straight = (straight >= swapped)[:, None]
+    zero = np.zeros_like(u_pan)
+    # rows of G (y_row = x_row @ G): pan's, then tilt's
+    pan_row = np.where(
+        is_straight, np.stack([u_pan / s_pp, zero], -1), np.stack([zero, v_pan / s_pp], -1)
+    )
+    tilt_row = np.where(
+        is_straight, np.stack([zero, v_tilt / s_tt], -1), np.stack([u_tilt / s_tt, zero], -1)
+    )
+    gains = np.stack([pan_row, tilt_row], axis=1)
+    return float(np.sum(y * y)) - np.maximum(straight, swapped), gains
 
 
 class CameraDelayEstimator:
