@@ -129,8 +129,8 @@ def test_handshake_fails_on_an_error_line(codec) -> None:
 
 
 def test_frames_encoded_but_not_sent_await_no_answer(codec) -> None:
-    """A `has_room` probe encodes a set-point it does not send: the answers to the query sent
-    next are still read as pan and tilt, not as the probe's acks."""
+    """Set-points encoded and never sent: the answers to the query sent next are still read as
+    pan and tilt, not as acks of frames that never went out."""
     for _ in range(3):
         codec.encode_set_position(math.radians(1.0), math.radians(2.0))
     sent(codec, codec.encode_query_position())

@@ -106,7 +106,7 @@ def test_odometry_inquiries_take_no_socket_and_are_answered_while_both_are_busy(
     assert driver.query_zoom() == pytest.approx(0.0, abs=ZOOM_UNIT)
     assert driver.counters["waits_for_room"] == 0
     assert driver.codec.has_room(H("81 09 06 12 FF"))
-    assert not driver.has_room(driver.codec.encode_set_zoom(0.2))  # still both busy
+    assert not driver.has_command_room()  # still both busy
 
 
 def test_cancel_is_sonys_bytes_and_holds_follows_one_command_in_its_socket() -> None:

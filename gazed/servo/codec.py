@@ -139,13 +139,17 @@ class Codec(ABC):
     def sent(self, frame_bytes: bytes) -> None:
         """The driver wrote `frame_bytes` to the device. A codec that follows what is on the
         wire (the requests awaiting an answer, the device's mode) takes it in here, never when
-        encoding: a frame encoded only to ask `has_room`, or left unsent after a timeout, then
-        leaves no trace."""
+        encoding: a frame encoded and left unsent after a timeout then leaves no trace."""
         del frame_bytes
 
     def has_room(self, frame_bytes: bytes) -> bool:
         """True when the device can take `frame_bytes` now (VISCA: a command socket is free)."""
         del frame_bytes
+        return self.has_command_room()
+
+    def has_command_room(self) -> bool:
+        """True when the device can take a command now, asked without encoding one (VISCA: a
+        command socket is free)."""
         return True
 
     def refused_as_busy(self, reply: Reply) -> bool:

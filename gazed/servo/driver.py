@@ -13,7 +13,7 @@ in flight than its sockets. A frame the device has no room for yet (`codec.has_r
 VISCA sockets hold commands) waits for a completion, at most the read timeout; a frame refused
 because the device is busy (`codec.refused_as_busy`: VISCA buffer full) is sent once more when
 it has room. Nothing is queued: each call carries the newest demand, and a caller that must not
-wait asks `has_room` first. Asynchronous replies (VISCA completions, PTU `!P`/`!T`) are kept in
+wait asks `has_command_room` first. Asynchronous replies (VISCA completions, PTU `!P`/`!T`) are kept in
 `notices`. Bytes waiting before a request are stale answers to a request that timed out: they
 are decoded, counted and dropped. The read timeout runs from when the request has left the line
 (`SerialTransport.line_busy_s`), not from when it was handed to the port.
@@ -219,13 +219,13 @@ class ServoDriver:
                     replies.append((reply, t_ns - round(len(reply.raw) * byte_time_ns)))
         return replies
 
-    def has_room(self, frames: list[bytes]) -> bool:
-        """True when the device can take the first of `frames` at once (a VISCA socket is
-        free): the replies already in are read first, as a completion frees a socket. Nothing
-        waits, so a caller that must not block holds its frames until this is true."""
-        if not self.codec.has_room(frames[0]):
+    def has_command_room(self) -> bool:
+        """True when the device can take a command at once (a VISCA socket is free): the
+        replies already in are read first, as a completion frees a socket. Nothing waits, so a
+        caller that must not block holds its command until this is true."""
+        if not self.codec.has_command_room():
             self._drain()
-        return self.codec.has_room(frames[0])
+        return self.codec.has_command_room()
 
     def _await_room(self, frame: bytes) -> None:
         """Read until the device has room for `frame`. When none comes within the read
@@ -277,9 +277,7 @@ def cancel_acked(driver: object, acked: Hashable) -> bool:
     return True
 
 
-def takes_now(driver: object, frames: Callable[[Codec], list[bytes]]) -> bool:
-    """Whether `driver` takes the frames `frames` encodes with its codec without waiting (a
-    head without a serial codec, the digital head, ONVIF or speed mode, always does)."""
-    if not isinstance(driver, ServoDriver):
-        return True
-    return driver.has_room(frames(driver.codec))
+def takes_now(driver: object) -> bool:
+    """Whether `driver` takes a command without waiting (a head without a serial codec, the
+    digital head, ONVIF or speed mode, always does). Nothing is encoded to ask."""
+    return not isinstance(driver, ServoDriver) or driver.has_command_room()

@@ -19,8 +19,8 @@ velocity mode (`CV`, signed `PS`/`TS`); going back to positions restores indepen
 
 A reply line does not say what it answers: it is matched to the oldest frame written and not
 yet answered. So the codec learns what is on the wire only from the frames the driver wrote
-(`sent`), never from encoding: a frame encoded and not sent (a `has_room` probe, the rest of a
-request cut short by a timeout) would otherwise take the answer of the next one, and a pan
+(`sent`), never from encoding: a frame encoded and not sent (the rest of a request cut short by a
+timeout) would otherwise take the answer of the next one, and a pan
 position could be read as tilt. The control mode follows the `CV` / `CI` frames sent.
 """
 

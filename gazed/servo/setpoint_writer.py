@@ -155,7 +155,7 @@ class SetpointWriter:
             self._next_command_s = t_s + self.command_period_s
             return
         device_rad = device_from_joint(self.head, *setpoint)
-        if self._must_hold(t_s, device_rad):
+        if self._must_hold(t_s):
             if not self._held_for_a_socket:
                 self.counts["held_for_a_socket"] += 1
                 self._held_since_s = t_s
@@ -176,16 +176,16 @@ class SetpointWriter:
             self._fresh = None
         self._next_command_s = t_s + self.command_period_s
 
-    def _must_hold(self, t_s: float, device_rad: tuple[float, float]) -> bool:
+    def _must_hold(self, t_s: float) -> bool:
         """No room for the set-point, none made for a fresh demand, and not held past the
         driver's read timeout. The generator's own set-points wait for the zoom to end rather
         than cut it short: they come every command period, and cancelling the zoom for each
         would cost the line two more exchanges a period and keep the lens stopping."""
-        if self._has_room(*device_rad):
+        if takes_now(self.driver):
             return False
-        if self._fresh is not None and self._cancel_superseded() and self._has_room(*device_rad):
+        if self._fresh is not None and self._cancel_superseded() and takes_now(self.driver):
             return False
-        if self._fresh is not None and self.make_room() and self._has_room(*device_rad):
+        if self._fresh is not None and self.make_room() and takes_now(self.driver):
             return False
         return not (self._held_for_a_socket and t_s - self._held_since_s >= self.driver.timeout_s)
 
@@ -198,10 +198,6 @@ class SetpointWriter:
             return False
         self.counts["superseded"] += 1
         return True
-
-    def _has_room(self, pan_rad: float, tilt_rad: float) -> bool:
-        """Whether the head takes a move to device angles now, without waiting."""
-        return takes_now(self.driver, lambda codec: codec.encode_set_position(pan_rad, tilt_rad))
 
     def write_fresh(self, t_s: float) -> None:
         """A demand that came while the head was answering a poll goes out now, not after the

@@ -286,6 +286,9 @@ class ViscaCodec(Codec):
         is_command = len(frame_bytes) >= 3 and frame_bytes[1] == CATEGORY["command"]
         if not is_command or tuple(frame_bytes[1:-1]) == IF_CLEAR:
             return True  # inquiries and IF_Clear use no socket
+        return self.has_command_room()
+
+    def has_command_room(self) -> bool:
         return not self._buffer_full and len(self.sockets_busy) < len(SOCKETS)
 
     def refused_as_busy(self, reply: Reply) -> bool:

@@ -81,7 +81,7 @@ class ZoomDrive:
         landing = self.setpoint == self.target and self.setpoint != self._written
         if mono_s < self._next_write_s or not (moved or landing):
             return
-        if not self._has_room(self.setpoint):
+        if not takes_now(self.driver):
             self.held_for_a_socket += 1
             return
         self.driver.set_zoom(self.setpoint)
@@ -102,10 +102,6 @@ class ZoomDrive:
         self._written = None  # the lens stopped short: the newest set-point goes out again
         self._next_write_s = 0.0
         return True
-
-    def _has_room(self, zoom: float) -> bool:
-        """Whether the head takes a zoom command now, without waiting."""
-        return takes_now(self.driver, lambda codec: codec.encode_set_zoom(zoom))
 
     def read(self) -> float:
         """The lens's present position (raises what the driver raises)."""
