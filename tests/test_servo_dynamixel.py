@@ -158,3 +158,51 @@ def test_stop_needs_a_position_in_position_mode(codec) -> None:
 def test_goal_outside_position_mode_is_refused(codec) -> None:
     with pytest.raises(CodecError, match="position mode"):
         codec.encode_set_position(math.radians(190.0), 0.0)
+
+
+def test_a_request_encoded_and_not_sent_takes_no_reply(codec) -> None:
+    codec.encode_read(1, "operating_mode")  # encoded, never written (a timeout came first)
+    codec.encode_ping(2)
+    for frame in codec.encode_query_position():
+        codec.sent(frame)
+    replies = codec.feed(status_packet(1, 0, le(166, 4)) + status_packet(2, 0, le(-1, 4)))
+    assert [r.kind for r in replies] == ["position", "position"]
+    assert replies[0].pan_rad == pytest.approx((166 - 2048) * 2 * math.pi / 4096)
+    assert replies[1].tilt_rad == pytest.approx((-1 - 2048) * 2 * math.pi / 4096)
+
+
+def test_replies_are_matched_to_the_requests_sent(codec) -> None:
+    for frame in (
+        codec.encode_read(1, "operating_mode"),
+        codec.encode_write(2, "torque_enable", 1),
+    ):
+        codec.sent(frame)
+    for frame in codec.encode_query_position():
+        codec.sent(frame)
+    # a four-byte value read from id 1 is a value, not a position; the ack is an ack
+    replies = codec.feed(
+        status_packet(1, 0, le(3, 4))
+        + status_packet(2, 0)
+        + status_packet(1, 0, le(2000, 4))
+        + status_packet(2, 0, le(2100, 4))
+    )
+    assert [r.kind for r in replies] == ["ok", "ack", "position", "position"]
+    assert replies[0].value == 3
+    assert replies[2].pan_rad == pytest.approx((2000 - 2048) * 2 * math.pi / 4096)
+
+
+def test_the_mode_follows_the_mode_writes_sent(codec) -> None:
+    unsent = codec.encode_set_velocity(0.1, 0.0)  # encoded, never written
+    assert codec.stop_needs_position  # still in position mode: a zero velocity would not stop
+    for frame in codec.encode_set_velocity(0.1, 0.0):
+        codec.sent(frame)
+    assert not codec.stop_needs_position
+    (stop,) = codec.encode_stop()
+    assert decode_packet(stop).params[:2] == H("68 00")  # Goal Velocity 0
+    back = codec.encode_set_position(0.0, 0.0)
+    assert len(back) == len(unsent) == 4  # torque off, mode, torque on, then the goal
+    assert not codec.stop_needs_position  # encoding the way back changes nothing
+    for frame in back:
+        codec.sent(frame)
+    assert codec.stop_needs_position
+    assert codec.encode_set_position(0.0, 0.0) == back[3:]

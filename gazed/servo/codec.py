@@ -4,8 +4,8 @@ A codec turns head commands into the frames the device understands (`encode_*`, 
 device radians, see `gazed.geometry.kinematics.device_from_joint`) and turns whatever bytes come
 back, in any chunking, into typed `Reply`s (`feed`). It keeps only what the protocol makes it
 keep: a receive buffer, and for protocols whose replies do not say what they answer (PTU lines,
-Dynamixel status packets) the queue of requests sent and not yet answered. The PTU codec
-follows the wire from the frames the driver says it wrote (`sent`): encoding changes nothing.
+Dynamixel status packets) the queue of requests sent and not yet answered. Those codecs
+follow the wire from the frames the driver says it wrote (`sent`): encoding changes nothing.
 
 Request/reply matching (DESIGN §8): `replies_expected(frame)` says how many synchronous replies
 a frame sent elicits; replies marked `asynchronous` (VISCA completions, PTU limit notices) are

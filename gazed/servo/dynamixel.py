@@ -5,6 +5,12 @@ instruction and control tables and the host codec; packets, CRC and stuffing are
 Set position is one Sync Write of Goal Position (116, 4 bytes) for both IDs, which gets no
 status; query is one Sync Read of Present Position (132, 4 bytes, signed int32), answered by one
 status packet per ID in order. Positions are `units_per_rev` per turn about `center`.
+
+A status packet names its ID but not the instruction it answers, so the codec keeps, per ID, what
+each instruction written awaits (a position, a value, an ack). It learns what is on the wire
+only from the frames the driver wrote (`sent`), never from encoding: a frame encoded and not
+sent would otherwise leave an expectation that takes the answer of the next one. The operating
+mode follows the Operating Mode writes sent.
 """
 
 from __future__ import annotations
@@ -141,21 +147,16 @@ class DynamixelCodec(Codec):
 
     # --- instruction builders ------------------------------------------------------------
 
-    def _send(self, device_id: int, name: str, params: bytes, expect: str) -> bytes:
-        if device_id != BROADCAST_ID:
-            self._pending.setdefault(device_id, deque()).append(expect)
-        return packet(device_id, INSTRUCTION[name], params)
-
     def encode_ping(self, device_id: int) -> bytes:
-        return self._send(device_id, "ping", b"", "value")
+        return packet(device_id, INSTRUCTION["ping"])
 
     def encode_read(self, device_id: int, item: str) -> bytes:
         address, size = CONTROL_TABLE[item]
-        return self._send(device_id, "read", le(address, 2) + le(size, 2), "value")
+        return packet(device_id, INSTRUCTION["read"], le(address, 2) + le(size, 2))
 
     def encode_write(self, device_id: int, item: str, value: int) -> bytes:
         address, size = CONTROL_TABLE[item]
-        return self._send(device_id, "write", le(address, 2) + le(value, size), "ack")
+        return packet(device_id, INSTRUCTION["write"], le(address, 2) + le(value, size))
 
     def encode_sync_write(self, item: str, values: dict[int, int]) -> bytes:
         address, size = CONTROL_TABLE[item]
@@ -180,7 +181,6 @@ class DynamixelCodec(Codec):
     def encode_set_position(self, pan_rad: float, tilt_rad: float) -> list[bytes]:
         goals = {self.pan_id: self.units(pan_rad), self.tilt_id: self.units(tilt_rad)}
         frames = self._switch_mode(self.position_mode) if self._velocity_mode else []
-        self._velocity_mode = False
         return [*frames, self.encode_sync_write("goal_position", goals)]
 
     def encode_set_velocity(self, pan_rad_s: float, tilt_rad_s: float) -> list[bytes]:
@@ -191,7 +191,6 @@ class DynamixelCodec(Codec):
             self.tilt_id: nearest(tilt_rad_s / VELOCITY_UNIT_RAD_S),
         }
         frames = [] if self._velocity_mode else self._switch_mode(OPERATING_MODE["velocity"])
-        self._velocity_mode = True
         return [*frames, self.encode_sync_write("goal_velocity", goals)]
 
     def encode_stop(self) -> list[bytes]:
@@ -205,8 +204,6 @@ class DynamixelCodec(Codec):
 
     def encode_query_position(self) -> list[bytes]:
         address, size = CONTROL_TABLE["present_position"]
-        for device_id in self.ids:
-            self._pending.setdefault(device_id, deque()).append("position")
         params = le(address, 2) + le(size, 2) + bytes(self.ids)
         return [packet(BROADCAST_ID, INSTRUCTION["sync_read"], params)]
 
@@ -219,6 +216,33 @@ class DynamixelCodec(Codec):
         if p.device_id == BROADCAST_ID:
             return len(self.ids) if p.instruction == INSTRUCTION["ping"] else 0
         return 1  # status return level 2 (the default): every instruction is answered
+
+    def sent(self, frame_bytes: bytes) -> None:
+        """Each ID a frame asks awaits its status: a Sync Read of Present Position a position,
+        another read or a ping a value, any other instruction to one ID an ack. An Operating
+        Mode write to both IDs switches the mode the codec encodes for."""
+        p = decode_packet(frame_bytes)
+        if p is None:
+            return
+        address = int.from_bytes(p.params[:2], "little")
+        if p.instruction == INSTRUCTION["sync_read"]:
+            position = (address, int.from_bytes(p.params[2:4], "little")) == CONTROL_TABLE[
+                "present_position"
+            ]
+            for device_id in p.params[4:]:
+                self._expect(device_id, "position" if position else "value")
+        elif p.device_id != BROADCAST_ID:
+            reads = (INSTRUCTION["ping"], INSTRUCTION["read"])
+            self._expect(p.device_id, "value" if p.instruction in reads else "ack")
+        elif (p.instruction, address) == (
+            INSTRUCTION["sync_write"],
+            CONTROL_TABLE["operating_mode"][0],
+        ):
+            modes = set(p.params[5::2])  # ID, mode: one byte each
+            self._velocity_mode = modes == {OPERATING_MODE["velocity"]}
+
+    def _expect(self, device_id: int, what: str) -> None:
+        self._pending.setdefault(device_id, deque()).append(what)
 
     def handshake(self, exchange: Exchange) -> None:
         """Ping both servos; put each in a position mode (3, or 4 if already extended) with
