@@ -167,6 +167,11 @@ def test_bad_inputs_exit_2_with_a_message(walker_clip, tmp_path: Path, capsys) -
 # --- real footage -------------------------------------------------------------------------
 
 
+# the detectors run on the clip's first 20 s, in which several people cross; the empty scene is
+# the median of the whole clip
+DETECTED_FRAMES = 200
+
+
 @pytest.fixture(scope="module")
 def footage() -> list[np.ndarray]:
     clip = VIDEO / "vtest_480x360.avi"
@@ -233,7 +238,8 @@ def test_real_footage_detections_are_on_the_walking_people(
     camera = CameraModel.from_fov(480, 360, math.radians(60))
     pipeline = VisionPipeline(camera, HeadKinematics(), VisionSection(), detector)
     found = on_people = 0
-    for i, frame in enumerate(footage):
+    frames = footage[:DETECTED_FRAMES]
+    for i, frame in enumerate(frames):
         out = pipeline.process(frame, round(i / 10.0 * 1e9), None).output
         if i < 15 or not out.found:  # the background model learns first
             continue
@@ -241,7 +247,7 @@ def test_real_footage_detections_are_on_the_walking_people(
         u = min(max(round(out.u_px), 0), 479)
         v = min(max(round(out.v_px), 0), 359)
         on_people += bool(people(i)[v, u])
-    assert found >= min_found * (len(footage) - 15)
+    assert found >= min_found * (len(frames) - 15)
     assert on_people >= 0.9 * found
 
 
