@@ -53,7 +53,9 @@ def test_a_visca_camera_over_tcp_is_driven_and_reconnected_after_a_drop(tmp_path
     with TcpBridge(pty) as bridge:
         rig = link_rig(bridge.url, protocol="visca", baud=115200)
         servo = rig.servo.model_copy(update={"reconnect_max_s": 0.5, "timeout_ms": 250.0})
-        rig = rig.model_copy(update={"servo": servo})
+        # parked where the test leaves it: closing the link need not drive the head back
+        head_section = rig.head.model_copy(update={"park_pan_deg": -15.0, "park_tilt_deg": 5.0})
+        rig = rig.model_copy(update={"servo": servo, "head": head_section})
         with HeadEmulator(rig, link=pty) as camera:
             head = LinkOverTcp(rig)
             assert isinstance(head.link.driver.transport, SerialTransport)  # pyserial's socket

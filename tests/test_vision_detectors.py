@@ -489,7 +489,8 @@ def test_distorted_lens_pursuit_in_the_cameras_own_pixels(
 
 
 def test_distorted_lens_rotation_needs_the_distortion_model(rotation_only: Frames) -> None:
-    frames = through_the_lens(rotation_only)
+    # the first half of the pan spans several swings of the head: enough to tell
+    frames = through_the_lens(rotation_only[: len(rotation_only) // 2])
     modelled = run_with(DISTORTED, frames, "pyramid", pyramid_search="full")
     ignored = run_with(CAMERA, frames, "pyramid", pyramid_search="full")
     assert sum(r.output.found for r, _ in modelled) <= 0.01 * len(frames)
