@@ -56,8 +56,8 @@ tilt_min_deg = -91
 tilt_max_deg = 31
 pan_rate_max_deg_s = 3600
 tilt_rate_max_deg_s = 3600
-pan_accel_max_deg_s2 = 100000
-tilt_accel_max_deg_s2 = 100000
+pan_accel_max_deg_s2 = 1000000
+tilt_accel_max_deg_s2 = 1000000
 [sim]
 head_latency_ms = 0
 """
