@@ -17,11 +17,17 @@ from typing import TypeVar
 
 import pytest
 
-from gazed.bus import Bus
-from gazed.config import load_rig
-from gazed.messages import SupervisorStatus
-from gazed.topics import SUPERVISOR_STATUS
-from gazed.wakeup import Wakeup
+# The project's modules and the tests rewritten for their asserts are compiled once and kept in
+# the ignored __pycache__ folders, even where the environment asks Python to write no bytecode:
+# compiling them and rewriting the tests' asserts again on every run is most of what collecting
+# costs. Set before the project's first import.
+sys.dont_write_bytecode = False
+
+from gazed.bus import Bus  # noqa: E402
+from gazed.config import load_rig  # noqa: E402
+from gazed.messages import SupervisorStatus  # noqa: E402
+from gazed.topics import SUPERVISOR_STATUS  # noqa: E402
+from gazed.wakeup import Wakeup  # noqa: E402
 
 T = TypeVar("T")
 
