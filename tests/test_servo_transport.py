@@ -77,7 +77,11 @@ class TcpHead:
 
 
 def test_socket_url_reaches_a_head_behind_a_serial_bridge() -> None:
-    rig = parse_rig('[rig]\nname = "tcp"\n[servo]\nprotocol = "dynamixel"\nbaud = 1000000\n')
+    # a head as quick as the rig allows: the move is the bridge's check, not the head's
+    quick = "pan_rate_max_deg_s = 3600\npan_accel_max_deg_s2 = 1000000\n"
+    rig = parse_rig(
+        f'[rig]\nname = "tcp"\n[servo]\nprotocol = "dynamixel"\nbaud = 1000000\n[head]\n{quick}'
+    )
     head = TcpHead(rig)
     try:
         transport = SerialTransport(f"socket://127.0.0.1:{head.port}", rig.servo.baud)
