@@ -201,7 +201,7 @@ def test_an_earlier_deadline_from_an_immediate_step_is_kept(rig) -> None:
 
 def test_failing_immediate_steps_count_and_stop_the_loop(rig, monkeypatch) -> None:
     """The retries' pause is shortened here: the path is the same, only the waiting shorter."""
-    retry_s = STEP_RETRY_S / 5
+    retry_s = STEP_RETRY_S / 20
     monkeypatch.setattr(runtime, "STEP_RETRY_S", retry_s)
     with running_on_a_rig(rig, fail=True) as r:
         service, loop, result = r.service, r.loop, r.result
