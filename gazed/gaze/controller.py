@@ -109,7 +109,7 @@ class GazeController:
         )
         self.tracer = LineTracer(gaze, lens, kinematics, limits_rad)
         self.choice = TargetChoice(rig, lens, kinematics)
-        self.zoom = ZoomControl.for_rig(rig, lens, self.sightings, self.pursuit)
+        self.zoom = ZoomControl(gaze, lens, self.sightings)
         self.operator = OperatorControl(self)  # park, search, hold, resume
         # the state machine
         self.state: GazeStateName = "park"

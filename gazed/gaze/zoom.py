@@ -5,11 +5,11 @@ pursues. The target's height is that of its box in the frame, the mover at the d
 pixel (`Detection.movers`, `Mover.box_height_px`) less `zoom_box_margin_px` (the detector's
 box reaches past the body by its smoothing), as a fraction h of the frame's height. Divided
 by the lens's focal length at the frame's own zoom (the pose it was captured at), f_capture,
-it is the target's angular size a = h / f_capture, which the zoom does not change.
-`TargetSize` filters it (on a calibrated rig, from the body's size, which is constant, and the
-estimator's ranges; else over the last sightings), and the focal length that shows the target
-at the setpoint h* is h* / a: a goal that does not depend on how far the zoom has moved since
-the frames were taken, so the loop's latency does not make it overshoot.
+it is the target's size a = h / f_capture, which the zoom does not change; the median of the
+last `SIZE_SAMPLES` sizes (a box the detector merged for a few frames with an edge behind the
+target does not move the zoom) gives the focal length that shows the target at the setpoint
+h*, h* / a: a goal that does not depend on how far the zoom has moved since the frames were
+taken, so the loop's latency does not make it overshoot.
 
 The frame must also hold the target: its centre at least `zoom_out_edge` of the frame's size
 from the edge, and its independent image velocity at most `zoom_out_speed` frame heights per
@@ -35,17 +35,18 @@ Off (`zoom_control = false`, or a fixed lens) every demand goes out unchanged: n
 from __future__ import annotations
 
 import math
+import statistics
+from collections import deque
 from dataclasses import dataclass
 
-from gazed.config import GazeSection, Rig
-from gazed.gaze.pursuit import Pursuit
+from gazed.config import GazeSection
 from gazed.gaze.sightings import Sightings
-from gazed.gaze.target_size import TargetSize
 from gazed.geometry.zoom import ZoomLens
 from gazed.messages import Detection, GazeDemand, GazeStateName, Odometry
 
 LEAVE_ALONE: tuple[GazeStateName, ...] = ("trace", "hold")  # states that never move the zoom
 TICK_MAX_S = 0.5  # a longer gap between ticks ramps the zoom by this much time at most
+SIZE_SAMPLES = 15  # the target's size is the median of this many sightings' (about 0.6 s)
 
 
 @dataclass(frozen=True)
@@ -71,13 +72,7 @@ def target_height_px(detection: Detection) -> float | None:
 class ZoomControl:
     """`apply` sets the zoom of each demand, from the detections `sightings` takes."""
 
-    def __init__(
-        self,
-        gaze: GazeSection,
-        lens: ZoomLens,
-        sightings: Sightings,
-        size: TargetSize | None = None,
-    ) -> None:
+    def __init__(self, gaze: GazeSection, lens: ZoomLens, sightings: Sightings) -> None:
         self.gaze = gaze
         self.lens = lens
         self.sightings = sightings
@@ -86,21 +81,10 @@ class ZoomControl:
         self.stale_ns = round(gaze.lost_after_ms * 1e6)
         self.steady_ns = round(gaze.zoom_in_steady_ms * 1e6)
         self.seen: ZoomSighting | None = None
-        self.size = size or TargetSize(None, 0.0, None)  # angular sizes: h / f_capture (1/px)
+        self.sizes: deque[float] = deque(maxlen=SIZE_SAMPLES)  # h / f_capture (1/px)
         self.unsteady_ns: int | None = None  # the last time the target was not steady
         self.demanded: float | None = None
         self.last_s: float | None = None
-
-    @classmethod
-    def for_rig(
-        cls, rig: Rig, lens: ZoomLens, sightings: Sightings, pursuit: Pursuit
-    ) -> ZoomControl:
-        """The zoom control of `rig`'s gaze, sizing the target with the pursuit's predictions
-        and the rig's calibration."""
-        calibration = rig.calibration
-        predictions = pursuit.feedback.predictions
-        size = TargetSize(calibration.camera_xyz_m, calibration.target_height_m, predictions)
-        return cls(rig.gaze, lens, sightings, size)
 
     def on_detection(self, detection: Detection) -> None:
         """A found detection of the target the gaze follows; one without a head pose, or not
@@ -123,7 +107,7 @@ class ZoomControl:
         height_px = target_height_px(detection)
         if height_px is not None:
             height = max(height_px - self.gaze.zoom_box_margin_px, 1.0) / h
-            self.size.add(detection.t_capture_ns, height / focal_px)
+            self.sizes.append(height / focal_px)
         if room < 1.0:
             self.unsteady_ns = detection.t_capture_ns
 
@@ -152,7 +136,7 @@ class ZoomControl:
             return None
         if state != "pursuit":
             self.unsteady_ns = wall_ns  # steady again only after a while in pursuit
-            self.size.clear_recent()  # and sized afresh
+            self.sizes.clear()  # and sized afresh
         elif self.sightings.found is not None:
             self.on_detection(self.sightings.found)
         if self.demanded is None:
@@ -179,8 +163,7 @@ class ZoomControl:
             return None, 0.0
         goal_px = seen.focal_px * seen.room  # the longest focal length the frame allows
         # and the setpoint's; with no size yet, only out
-        size = self.size.angular()
-        size_px = gaze.zoom_target_height / size if size else 0.0
+        size_px = gaze.zoom_target_height / statistics.median(self.sizes) if self.sizes else 0.0
         goal_px = min(goal_px, size_px or seen.focal_px)
         ratio = seen.focal_px / goal_px  # the height it has now, of the goal's
         if abs(ratio - 1.0) <= gaze.zoom_deadband:
