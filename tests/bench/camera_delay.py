@@ -21,8 +21,8 @@ off; `off`: hidden and not corrected. Per run also the head's first move (`first
 it lands behind the target and the RMS from its landing, which counts the pursuit's onset in
 every run (the RMS after acquisition counts it only where the landing is inside the fovea);
 and, online, how long after the first move began the first frame stamped within a frame period
-was exposed (the first fit comes at its arrival or a few frames later: the move shows in the
-image a delay after it begins, in the frames exposed from then on). Then per scenario each mode's
+was exposed (the first fit comes at that frame's arrival: the move shows in the image a delay
+after it begins, in the frames exposed from then on). Then per scenario each mode's
 mean RMS and fovea, the first moves' median lag and mean RMS from the landing, and the online
 mean RMS over the told one (the target: at most 1.2). The seeds and the run length are the
 maneuver benchmark's, the random sweep (`tests/bench/random_sweep.py`).
