@@ -36,7 +36,9 @@ trades against the lag) shows as a wide spread. The spread is the least the lag 
 model's mismatch lasts), so the gate asks for a fraction of the error the stamps may keep. It
 fits on every frame until the first fit succeeds, then every `fit_every_s`: until the first fit
 the stamps are wrong by the whole delay, and the frames that make the first fit possible (the
-head's first saccade, seen a delay later) are the ones to use at once. Each frame's stamp
+head's first saccade, seen a delay later) are the ones to use at once; a frame pair counts as
+soon as the odometry reaches its arrival (a frame arrives after its exposure), so the first fit
+comes with the first frames that show the move. Each frame's stamp
 moves back by the estimate as it stands (`correction_s`), with no ramp: stamps wrong by an
 error e pair each frame with the head's pose e later, so the target
 appears displaced along the head's motion and the loop drives the head further that way, and a
