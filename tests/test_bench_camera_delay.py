@@ -6,11 +6,11 @@ import math
 
 import numpy as np
 import pytest
-from bench.camera_delay import first_move
+from bench.camera_delay import first_move, stamp_errors_ms
 
 from gazed.geometry.kinematics import HeadKinematics
 from gazed.geometry.pose import CameraPose
-from gazed.messages import HeadPose, SimTruth
+from gazed.messages import Detection, HeadPose, SimTruth
 
 POSE = CameraPose(
     np.array([0.0, -5.0, 3.0]), math.radians(90), math.radians(-25), head=HeadKinematics("pan-tilt")
@@ -66,3 +66,24 @@ def test_a_move_onto_the_target_lands_on_it() -> None:
 def test_a_head_that_never_moves_has_no_first_move() -> None:
     frames = [f.model_copy(update={"head": run(0.0)[0].head}) for f in run(0.0)]
     assert first_move(frames, POSE) == {"first_move": None}
+
+
+def test_the_stamps_converge_when_their_error_stays_within_a_frame() -> None:
+    """Stamps 200 ms late until the frame exposed at 0.8 s, right from then on: they come
+    within a frame period at 0.8 s from the first truth frame, whichever frame was first
+    detected."""
+    truth = run(0.0)
+    detections = [
+        Detection(
+            t_capture_ns=t.t_capture_ns + (200_000_000 if t.t_capture_ns < 800_000_000 else 0),
+            seq=t.seq,
+            detector="flow",
+            found=True,
+            width_px=640,
+            height_px=480,
+        )
+        for t in truth[5:]
+    ]
+    result = stamp_errors_ms(detections, truth, 40.0)
+    assert result["converged_after_s"] == pytest.approx(0.8)
+    assert result["stamp_error_ms"] == {"median": 0.0, "p95_abs": 0.0}

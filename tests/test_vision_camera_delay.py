@@ -137,6 +137,25 @@ def test_one_motion_onset_identifies_the_lag(lag_s: float) -> None:
     assert fit.spread_s < 0.005
 
 
+@pytest.mark.parametrize("lag_s", [0.0, 0.2, 0.4])
+def test_the_first_fit_comes_as_the_odometry_reaches_the_newest_frame(lag_s: float) -> None:
+    """Fed as they come (the odometry up to each frame's arrival), the head's first saccade
+    gives its fit a few frames after the image first moves: a frame pair counts once the
+    odometry reaches its arrival, not a negative lag's span later."""
+    shifts, odometry = synthetic(lag_s, seconds=2.0, pan=onset, tilt=still)
+    estimator = CameraDelayEstimator(0.0)
+    read, first_s = 0, None
+    for a, b, du, dv in shifts:
+        while read < len(odometry) and odometry[read, 0] <= b:
+            estimator.add_odometry(*odometry[read])
+            read += 1
+        estimator.add_shift(a, b, du, dv)
+        if estimator.update(b) and first_s is None:
+            first_s = b - lag_s  # the exposure of the frame that gave the first fit
+            assert estimator.delay_s == pytest.approx(lag_s, abs=0.004)
+    assert first_s is not None and first_s - 1.5 <= 4 * PERIOD_S  # the onset at 1.5 s
+
+
 # a closed-loop run's window at the frame that first showed the head's first saccade (a hidden
 # 200 ms delay): arrival stamps (s), shifts (px), odometry (s, rad); the head's first move runs
 # along pan = -tilt, then in tilt alone, and two frames show it

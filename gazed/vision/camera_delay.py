@@ -36,7 +36,9 @@ trades against the lag) shows as a wide spread. The spread is the least the lag 
 model's mismatch lasts), so the gate asks for a fraction of the error the stamps may keep. It
 fits on every frame until the first fit succeeds, then every `fit_every_s`: until the first fit
 the stamps are wrong by the whole delay, and the frames that make the first fit possible (the
-head's first saccade, seen a delay later) are the ones to use at once. Each frame's stamp
+head's first saccade, seen a delay later) are the ones to use at once; a frame pair counts as
+soon as the odometry reaches its arrival (a frame arrives after its exposure), so the first fit
+comes with the first frames that show the move. Each frame's stamp
 moves back by the estimate as it stands (`correction_s`), with no ramp: stamps wrong by an
 error e pair each frame with the head's pose e later, so the target
 appears displaced along the head's motion and the loop drives the head further that way, and a
@@ -117,7 +119,10 @@ def fit_lag(
         return None
     t, angles = odometry[:, 0], odometry[:, 1:]
     a, b, y = shifts[:, 0], shifts[:, 1], shifts[:, 2:]
-    covered = (a - lags_s[-1] >= t[0]) & (b - lags_s[0] <= t[-1]) & (b > a)
+    # a pair counts once the odometry reaches its arrival: a frame arrives after its exposure,
+    # and a negative lag, on the grid only so that a delay near zero is not on its edge, reads
+    # the newest angle for the instants past it
+    covered = (a - lags_s[-1] >= t[0]) & (b - max(float(lags_s[0]), 0.0) <= t[-1]) & (b > a)
     a, b, y = a[covered], b[covered], y[covered]
     if len(a) < 4:
         return None
@@ -269,11 +274,14 @@ class CameraDelayEstimator:
     def still_before(self, arrival_s: float, tolerance_rad: float) -> bool:
         """Whether the head stood still (pan and tilt within `tolerance_rad`) over every
         exposure time the lag grid allows for a frame that arrived at `arrival_s`: then the
-        frame's pose is known whatever the delay."""
+        frame's pose is known whatever the delay. A frame arrives after its exposure, so the
+        grid's negative lags (there so that a delay near zero is not on the grid's edge) are no
+        exposure times: the odometry a frame processed late finds past its arrival (the head's
+        first move, commanded from the frames before it) leaves its pose known."""
         if not self._odometry:
             return False
         odometry = np.array(self._odometry)
-        t0_s, t1_s = arrival_s - self.lags_s[-1], arrival_s - self.lags_s[0]
+        t0_s, t1_s = arrival_s - self.lags_s[-1], arrival_s - max(float(self.lags_s[0]), 0.0)
         if odometry[0, 0] > t0_s:
             return False  # the odometry does not reach back that far
         inside = odometry[(odometry[:, 0] >= t0_s) & (odometry[:, 0] <= t1_s), 1:]
