@@ -1,0 +1,166 @@
+"""The digital head's wide movers of PETS 2009 S2.L1 against the annotated people, frame by frame:
+how often one person is reported as several movers, several people as one, or nobody at all.
+
+    python tests/bench/pets_movers.py [--frames 0-399] [--list]
+
+Each footage frame is segmented as the vision process segments the wide frame (`WideMovers`'
+`SilhouetteModel`, the rig's `[vision]` settings and its person size). A mover is on a person
+when at least half of its box lies in the person's box (the person holding most of it). Per
+person and frame:
+
+- split: two or more movers on the person;
+- twins: two or more movers' points (centroids) in the person's box and in no other person's,
+  each a detection the estimator may start a second track on;
+- merged: a mover covering at least half of the person's box covers half of another's too;
+- missed: no mover's box centre in the person's box, and no mover covering half of it.
+
+Over all movers: those on nobody (a shadow, a leg cut from its body, the strip joining two
+people, or a column of two people), the movers' box width and height against a person's where
+each stands (`PersonSize`, quantiles), and where the splits come from: cut from one blob or
+separate blobs, side by side or one above the other. `--list` prints every split with its boxes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections import Counter
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(ROOT))
+
+from gazed.config import load_rig  # noqa: E402
+from gazed.eval.person_score import people_at  # noqa: E402
+from gazed.eval.truth import read_truth  # noqa: E402
+from gazed.geometry.camera import CameraModel  # noqa: E402
+from gazed.geometry.kinematics import HeadKinematics  # noqa: E402
+from gazed.vision.digital_camera import wide_camera  # noqa: E402
+from gazed.vision.digital_view import DigitalView  # noqa: E402
+from gazed.vision.frames import CapturedFrame, gray_frame  # noqa: E402
+from gazed.vision.person_size import PersonSize  # noqa: E402
+from gazed.vision.wide_movers import WideMovers  # noqa: E402
+
+RIG = ROOT / "configs" / "pets.toml"
+TRUTH = ROOT.parent / "shared" / "data" / "footage" / "pets09-s2l1" / "truth_frames_0000-0399.csv"
+QUANTILES = (0.1, 0.25, 0.5, 0.75, 0.9)
+
+
+def overlap(a: np.ndarray, b: np.ndarray) -> float:
+    """The area two boxes (left, top, width, height) share."""
+    w = min(a[0] + a[2], b[0] + b[2]) - max(a[0], b[0])
+    h = min(a[1] + a[3], b[1] + b[3]) - max(a[1], b[1])
+    return max(w, 0.0) * max(h, 0.0)
+
+
+def split_kind(boxes: list[np.ndarray], blobs: list[int]) -> str:
+    """Where a person's several movers come from."""
+    source = "cut from one blob" if len(set(blobs)) < len(blobs) else "separate blobs"
+    for i, a in enumerate(boxes):
+        for b in boxes[i + 1 :]:
+            across = min(a[0] + a[2], b[0] + b[2]) - max(a[0], b[0])
+            down = min(a[1] + a[3], b[1] + b[3]) - max(a[1], b[1])
+            if across > 0.5 * min(a[2], b[2]) and down < 0.5 * min(a[3], b[3]):
+                return f"{source}, one above the other"
+    return f"{source}, side by side"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--frames", default="0-399")
+    parser.add_argument("--list", action="store_true", help="print every split")
+    args = parser.parse_args()
+    first, last = (int(x) for x in args.frames.split("-"))
+    rig = load_rig(RIG)
+    view = DigitalView(
+        wide_camera(rig.wide),
+        CameraModel.from_section(rig.camera),
+        HeadKinematics.from_section(rig.head),
+    )
+    person = PersonSize.from_rig(rig, view.wide)
+    silhouettes = WideMovers(view, rig.vision, "centroid", person).silhouettes
+    people = read_truth(TRUTH)
+    capture = cv2.VideoCapture(str(rig.wide_source))
+    capture.set(cv2.CAP_PROP_POS_FRAMES, first)
+    total, kinds = Counter(), Counter()
+    per_person: dict[int, Counter] = {}
+    relative: dict[str, list[tuple[float, float]]] = {"on a person": [], "on nobody": []}
+    for frame in range(first, last + 1):
+        ok, pixels = capture.read()
+        if not ok:
+            break
+        wide = view.wide
+        gray = gray_frame(CapturedFrame(pixels, "bgr8", 0, frame), wide.width_px, wide.height_px)
+        foreground = silhouettes.segment(gray)
+        if foreground is None:
+            continue
+        found = [(b, body) for b, (_, parts) in enumerate(foreground.found) for body in parts]
+        boxes = [np.array(body.box_at(silhouettes.scale)) for _, body in found]
+        points = np.array([silhouettes.point(body, "centroid") for _, body in found])
+        points = points.reshape(-1, 2)
+        total["movers"] += len(found)
+        ids, centred = people_at(people, frame)
+        if not ids:
+            continue
+        areas = centred[:, 2] * centred[:, 3]
+        corner = np.column_stack([centred[:, :2] - centred[:, 2:] / 2, centred[:, 2:]])
+        shared = np.array([[overlap(m, p) for p in corner] for m in boxes]).reshape(-1, len(ids))
+        on = shared / np.maximum([[m[2] * m[3]] for m in boxes], 1e-9).reshape(-1, 1)
+        covers = shared >= 0.5 * areas  # (movers, people)
+        owner = np.where(on.max(axis=1, initial=0) >= 0.5, on.argmax(axis=1), -1)
+        inside = (np.abs(points[:, None] - centred[None, :, :2]) <= centred[None, :, 2:] / 2).all(
+            axis=2
+        )
+        for m, box in enumerate(boxes):
+            size = person.at(box[0] + box[2] / 2, box[1] + box[3])
+            if size is not None:
+                key = "on nobody" if owner[m] < 0 else "on a person"
+                relative[key].append((box[2] / size[0], box[3] / size[1]))
+        total["on nobody"] += int((owner < 0).sum())
+        total["spanning two"] += int((covers.sum(axis=1) >= 2).sum())
+        for p, pid in enumerate(ids):
+            counts = per_person.setdefault(pid, Counter())
+            counts["frames"] += 1
+            mine = np.flatnonzero(owner == p)
+            centres = [(b[0] + b[2] / 2, b[1] + b[3] / 2) for b in boxes]
+            centre_in = any(
+                abs(u - centred[p, 0]) <= centred[p, 2] / 2
+                and abs(v - centred[p, 1]) <= centred[p, 3] / 2
+                for u, v in centres
+            )
+            counts["missed"] += int(not centre_in and not covers[:, p].any())
+            counts["merged"] += int((covers[covers[:, p]].sum(axis=1) >= 2).any())
+            counts["twins"] += int((inside[:, p] & (inside.sum(axis=1) == 1)).sum() >= 2)
+            if len(mine) >= 2:
+                counts["split"] += 1
+                kind = split_kind([boxes[m] for m in mine], [found[m][0] for m in mine])
+                kinds[kind] += 1
+                if args.list:
+                    listed = [tuple(round(float(x)) for x in boxes[m]) for m in mine]
+                    print(f"  frame {frame} person {pid}: {listed} ({kind})")
+    all_people = sum(per_person.values(), Counter())
+    print(f"frames {first}-{last}: movers {total['movers']}")
+    if not per_person:
+        return
+    print(f"  movers on nobody {total['on nobody']}, spanning two people {total['spanning two']}")
+    for key, rows in relative.items():
+        if rows:
+            ratio = np.array(rows)
+            print(
+                f"  {key} ({len(rows)}): width / a person's {np.quantile(ratio[:, 0], QUANTILES).round(2)}"
+                f", height / a person's {np.quantile(ratio[:, 1], QUANTILES).round(2)}"
+                f" (quantiles {', '.join(str(q) for q in QUANTILES)})"
+            )
+    print("  splits:", ", ".join(f"{kind} {n}" for kind, n in kinds.most_common()) or "none")
+    columns = ("frames", "split", "twins", "merged", "missed")
+    print("  " + " ".join(f"{c:>6}" for c in ("person", *columns)))
+    for pid in sorted(per_person):
+        print("  " + " ".join(f"{v:>6}" for v in (pid, *(per_person[pid][c] for c in columns))))
+    print("  " + " ".join(f"{v:>6}" for v in ("all", *(all_people[c] for c in columns))))
+
+
+if __name__ == "__main__":
+    main()
