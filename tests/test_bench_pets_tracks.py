@@ -58,3 +58,17 @@ def test_a_track_is_on_the_person_whose_box_holds_the_view_aimed_at_it():
     boxes = np.array([[u + 3.0, v - 4.0, 20.0, 50.0], [u + 30.0, v, 20.0, 50.0]])
     angles = aimed_at(people, aim, boxes, track)
     assert np.isfinite(angles[0, 0]) and angles[1, 0] == np.inf
+
+
+def test_a_change_while_the_track_before_still_holds_the_person_is_a_twin():
+    from bench.pets_tracks import change_kind
+
+    on_person = np.array([0.01, np.inf, 0.02])
+    assert change_kind(5, was_elsewhere=True, on_person=on_person, track_ids=[5, 6, 7]) == "twin"
+    assert change_kind(6, was_elsewhere=True, on_person=on_person, track_ids=[5, 6, 7]) == "swap"
+    assert change_kind(6, was_elsewhere=False, on_person=on_person, track_ids=[5, 6, 7]) == (
+        "restart"
+    )
+    assert change_kind(9, was_elsewhere=False, on_person=on_person, track_ids=[5, 6, 7]) == (
+        "restart"
+    )

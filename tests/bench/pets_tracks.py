@@ -18,8 +18,11 @@ Per person visible for at least `--min-seconds`:
   `--match ground`: when it is within `MATCH_M` of the person's ground point (people walking
   side by side are closer than the detector's point is to their feet, so this one also counts
   the tracks of a walking pair as changing places where the view does not);
-- changes of the person's track: `restart` (a new id, after a loss or a merge), `swap` (an id
-  that was on another person before), each with the nearest other person's distance then.
+- changes of the person's track: `twin` (the track before is still live and still on the
+  person: two tracks sit on one person, the detector split them, and the match alternates
+  between them), else `restart` (a new id, or one back on the person, after a loss or a
+  merge) or `swap` (an id that was on another person before), each with the nearest other
+  person's distance then. Only restarts and swaps are the tracker losing or trading a person.
 
 Frames without truth (400-794) are scored by a truth-free figure, printed for any range: the
 ids of confirmed tracks born, per minute of footage, and how long each is held (from its first
@@ -130,6 +133,15 @@ def aimed_at(
     return out
 
 
+def change_kind(before: int, was_elsewhere: bool, on_person: np.ndarray, track_ids: list) -> str:
+    """`twin` where the track `before` is live and still on the person (`on_person`: finite for
+    each of `track_ids` whose aim holds them), else `swap` where the new track was on another
+    person, else `restart`."""
+    if before in track_ids and np.isfinite(on_person[track_ids.index(before)]):
+        return "twin"
+    return "swap" if was_elsewhere else "restart"
+
+
 def id_lifetimes(replayed: list[dict], rate_hz: float) -> dict[str, float]:
     """The truth-free figure of a replay (module docstring): ids born, ids per minute, and
     their lifetimes' median and mean in seconds."""
@@ -216,7 +228,7 @@ def main() -> None:
                 continue
             before = held.get(pid)
             if before is not None and before != track and pid in stats:
-                kind = "swap" if owner.get(track, pid) != pid else "restart"
+                kind = change_kind(before, owner.get(track, pid) != pid, distance[p], track_ids)
                 stats[pid][kind] += 1
                 changes.append(
                     f"  frame {frame}: person {pid} {before} -> {track} ({kind}; "
@@ -230,18 +242,18 @@ def main() -> None:
     )
     print(
         f"  {'person':>6} {'frames':>6} {'out of reach':>12} {'missed':>6} {'lost':>5} "
-        f"{'restarts':>8} {'swaps':>5}"
+        f"{'restarts':>8} {'swaps':>5} {'twins':>5}"
     )
     for pid in scored:
         s = stats[pid]
         print(
             f"  {pid:>6} {s['frames']:>6} {s['out_of_reach']:>12} {s['missed']:>6} "
-            f"{s['lost']:>5} {s['restart']:>8} {s['swap']:>5}"
+            f"{s['lost']:>5} {s['restart']:>8} {s['swap']:>5} {s['twin']:>5}"
         )
     total = sum(stats.values(), Counter())
     print(
         f"  {'all':>6} {total['frames']:>6} {total['out_of_reach']:>12} {total['missed']:>6} "
-        f"{total['lost']:>5} {total['restart']:>8} {total['swap']:>5}"
+        f"{total['lost']:>5} {total['restart']:>8} {total['swap']:>5} {total['twin']:>5}"
     )
     ids = id_lifetimes(replayed, rig.wide.rate_hz)
     print(
