@@ -207,6 +207,16 @@ def test_same_target_is_the_track_to_track_test_with_the_extent() -> None:
     assert walking.covariance[0, 0] == pytest.approx(0.03**2)  # the inputs are left alone
 
 
+def test_same_target_where_no_state_has_a_spread_on_an_axis() -> None:
+    gate = gate_threshold(0.999, 4)
+    flat = np.diag([0.01, 0.01, 0.01, 0.0])  # a model without spread in the y velocity
+    a = PredictedState(0.0, np.array([0.0, 1.0]), np.array([1.0, 0.0]), flat)
+    near = PredictedState(0.0, np.array([0.0, 1.1]), np.array([1.0, 0.0]), flat.copy())
+    turning = PredictedState(0.0, np.array([0.0, 1.1]), np.array([1.0, 0.1]), flat.copy())
+    assert same_target(a, near, gate)
+    assert not same_target(a, turning, gate)
+
+
 def test_a_blob_of_two_is_their_centroid_widened_by_their_unknown_shares() -> None:
     predicted = np.array([[0.0, 0.0], [1.0, 0.0]])
     P = np.array([np.eye(2) * 0.04, np.eye(2) * 0.01])

@@ -225,12 +225,16 @@ def same_target(
     """Whether two tracks' states at one instant are estimates of one target: `Δᵀ C⁻¹ Δ` over
     [position, velocity] at most `gate_d2` (the χ² gate of 4 dimensions), where
     `C = Pa + Pb`, plus twice `extent_cov` (2, 2) on the positions where each track may follow
-    a different part of one extended target."""
+    a different part of one extended target. Where C is singular (a model without spread on an
+    axis), a difference on that axis is not one target's."""
     delta = np.concatenate([a.position - b.position, a.velocity - b.velocity])
     C = a.covariance + b.covariance
     if extent_cov is not None:
         C[:2, :2] += 2.0 * extent_cov
-    return float(delta @ np.linalg.solve(C, delta)) <= gate_d2
+    x = np.linalg.pinv(C) @ delta  # C⁻¹ Δ; C is singular where neither state has a spread
+    if not np.allclose(C @ x, delta):  # a difference where neither state admits one
+        return False
+    return float(delta @ x) <= gate_d2
 
 
 def load_solver() -> threading.Thread:
