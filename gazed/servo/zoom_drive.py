@@ -18,11 +18,12 @@ takes the one socket left, and cancels any zoom that gets into it. The link writ
 pan-tilt set-point before the zoom in each step, so a socket that frees goes to the pan-tilt
 first. A fresh demand never waits behind the zoom either: pursuit keeps a move in one socket,
 so a zoom in the other leaves a new set-point no room until the zoom ends, which a camera may
-report only once the lens has arrived. A set-point with a fresh demand that finds no room cancels the move it supersedes
-first (`SetpointWriter`), and only when that frees no socket asks the zoom to yield
-(`yield_socket`): the zoom's command, if it still holds its socket, is cancelled (VISCA Cancel,
-which needs no socket; the lens stops where it is, counted as `cancelled`), and the newest zoom
-set-point goes out again in the link's next step, after the pan-tilt's.
+report only once the lens has arrived. A set-point with a fresh demand that finds no room
+cancels the move it supersedes first (`SetpointWriter`), and only when that frees no socket
+asks the zoom to yield (`yield_socket`): the zoom's command, if it still holds its socket, is
+cancelled (VISCA Cancel, which needs no socket; the lens stops where it is, counted as
+`cancelled`), and the newest zoom set-point goes out again in the link's next step, after the
+pan-tilt's.
 """
 
 from __future__ import annotations
