@@ -231,9 +231,12 @@ def same_target(
     C = a.covariance + b.covariance
     if extent_cov is not None:
         C[:2, :2] += 2.0 * extent_cov
-    x = np.linalg.pinv(C) @ delta  # C⁻¹ Δ; C is singular where neither state has a spread
-    if not np.allclose(C @ x, delta):  # a difference where neither state admits one
-        return False
+    try:
+        x = np.linalg.solve(C, delta)  # C⁻¹ Δ
+    except np.linalg.LinAlgError:  # singular: an axis where neither state has a spread
+        x = np.linalg.pinv(C) @ delta
+        if not np.allclose(C @ x, delta):  # a difference where neither state admits one
+            return False
     return float(delta @ x) <= gate_d2
 
 

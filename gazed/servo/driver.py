@@ -13,8 +13,8 @@ in flight than its sockets. A frame the device has no room for yet (`codec.has_r
 VISCA sockets hold commands) waits for a completion, at most the read timeout; a frame refused
 because the device is busy (`codec.refused_as_busy`: VISCA buffer full) is sent once more when
 it has room. Nothing is queued: each call carries the newest demand, and a caller that must not
-wait asks `has_command_room` first. Asynchronous replies (VISCA completions, PTU `!P`/`!T`) are kept in
-`notices`. Bytes waiting before a request are stale answers to a request that timed out: they
+wait asks `has_command_room` first. Asynchronous replies (VISCA completions, PTU `!P`/`!T`) are
+kept in `notices`. Bytes waiting before a request are stale answers to a request that timed out: they
 are decoded, counted and dropped. The read timeout runs from when the request has left the line
 (`SerialTransport.line_busy_s`), not from when it was handed to the port.
 
