@@ -2,9 +2,10 @@
 hold both, each keeps its newest set-point, writes nothing and reads nothing that waits, and
 writes that newest set-point as soon as a completion frees a socket; a pan-tilt set-point with
 a fresh demand has the move it supersedes cancelled (Sony's `8x 2y FF`), or where that frees
-nothing the zoom's command, rather than wait behind them; one held past the
-read timeout goes to the driver; odometry inquiries use no socket and are answered at once. The driver runs against the emulated camera on a clock of the
-test's own (`test_servo_visca_sockets`), which moves only when something waits for a reply."""
+nothing the zoom's command, rather than wait behind them; one held past the read timeout goes
+to the driver (`RoomWait`); odometry inquiries use no socket and are answered at once. The
+driver runs against the emulated camera on a clock of the test's own
+(`test_servo_visca_sockets`), which moves only when something waits for a reply."""
 
 from __future__ import annotations
 

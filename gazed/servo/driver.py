@@ -14,9 +14,9 @@ VISCA sockets hold commands) waits for a completion, at most the read timeout; a
 because the device is busy (`codec.refused_as_busy`: VISCA buffer full) is sent once more when
 it has room. Nothing is queued: each call carries the newest demand, and a caller that must not
 wait asks `has_command_room` first. Asynchronous replies (VISCA completions, PTU `!P`/`!T`) are
-kept in `notices`. Bytes waiting before a request are stale answers to a request that timed out: they
-are decoded, counted and dropped. The read timeout runs from when the request has left the line
-(`SerialTransport.line_busy_s`), not from when it was handed to the port.
+kept in `notices`. Bytes waiting before a request are stale answers to a request that timed
+out: they are decoded, counted and dropped. The read timeout runs from when the request has left
+the line (`SerialTransport.line_busy_s`), not from when it was handed to the port.
 
 A position is as old as the reply that carried it: the device read its axis as it began to
 answer, which is before the host has the reply's last byte by the reply's time on the line
@@ -281,3 +281,37 @@ def takes_now(driver: object) -> bool:
     """Whether `driver` takes a command without waiting (a head without a serial codec, the
     digital head, ONVIF or speed mode, always does). Nothing is encoded to ask."""
     return not isinstance(driver, ServoDriver) or driver.has_command_room()
+
+
+class RoomWait:
+    """A command held for a socket (`takes_now` is false), since when, for one writer.
+
+    Held for the driver's read timeout, the completion that would have freed a socket is taken
+    as lost: the command goes to the driver, which waits for room at most that long and then
+    forgets the sockets it kept, letting the head answer for itself. Only a serial driver ever
+    makes a command wait, so a hold behind any other head never expires."""
+
+    def __init__(self, driver: object) -> None:
+        self.driver = driver
+        self.since_s: float | None = None
+
+    @property
+    def holding(self) -> bool:
+        return self.since_s is not None
+
+    def hold(self, t_s: float) -> bool:
+        """The command waits at `t_s`; True when this starts the hold."""
+        if self.since_s is not None:
+            return False
+        self.since_s = t_s
+        return True
+
+    def end(self) -> None:
+        """Nothing waits (the command went out, or none is due)."""
+        self.since_s = None
+
+    def expired(self, t_s: float) -> bool:
+        """The hold has lasted the driver's read timeout by `t_s`."""
+        if self.since_s is None or not isinstance(self.driver, ServoDriver):
+            return False
+        return t_s - self.since_s >= self.driver.timeout_s

@@ -17,8 +17,8 @@ information does not wait, and the zoom is not cut short for a move already out 
 set-point of the generator alone, or one still without room, is held, counted once as
 `held_for_a_socket`, and the writer looks again every `ROOM_RETRY_S`; the set-point then written
 is the one due at that moment, with the newest demand. Held for the driver's read timeout, the
-completions that would have freed a socket are taken as lost: the set-point goes to the driver,
-which forgets the sockets and lets the head answer for itself.
+completions that would have freed a socket are taken as lost (`RoomWait`): the set-point goes to
+the driver, which forgets the sockets and lets the head answer for itself.
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ from collections.abc import Callable, Hashable, Iterable
 from gazed.config import HeadSection
 from gazed.geometry.kinematics import device_from_joint
 from gazed.messages import GazeDemand
-from gazed.servo.driver import ServoDriver, cancel_acked, last_acked, takes_now
+from gazed.servo.driver import RoomWait, ServoDriver, cancel_acked, last_acked, takes_now
 from gazed.servo.limits import DemandLimiter, Target
 from gazed.servo.setpoints import SetpointGenerator
 
@@ -76,8 +76,7 @@ class SetpointWriter:
         self._written: tuple[float, float] | None = None
         self._fresh: GazeDemand | None = None  # the newest demand, as limited, not yet written
         self._setpoint_line_s = 0.0  # how long the last set-point's bytes took on the line
-        self._held_for_a_socket = False  # the due set-point waits for the head to have room
-        self._held_since_s = 0.0
+        self._room = RoomWait(driver)  # the due set-point waits for the head to have room
         self._executing: Hashable | None = None  # the acknowledgement of the last set-point
         self.make_room: Callable[[], bool] = lambda: False  # True when it freed a socket
 
@@ -98,7 +97,7 @@ class SetpointWriter:
     def wake_times_s(self) -> list[float]:
         """When a set-point is next due and when the demands time out, where either applies."""
         times = []
-        if not self.setpoints.settled or self._fresh is not None or self._held_for_a_socket:
+        if not self.setpoints.settled or self._fresh is not None or self._room.holding:
             times.append(self._next_command_s)
         if not self.holding and self._last_demand_s is not None:
             times.append(self._last_demand_s + self.command_timeout_s)
@@ -156,13 +155,11 @@ class SetpointWriter:
             return
         device_rad = device_from_joint(self.head, *setpoint)
         if self._must_hold(t_s):
-            if not self._held_for_a_socket:
+            if self._room.hold(t_s):
                 self.counts["held_for_a_socket"] += 1
-                self._held_since_s = t_s
-            self._held_for_a_socket = True
             self._next_command_s = t_s + ROOM_RETRY_S
             return
-        self._held_for_a_socket = False
+        self._room.end()
         started = time.perf_counter()
         busy_before_s = transport.line_busy_s()
         t_ns = self.driver.set_position(*device_rad)
@@ -187,7 +184,7 @@ class SetpointWriter:
             return False
         if self._fresh is not None and self.make_room() and takes_now(self.driver):
             return False
-        return not (self._held_for_a_socket and t_s - self._held_since_s >= self.driver.timeout_s)
+        return not self._room.expired(t_s)
 
     def _cancel_superseded(self) -> bool:
         """Cancel the last set-point's move if it still holds its socket; True when it was."""

@@ -10,9 +10,8 @@ limit, so the lens never receives a jump it would take faster than the rig allow
 A zoom command never waits for the head to take it: while the head has no room for a command
 (both VISCA sockets hold commands) the write is left for a later step, which writes the newest
 set-point then (counted as `held_for_a_socket`). Held for the driver's read timeout, the
-completion that would have freed a socket is taken as lost, as the set-point writer takes it:
-the set-point goes to the driver, which waits for room at most that long and then forgets the
-sockets it kept, letting the head answer for itself. Without that, a socket the codec still
+completion that would have freed a socket is taken as lost (`RoomWait`, as the set-point writer
+takes it): the set-point goes to the driver. Without that, a socket the codec still
 counts busy after its completion went astray keeps the lens where it is for good: the pan-tilt
 takes the one socket left, and cancels any zoom that gets into it. The link writes the
 pan-tilt set-point before the zoom in each step, so a socket that frees goes to the pan-tilt
@@ -31,7 +30,7 @@ from __future__ import annotations
 from collections.abc import Hashable
 from typing import Protocol
 
-from gazed.servo.driver import ServoDriver, cancel_acked, last_acked, takes_now
+from gazed.servo.driver import RoomWait, cancel_acked, last_acked, takes_now
 
 ZOOM_COMMAND_PERIOD_S = 0.1
 ZOOM_STEP = 1.0 / 1024  # below any lens's repeatability, above a VISCA unit at 0x4000
@@ -62,7 +61,7 @@ class ZoomDrive:
         self._written: float | None = None
         self._t_s: float | None = None
         self._next_write_s = 0.0
-        self._held_since_s: float | None = None  # the due set-point waits for a socket since
+        self._room = RoomWait(driver)  # the due set-point waits for a socket
 
     def demand(self, zoom: float | None) -> None:
         """A demand's zoom (None leaves the zoom where it is going)."""
@@ -74,7 +73,7 @@ class ZoomDrive:
         self.position = self.setpoint = self._written = position
         self._t_s = None
         self._executing = None
-        self._held_since_s = None
+        self._room.end()
 
     def write(self, mono_s: float) -> None:
         """Slew the set-point towards the demand and write it when due (raises what the driver
@@ -88,26 +87,18 @@ class ZoomDrive:
         moved = self._written is None or abs(self.setpoint - self._written) >= ZOOM_STEP
         landing = self.setpoint == self.target and self.setpoint != self._written
         if mono_s < self._next_write_s or not (moved or landing):
-            self._held_since_s = None  # nothing is due: nothing waits
+            self._room.end()  # nothing is due: nothing waits
             return
-        if not takes_now(self.driver) and not self._held_past_timeout(mono_s):
+        if not takes_now(self.driver) and not self._room.expired(mono_s):
             self.held_for_a_socket += 1
-            if self._held_since_s is None:
-                self._held_since_s = mono_s
+            self._room.hold(mono_s)
             return
-        self._held_since_s = None
+        self._room.end()
         self.driver.set_zoom(self.setpoint)
         self._executing = last_acked(self.driver)
         self._written = self.setpoint
         self.writes += 1
         self._next_write_s = mono_s + ZOOM_COMMAND_PERIOD_S
-
-    def _held_past_timeout(self, mono_s: float) -> bool:
-        """The due set-point has waited for a socket for the driver's read timeout (only a
-        serial driver ever makes it wait)."""
-        if self._held_since_s is None or not isinstance(self.driver, ServoDriver):
-            return False
-        return mono_s - self._held_since_s >= self.driver.timeout_s
 
     def yield_socket(self) -> bool:
         """Cancel the zoom's command if it still holds a socket (a pan-tilt set-point waits for
