@@ -165,6 +165,12 @@ class Codec(ABC):
         acknowledged, or none was since the link opened."""
         return None
 
+    def holds(self, acked: Hashable) -> bool:
+        """Whether the command acknowledged as `acked` (a `last_acked`) still executes: False
+        once its end was heard, and where commands are not acknowledged."""
+        del acked
+        return False
+
     def encode_cancel_acked(self, acked: Hashable) -> list[bytes]:
         """Frames that end the command `acked` (a `last_acked`) while it still executes: none
         once it has ended (completed, cancelled, refused, its socket taken by another), nor

@@ -8,8 +8,8 @@ reply decoded.
 An ONVIF camera is jogged over its own protocol (`onvif_jog`). Otherwise it opens the rig's
 `[servo] port` (or `--port`, any pyserial URL), runs the protocol's start-up
 handshake, writes the command's frames one by one and prints every byte sent and every reply
-with its meaning, then listens `--listen-ms` for what the device sends unasked (VISCA
-completions, PTU limit notices). Exit 0 when the head answered as the protocol says, 1 when the
+with its meaning, then listens for what the device sends unasked (VISCA completions, PTU limit
+notices): until the completion of an acknowledged command is heard, at most `--listen-ms`. Exit 0 when the head answered as the protocol says, 1 when the
 link or the device failed, 2 for a bad rig or an angle outside the rig's limits.
 """
 
@@ -18,6 +18,7 @@ from __future__ import annotations
 import argparse
 import math
 import time
+from collections.abc import Hashable
 from pathlib import Path
 
 from gazed.config import Rig, load_rig_or_exit
@@ -50,7 +51,8 @@ def jog_arguments(parser: argparse.ArgumentParser) -> None:
         "--listen-ms",
         type=float,
         default=300.0,
-        help="after the command, print what the head sends unasked for this long (default 300)",
+        help="after the command, print what the head sends unasked for this long at most, until "
+        "an acknowledged command's completion is heard (default 300)",
     )
 
 
@@ -83,7 +85,7 @@ def jog_command(args: argparse.Namespace) -> int:
         with driver:
             print("handshake: ok")
             answered = _jog(rig, driver, args)
-            _listen(driver, args.listen_ms / 1000.0)
+            _listen(driver, args.listen_ms / 1000.0, driver.codec.last_acked)
     except (LinkError, HandshakeError, CodecError) as exc:
         print(f"failed: {exc}")
         return 1
@@ -131,15 +133,19 @@ def _send(rig: Rig, driver: ServoDriver, frames: list[bytes]) -> bool:
     return answered
 
 
-def _listen(driver: ServoDriver, duration_s: float) -> None:
-    """Print the notices that came during the exchanges, then whatever comes unasked."""
+def _listen(driver: ServoDriver, duration_s: float, acked: Hashable | None) -> None:
+    """Print the notices that came during the exchanges, then whatever comes unasked for
+    `duration_s`, or until the command acknowledged as `acked` has ended (its completion is
+    heard): nothing more is due from it."""
     for reply in driver.notices:
         print(f"<- {_show(reply.raw)}   {reply.describe()}")
     deadline = time.monotonic() + duration_s
-    while (remaining_s := deadline - time.monotonic()) > 0:
+    ended = acked is not None and not driver.codec.holds(acked)
+    while not ended and (remaining_s := deadline - time.monotonic()) > 0:
         data, _ = driver.transport.read(remaining_s)
         for reply in driver.codec.feed(data):
             print(f"<- {_show(reply.raw)}   {reply.describe()}")
+        ended = acked is not None and not driver.codec.holds(acked)
 
 
 def _print_reply(rig: Rig, reply: Reply) -> None:

@@ -265,10 +265,12 @@ class ViscaCodec(Codec):
             return []
         return self.encode_cancel(acked[0])
 
-    def holds(self, command: tuple[int, int]) -> bool:
-        """Whether the command whose ACK was `command` (`last_ack` then) still holds its
-        socket: not completed, cancelled or refused since, nor its socket taken by another."""
-        socket, number = command
+    def holds(self, acked: Hashable) -> bool:
+        """Whether the command whose ACK was `acked` (`last_ack` then) still holds its socket:
+        not completed, cancelled or refused since, nor its socket taken by another."""
+        if not isinstance(acked, tuple):
+            return False
+        socket, number = acked
         return socket in self.sockets_busy and self._filled_by.get(socket) == number
 
     def replies_expected(self, frame_bytes: bytes) -> int:
