@@ -9,8 +9,9 @@ An ONVIF camera is jogged over its own protocol (`onvif_jog`). Otherwise it open
 `[servo] port` (or `--port`, any pyserial URL), runs the protocol's start-up
 handshake, writes the command's frames one by one and prints every byte sent and every reply
 with its meaning, then listens for what the device sends unasked (VISCA completions, PTU limit
-notices): until the completion of an acknowledged command is heard, at most `--listen-ms`. Exit 0 when the head answered as the protocol says, 1 when the
-link or the device failed, 2 for a bad rig or an angle outside the rig's limits.
+notices): until the completion of an acknowledged command is heard, at most `--listen-ms`.
+Exit 0 when the head answered as the protocol says, 1 when the link or the device failed, 2 for
+a bad rig or an angle outside the rig's limits.
 """
 
 from __future__ import annotations

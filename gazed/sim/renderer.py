@@ -10,6 +10,7 @@ of the same size as the rig's.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -39,10 +40,18 @@ class Body:
     texture: int = 0  # which of the renderer's body textures
 
 
+@functools.lru_cache(maxsize=4)
 def ground_texture(seed: int, size_px: int = 1536) -> np.ndarray:
     """A seeded gravel yard: sums of blurred noise at several scales (features of 4 to 64
     texels, enough for optical flow at every distance, none so fine that it aliases early).
-    Grey uint8: one channel warps faster than three."""
+    Grey uint8: one channel warps faster than three. A pure function of its arguments, so each
+    yard is made once in a process and shared, read-only."""
+    yard = _ground_texture(seed, size_px)
+    yard.flags.writeable = False
+    return yard
+
+
+def _ground_texture(seed: int, size_px: int) -> np.ndarray:
     rng = np.random.default_rng([seed, 1])
     height = np.zeros((size_px, size_px), np.float32)
     for octave, weight in ((4, 0.35), (8, 0.3), (16, 0.2), (64, 0.15)):
@@ -102,7 +111,8 @@ class Renderer:
         size = self.ground.shape[0]
         if court_m is not None:
             self._paint_court(court_m, size)
-        # texture pixel (tx, ty) -> ground (X, Y): tx right = +X, ty down = -Y, centred on the origin
+        # texture pixel (tx, ty) -> ground (X, Y): tx right = +X, ty down = -Y, centred on the
+        # origin
         self._texture_to_ground = np.array(
             [
                 [texel_m, 0.0, -texel_m * size / 2],

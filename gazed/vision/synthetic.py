@@ -41,6 +41,12 @@ class SceneTruth:
     dv_px_s: float = float("nan")
 
 
+# textures already made in this process: (size, scales, the generator's state before) ->
+# (the texture, the generator's state after); the newest few, as scenes repeat their seeds
+_TEXTURES: dict[tuple, tuple[np.ndarray, dict]] = {}
+_TEXTURES_KEPT = 8
+
+
 def texture(
     height_px: int,
     width_px: int,
@@ -48,7 +54,24 @@ def texture(
     scales_px: tuple[float, float, float] = (1.5, 4.0, 12.0),
 ) -> np.ndarray:
     """A natural-looking grey texture (uint8): noise smoothed at three scales (fine to coarse,
-    weighted 1:2:3), std ~45."""
+    weighted 1:2:3), std ~45. Read-only: one made before from the same generator state is
+    handed out again, and `rng` is left where making it would have left it."""
+    key = (height_px, width_px, scales_px, repr(rng.bit_generator.state))
+    made = _TEXTURES.get(key)
+    if made is None:
+        image = _texture(height_px, width_px, rng, scales_px)
+        image.flags.writeable = False
+        made = _TEXTURES[key] = (image, rng.bit_generator.state)
+        if len(_TEXTURES) > _TEXTURES_KEPT:
+            del _TEXTURES[next(iter(_TEXTURES))]
+    else:
+        rng.bit_generator.state = made[1]
+    return made[0]
+
+
+def _texture(
+    height_px: int, width_px: int, rng: np.random.Generator, scales_px: tuple[float, float, float]
+) -> np.ndarray:
     image = np.zeros((height_px, width_px), np.float32)
     for sigma_px, weight in zip(scales_px, (1.0, 2.0, 3.0), strict=True):
         noise = rng.standard_normal((height_px, width_px)).astype(np.float32)
