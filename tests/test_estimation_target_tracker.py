@@ -194,3 +194,29 @@ def test_maneuver_events_follow_the_state() -> None:
     for event, update in events:
         assert event.t_capture_ns == update.t_capture_ns and event.stamps == update.stamps
         assert event.model != event.previous_model
+
+
+def test_a_change_of_the_cameras_delay_retimes_the_tracks() -> None:
+    """Frames stamped on arrival (vision's delay not known yet), then at their exposure once it
+    is: the tracks built on the late stamps move back by the change, and the state is the one
+    of a tracker told the delay from the start."""
+    delay_ns = 200_000_000
+    stream = detections(SIM_RIG, 20)
+    late = [
+        d.model_copy(update={"t_capture_ns": d.t_capture_ns + delay_ns, "delay_ms": 0.0})
+        for d in stream[:10]
+    ]
+    told = [d.model_copy(update={"delay_ms": delay_ns / 1e6}) for d in stream]
+    states = []
+    for run in (late + told[10:], told):
+        tracker, clock = tracker_for(load_rig(SIM_RIG))
+        for detection in run:
+            update = feed(tracker, clock, detection)
+            assert update is not None
+            state, _ = tracker.settle(update)
+        assert state is not None and state.t_capture_ns == stream[-1].t_capture_ns
+        states.append(state)
+        assert tracker.counts["measured"] == 20
+    hidden, known = states
+    assert hidden.ground_velocity_m_s == pytest.approx(known.ground_velocity_m_s, abs=1e-6)
+    assert hidden.ground_xy_m == pytest.approx(known.ground_xy_m, abs=1e-6)

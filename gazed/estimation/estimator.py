@@ -131,6 +131,12 @@ class TrackEstimator(ModeFilter):
     def most_likely(self) -> str:
         return self.model_names[int(self.most_likely_index[0])]
 
+    def retime(self, shift_s: float) -> None:
+        """Every time the filter holds moved by `shift_s` (the stamps it was fed were off by it)."""
+        self.t_s += shift_s
+        self.t_measured_s += shift_s
+        self._maneuvers.start_s += shift_s
+
     def drain_events(self) -> list[ManeuverEvent]:
         """Maneuver events since the last call (all tracks)."""
         return self._maneuvers.drain()

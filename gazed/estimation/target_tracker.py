@@ -108,12 +108,14 @@ class TargetTracker:
             "rejected": 0,
             "from_the_future": 0,
             "off_the_image": 0,
+            "retimed": 0,
         }
         self.frame_period_s = rig.camera.frame_period_s
         self.silence_s = 2.0 * self.frame_period_s  # no detection for this long: predict anyway
         self.coast_max_s = section.coast_max_ms / 1000.0
         self.last_detection_s: float | None = None
         self.silent_due_s = 0.0  # monotonic: when the next coasting prediction is due
+        self.delay_ms: float | None = None  # the camera delay vision applied to the last frame
 
     # ------------------------------------------------------------------------------ detections
 
@@ -263,6 +265,12 @@ class TargetTracker:
 
     def _observe(self, detection: Detection, now_ns: int) -> None:
         self.counts["detections"] += 1
+        if self.delay_ms is not None and detection.delay_ms != self.delay_ms:
+            # vision's camera delay changed: the stamps the tracks were built on were off by the
+            # change, so their times move with it (their states are those of the true times)
+            self.tracks.retime((self.delay_ms - detection.delay_ms) * 1e-3)
+            self.counts["retimed"] += 1
+        self.delay_ms = detection.delay_ms
         self.latency.detection_arrived(detection.t_capture_ns, now_ns)
         sightings = self._sightings(detection)
         self.tracks.step(detection.t_capture_ns / 1e9, sightings, self._to_pixel(detection))

@@ -183,6 +183,12 @@ class TrackSet:
         self._merge_duplicates(t_s)
         self._end(t_s)
 
+    def retime(self, shift_s: float) -> None:
+        """Every track's times moved by `shift_s`: the stamps it was built on were off by it."""
+        for track in self.tracks:
+            track.first_s, track.last_hit_s = track.first_s + shift_s, track.last_hit_s + shift_s
+            track.estimator.retime(shift_s)
+
     def health(self) -> dict[str, int]:
         """Track counts, and the filters' counters over every track, ended ones included."""
         totals = Counter(self.ended_health)

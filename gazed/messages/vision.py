@@ -54,10 +54,11 @@ class Mover(BaseModel):
 
 class Detection(Message):
     """The target as the detector saw it in one frame (pixels, image coordinates: u right, v down),
-    and every mover the frame shows. Version 2 adds `movers`, version 3 the head's `zoom`."""
+    and every mover the frame shows. Version 2 adds `movers`, version 3 the head's `zoom`, version
+    4 `delay_ms`."""
 
     SCHEMA: ClassVar[str] = "gazed.Detection"
-    VERSION: ClassVar[int] = 3
+    VERSION: ClassVar[int] = 4
     seq: int = Field(ge=0, description="Frame sequence number.")
     detector: str
     found: bool
@@ -89,6 +90,12 @@ class Detection(Message):
         default=(),
         max_length=64,
         description="Every mover in the frame, the target's own first when found.",
+    )
+    delay_ms: float = Field(
+        0.0,
+        description="The camera delay the frame's stamp was moved back by from its arrival "
+        "([camera] delay_ms or the online estimate); when it changes, the earlier frames' stamps "
+        "were off by the change.",
     )
 
 

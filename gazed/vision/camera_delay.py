@@ -44,8 +44,9 @@ error e pair each frame with the head's pose e later, so the target
 appears displaced along the head's motion and the loop drives the head further that way, and a
 ramp keeps them wrong longer while it also shrinks every frame interval on its way (the
 detectors' velocities and ego-motion). A jump back by more than a frame interval costs instead
-one restart of the detectors (a stamp not after the previous one) and the detections whose
-stamps precede the tracker's state, which it leaves out.
+one restart of the detectors (a stamp not after the previous one); each detection carries the
+delay applied to it, and the estimator moves its tracks' times by a change of it, so that they
+stay those of the frames' exposures.
 """
 
 from __future__ import annotations

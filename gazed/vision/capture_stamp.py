@@ -41,6 +41,7 @@ class CaptureStampCorrection:
         # a pixel's angle: a pose known to within it is as good as exact for the detectors
         self.pixel_rad = 1.0 / CameraModel.from_section(camera).focal_px
         self.pose_known = True
+        self.applied_ms = 0.0  # the delay the last frame's stamp was moved back by
 
     def add_odometry(self, odometry: Odometry) -> None:
         if self.online:
@@ -53,6 +54,7 @@ class CaptureStampCorrection:
         `pose_known` then says whether the head's pose at that exposure is known: not while the
         online estimate has no fit yet and the head moved over the exposure times it allows."""
         self.pose_known = True
+        self.applied_ms = 0.0
         if frame.head is not None:
             return frame
         arrival_s = frame.t_capture_ns * 1e-9
@@ -71,6 +73,7 @@ class CaptureStampCorrection:
                 arrival_s, self.pixel_rad
             )
         delay_ns = round(self.estimator.delay_s * 1e9)
+        self.applied_ms = delay_ns * 1e-6
         return dataclasses.replace(frame, t_capture_ns=frame.t_capture_ns - delay_ns)
 
     def note(self) -> str:

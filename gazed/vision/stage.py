@@ -257,6 +257,7 @@ class VisionStage:
             height_px=self.camera.height_px,
             processing_ms=out.processing_ms,
             head=head,
+            delay_ms=self.capture_stamp.applied_ms,
             movers=tuple(mover_message(m) for m in self._movers(frame, head, out) if _finite(m))[
                 :MAX_MOVERS
             ],
