@@ -139,18 +139,25 @@ def _listen(driver: ServoDriver, duration_s: float, acked: Hashable | None) -> N
     `duration_s`, or until the command acknowledged as `acked` has ended (its completion is
     heard): nothing more is due from it."""
     for reply in driver.notices:
-        print(f"<- {_show(reply.raw)}   {reply.describe()}")
+        _print_read(reply)
     deadline = time.monotonic() + duration_s
-    ended = acked is not None and not driver.codec.holds(acked)
-    while not ended and (remaining_s := deadline - time.monotonic()) > 0:
+    while not _ended(driver, acked) and (remaining_s := deadline - time.monotonic()) > 0:
         data, _ = driver.transport.read(remaining_s)
         for reply in driver.codec.feed(data):
-            print(f"<- {_show(reply.raw)}   {reply.describe()}")
-        ended = acked is not None and not driver.codec.holds(acked)
+            _print_read(reply)
+
+
+def _ended(driver: ServoDriver, acked: Hashable | None) -> bool:
+    """The command acknowledged as `acked` has ended (none was acknowledged: never)."""
+    return acked is not None and not driver.codec.holds(acked)
+
+
+def _print_read(reply: Reply) -> None:
+    print(f"<- {_show(reply.raw)}   {reply.describe()}")
 
 
 def _print_reply(rig: Rig, reply: Reply) -> None:
-    print(f"<- {_show(reply.raw)}   {reply.describe()}")
+    _print_read(reply)
     if reply.kind == "position":
         pan, tilt = joint_from_device(
             rig.head,
