@@ -72,3 +72,15 @@ def test_a_change_while_the_track_before_still_holds_the_person_is_a_twin():
     assert change_kind(9, was_elsewhere=False, on_person=on_person, track_ids=[5, 6, 7]) == (
         "restart"
     )
+
+
+def test_one_id_share_is_the_most_held_tracks_share_of_the_persons_frames():
+    from bench.pets_tracks import one_id_share
+
+    # lost 2 of 10 frames (any track: 0.8 held), but no one track holds more than half
+    share, ids = one_id_share([{4}, {4}, set(), {7}, {7}, {7}, {4}, set(), {9}, {7}])
+    assert share == pytest.approx(0.4) and ids == 3
+    assert one_id_share([{4}, {4, 7}, {7, 4}]) == (1.0, 2)  # twins both hold the person
+    assert one_id_share([{5}] * 6) == (1.0, 1)
+    assert one_id_share([set(), set()]) == (0.0, 0)
+    assert one_id_share([]) == (0.0, 0)

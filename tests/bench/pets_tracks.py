@@ -133,6 +133,15 @@ def aimed_at(
     return out
 
 
+def one_id_share(held: list[set[int]]) -> tuple[float, int]:
+    """Of a person's frames (`held`: the tracks whose aim holds them in each), the share held
+    by the one track that holds them most often, and how many tracks ever held them."""
+    counts = Counter(t for tracks in held for t in tracks)
+    if not held:
+        return 0.0, 0
+    return max(counts.values(), default=0) / len(held), len(counts)
+
+
 def change_kind(before: int, was_elsewhere: bool, on_person: np.ndarray, track_ids: list) -> str:
     """`twin` where the track `before` is live and still on the person (`on_person`: finite for
     each of `track_ids` whose aim holds them), else `swap` where the new track was on another
@@ -189,6 +198,7 @@ def main() -> None:
     stats = {pid: Counter() for pid in scored}
     owner: dict[int, int] = {}  # track id -> the person it was last on
     held: dict[int, int | None] = {}
+    held_by: dict[int, list[set[int]]] = {pid: [] for pid in scored}
     changes: list[str] = []
     for row in replayed:
         frame = row["frame"]
@@ -223,6 +233,8 @@ def main() -> None:
                 inside = (np.abs(wide[:, 0] - u) <= w / 2) & (np.abs(wide[:, 1] - v) <= h / 2)
                 s["missed"] += int(not inside.any())
                 s["lost"] += int(p not in matched)
+                aims = zip(track_ids, distance[p], strict=True)
+                held_by[pid].append({t for t, d in aims if d < np.inf})
             track = matched.get(p)
             if track is None:
                 continue
@@ -242,18 +254,24 @@ def main() -> None:
     )
     print(
         f"  {'person':>6} {'frames':>6} {'out of reach':>12} {'missed':>6} {'lost':>5} "
-        f"{'restarts':>8} {'swaps':>5} {'twins':>5}"
+        f"{'restarts':>8} {'swaps':>5} {'twins':>5} {'one id':>6} {'ids':>4}"
     )
+    one_id_frames = 0.0
     for pid in scored:
         s = stats[pid]
+        share, n_ids = one_id_share(held_by[pid])
+        one_id_frames += share * s["frames"]
         print(
             f"  {pid:>6} {s['frames']:>6} {s['out_of_reach']:>12} {s['missed']:>6} "
-            f"{s['lost']:>5} {s['restart']:>8} {s['swap']:>5} {s['twin']:>5}"
+            f"{s['lost']:>5} {s['restart']:>8} {s['swap']:>5} {s['twin']:>5} {share:>6.2f} "
+            f"{n_ids:>4}"
         )
     total = sum(stats.values(), Counter())
+    one_id = one_id_frames / total["frames"] if total["frames"] else 0.0
     print(
         f"  {'all':>6} {total['frames']:>6} {total['out_of_reach']:>12} {total['missed']:>6} "
-        f"{total['lost']:>5} {total['restart']:>8} {total['swap']:>5} {total['twin']:>5}"
+        f"{total['lost']:>5} {total['restart']:>8} {total['swap']:>5} {total['twin']:>5} "
+        f"{one_id:>6.2f}"
     )
     ids = id_lifetimes(replayed, rig.wide.rate_hz)
     print(
