@@ -22,7 +22,12 @@ from gazed.config import Rig, load_rig
 from gazed.servo import make_codec, visca_ip
 from gazed.servo.driver import DeviceError, ServoDriver
 from gazed.servo.head_link import HeadLink, LinkStep
-from gazed.servo.visca_ip_transport import MAX_RESENDS, LinkError, ViscaIpTransport
+from gazed.servo.visca_ip_transport import (
+    MAX_RESENDS,
+    LinkError,
+    ViscaIpTransport,
+    is_completion,
+)
 from gazed.sim.head_emulator import EmulatorError, HeadEmulator
 from gazed.sim.head_visca_ip import ViscaIpSession
 from services.runtime import Now
@@ -146,6 +151,44 @@ def test_a_lost_ack_is_resent_refused_as_a_repeat_and_recovered_by_a_reset(
     assert driver.transport.counters["resets"] == 2
     assert camera.session.counters["repeated_sequences"] == 1
     assert pan_deg == pytest.approx(-8.0, abs=0.1)
+
+
+def test_a_command_acked_before_a_reset_frees_its_socket_when_it_completes(
+    tmp_path: Path,
+) -> None:
+    """A RESET (a lost reply, resent, refused as a repeat) renumbers the messages to come; the
+    move ACKed before it completes under its own number, and the codec frees its socket."""
+    rig = udp_rig(tmp_path)
+    held: list[bytes] = []  # a completion before the RESET's ACK, let through right after it
+    reset = [False]
+
+    def completion_after_reset(datagram: bytes) -> list[bytes]:
+        message = visca_ip.parse(datagram)
+        if message is not None and message.payload == visca_ip.RESET_ACK:
+            reset[0] = True
+            return [datagram, *held]
+        if message is not None and is_completion(message.payload) and not reset[0]:
+            held.append(datagram)
+            return []
+        return [datagram]
+
+    with FaultyCamera(rig) as camera, driver_on(rig) as driver:
+        driver.set_position(math.radians(30.0), 0.0)
+        assert driver.codec.sockets_busy == {1}
+        lose_position = once(lambda m: len(m.payload) == 11, lambda d: [])
+        camera.outgoing = lambda d: [
+            x for kept in lose_position(d) for x in completion_after_reset(kept)
+        ]
+        poll_until(lambda: _pan_deg_if_settled(driver, 30.0), 5.0)
+        poll_until(lambda: _sockets_busy_after_a_poll(driver) == set(), 5.0)
+    assert driver.transport.counters["sequence_errors"] == 1
+    assert driver.transport.counters["foreign_replies"] == 0
+
+
+def _sockets_busy_after_a_poll(driver: ServoDriver) -> set[int]:
+    """The sockets the codec counts busy once the replies in by a position poll are read."""
+    driver.query_position()
+    return set(driver.codec.sockets_busy)
 
 
 def _pan_deg_if_settled(driver: ServoDriver, target_deg: float) -> float | None:

@@ -15,6 +15,11 @@ same packets as on a serial line, and this wraps each in Sony's header (`visca_i
 - An abnormal-sequence error `0F 01` (the camera already had that number: an ACK was lost) is
   answered by a RESET, and the message awaiting its reply is sent again under a new number once
   the RESET is acknowledged (Sony: already executed; a new number gets its completion).
+- A RESET renumbers the messages to come, not the commands already in the camera's sockets:
+  each still completes under the number it was ACKed with, and that completion is passed on
+  (the codec frees its socket by it). Only a new link (`connect()`, whose handshake clears the
+  sockets) forgets them: a completion dropped after a RESET would leave the codec counting busy
+  a socket the camera has freed.
 
 No serial line is behind it: its bytes take no line time.
 """
@@ -109,6 +114,7 @@ class ViscaIpTransport:
         sock.setblocking(False)
         self._socket = sock
         self._awaiting = self._after_reset = None
+        self._executing.clear()  # a new link: the handshake clears the camera's sockets
         try:
             self._reset()
             deadline = time.monotonic() + self.reset_timeout_s
@@ -178,8 +184,7 @@ class ViscaIpTransport:
     def _reset(self) -> None:
         datagram = visca_ip.frame(visca_ip.PAYLOAD_TYPE["control"], 0, visca_ip.RESET)
         self._send(datagram)
-        self._sequence = 0
-        self._executing.clear()
+        self._sequence = 0  # the commands executing keep their numbers (`_executing`)
         self._awaiting = _Awaiting(-1, datagram, time.monotonic())
         self.counters["resets"] += 1
 
