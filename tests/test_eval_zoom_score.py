@@ -68,3 +68,21 @@ def test_the_height_is_the_targets_at_the_true_zoom_and_losses_while_zooming_cou
     assert (scores["losses"], scores["losses_while_zooming"]) == (2, 1)
     assert scoring.score(frames, states, None)["height_within_fraction"] == 0.0
     assert not math.isnan(scores["height_fraction"]["p50"])
+
+
+def test_a_loss_counts_as_while_zooming_from_when_the_gaze_left_the_target() -> None:
+    """`lost` comes seconds after the gaze left the target (it pursues something else first):
+    the zoom is judged over the second before the gaze left, not before `lost`."""
+    rig = load_rig(CONFIGS / "sim-zoom.toml")
+    scoring = zoom_scoring(rig)
+    assert scoring is not None
+    pose = CameraPose.from_rig(rig)
+    # the zoom steps at frame 40, the gaze leaves the target at frame 45, `lost` at frame 90
+    frames = [truth(k, 0.3 if k < 40 else 0.4, pose) for k in range(100)]
+    in_fovea = np.arange(100) < 45
+    lost = [GazeState(t_capture_ns=90 * S // 25, state="lost", previous="pursuit")]
+    scores = scoring.score(frames, lost, 0, in_fovea)
+    assert (scores["losses"], scores["losses_while_zooming"]) == (1, 1)
+    # the target still in the fovea when `lost` comes: judged before `lost`, the zoom still
+    assert scoring.score(frames, lost, 0, np.ones(100, bool))["losses_while_zooming"] == 0
+    assert scoring.score(frames, lost, 0)["losses_while_zooming"] == 0

@@ -128,7 +128,8 @@ def score(
     )
     result["latency_ms"] = latencies_ms(record.commands)
     if zoom is not None:
-        result["zoom"] = zoom.score(truth, record.states, start)
+        in_fovea = errors <= fovea
+        result["zoom"] = zoom.score(truth, record.states, start, in_fovea)
     return result
 
 

@@ -7,7 +7,10 @@
   taller than the body); from acquisition on, the share of frames within ±`TOLERANCE` of
   `zoom_target_height`, and the median and the 5th and 95th percentiles of the fraction;
 - losses: entries into `lost` from pursuit after acquisition, and those while the zoom moved
-  (by more than `MOVING_ZOOM` over the `MOVING_WINDOW_S` before the loss).
+  (by more than `MOVING_ZOOM` over the `MOVING_WINDOW_S` before the gaze left the target: the
+  first of the frames with the target outside the fovea that run up to the loss, or the loss
+  itself where the target was still in the fovea; `lost` is declared later, while the gaze
+  follows something else and the zoom sizes it).
 """
 
 from __future__ import annotations
@@ -69,9 +72,14 @@ class ZoomScoring:
         return np.array([top - right, top + right, foot + right, foot - right])
 
     def score(
-        self, truth: list[SimTruth], states: list[GazeState], start: int | None
+        self,
+        truth: list[SimTruth],
+        states: list[GazeState],
+        start: int | None,
+        in_fovea: np.ndarray | None = None,
     ) -> dict[str, object]:
-        """The zoom's scores from truth frame `start` (acquisition) on (module docstring)."""
+        """The zoom's scores from truth frame `start` (acquisition) on (module docstring);
+        `in_fovea`: per truth frame, the target within the fovea (None: losses at `lost`)."""
         if start is None:
             return {"height_within_fraction": 0.0, "losses": None, "losses_while_zooming": None}
         heights = self.heights(truth[start:])
@@ -88,6 +96,8 @@ class ZoomScoring:
         ]
         zooming = 0
         for t_ns in losses:
+            if in_fovea is not None:
+                t_ns = _left_ns(times_ns, in_fovea, t_ns)
             window = (times_ns >= t_ns - MOVING_WINDOW_S * 1e9) & (times_ns <= t_ns)
             if window.any() and np.ptp(zooms[window]) > MOVING_ZOOM:
                 zooming += 1
@@ -102,3 +112,14 @@ class ZoomScoring:
             "losses": len(losses),
             "losses_while_zooming": zooming,
         }
+
+
+def _left_ns(times_ns: np.ndarray, in_fovea: np.ndarray, lost_ns: int) -> int:
+    """When the gaze left the target before a loss at `lost_ns`: the first frame of the run of
+    frames outside the fovea up to it; `lost_ns` where the last frame before it is inside."""
+    k = int(np.searchsorted(times_ns, lost_ns, "right")) - 1
+    if k < 0 or in_fovea[k]:
+        return lost_ns
+    while k > 0 and not in_fovea[k - 1]:
+        k -= 1
+    return int(times_ns[k])
