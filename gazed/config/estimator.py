@@ -125,6 +125,15 @@ class EstimatorSection(Section):
         le=1000,
         description="Std of a detection's target pixel (the live measurement's noise).",
     )
+    mover_extent_noise: float = Field(
+        0.15,
+        ge=0,
+        le=1,
+        description="Std a mover's point adds on each image axis, as a fraction of its box's "
+        "extent on that axis (a mask's centroid moves as the mask grows, shrinks, splits and "
+        "merges); added to pixel_noise_px; measured on real walkers by "
+        "tests/bench/mover_extent.py (docs/estimation.md).",
+    )
     pixel_rate_noise_px_s: float = Field(
         10.0,
         gt=0,

@@ -96,6 +96,7 @@ class TargetTracker:
         self.noise = MeasurementNoise.from_head(
             rig.head, section.pixel_noise_px, section.pixel_rate_noise_px_s
         )
+        self.mover_extent_noise = section.mover_extent_noise
         self.latency = LoopLatency(stage, section.actuation_latency_default_ms / 1000.0)
         self.messages = EstimatorMessages(self.filter, self.geometry, self.latency)
         self.counts = {
@@ -289,9 +290,11 @@ class TargetTracker:
             measurement = self._measure(detection)
             return [Sighting(measurement)] if measurement is not None else []
         sightings = []
+        fraction = self.mover_extent_noise
         for mover in movers:
             seen = detection.model_copy(update=_target_fields(mover))
-            measurement = self._measure(seen)
+            noise = self.noise.for_region(mover.box_width_px, mover.box_height_px, fraction)
+            measurement = self._measure(seen, noise)
             if measurement is not None:
                 box = reach_box(mover.u_px, mover.v_px, mover.box_width_px, mover.box_height_px)
                 sightings.append(Sighting(measurement, _histogram(mover), mover.box_height_px, box))
@@ -315,14 +318,18 @@ class TargetTracker:
         assert head is not None
         return lambda x_m, y_m: geometry.pixel_from_ground(x_m, y_m, head.pan_rad, head.tilt_rad)
 
-    def _measure(self, detection: Detection) -> Measurement | None:
-        """The measurement of a detection's target; None above the horizon (counted)."""
+    def _measure(
+        self, detection: Detection, noise: MeasurementNoise | None = None
+    ) -> Measurement | None:
+        """The measurement of a detection's target with `noise` (default: the detector's
+        pixel noise alone); None above the horizon (counted)."""
+        noise = self.noise if noise is None else noise
         try:
             geometry = self._ground_geometry(detection)
             if geometry is None:
                 camera = self.lens.at_pose(detection.head)
-                return gaze_measurement(detection, camera, self.kinematics, self.noise)
-            return ground_measurement(detection, geometry, self.noise)
+                return gaze_measurement(detection, camera, self.kinematics, noise)
+            return ground_measurement(detection, geometry, noise)
         except HorizonError:
             self.counts["above_horizon"] += 1
             return None
