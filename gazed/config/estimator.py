@@ -126,12 +126,13 @@ class EstimatorSection(Section):
         description="Std of a detection's target pixel (the live measurement's noise).",
     )
     mover_extent_noise: float = Field(
-        0.15,
+        0.0,
         ge=0,
         le=1,
         description="Std a mover's point adds on each image axis, as a fraction of its box's "
         "extent on that axis (a mask's centroid moves as the mask grows, shrinks, splits and "
-        "merges); added to pixel_noise_px; measured on real walkers by "
+        "merges); added to pixel_noise_px. 0: the detector's point is as precise as "
+        "pixel_noise_px says (the sim's); a rig measures its own walkers' with "
         "tests/bench/mover_extent.py (docs/estimation.md).",
     )
     pixel_rate_noise_px_s: float = Field(
