@@ -96,7 +96,8 @@ class TargetTracker:
         self.noise = MeasurementNoise.from_head(
             rig.head, section.pixel_noise_px, section.pixel_rate_noise_px_s
         )
-        self.mover_extent_noise = section.mover_extent_noise
+        self.extent_core, self.extent_tail = section.mover_extent_noise, section.mover_extent_tail
+        self.tail_weight = section.mover_extent_tail_weight
         self.latency = LoopLatency(stage, section.actuation_latency_default_ms / 1000.0)
         self.messages = EstimatorMessages(self.filter, self.geometry, self.latency)
         self.counts = {
@@ -290,14 +291,27 @@ class TargetTracker:
             measurement = self._measure(detection)
             return [Sighting(measurement)] if measurement is not None else []
         sightings = []
-        fraction = self.mover_extent_noise
         for mover in movers:
             seen = detection.model_copy(update=_target_fields(mover))
-            noise = self.noise.for_region(mover.box_width_px, mover.box_height_px, fraction)
-            measurement = self._measure(seen, noise)
-            if measurement is not None:
-                box = reach_box(mover.u_px, mover.v_px, mover.box_width_px, mover.box_height_px)
-                sightings.append(Sighting(measurement, _histogram(mover), mover.box_height_px, box))
+            size = mover.box_width_px, mover.box_height_px
+            measurement = self._measure(seen, self.noise.for_region(*size, self.extent_core))
+            if measurement is None:
+                continue
+            tail_cov = None
+            if self.tail_weight > 0:  # the mixture's tail: the same point, its wider spread
+                tail = self._measure(seen, self.noise.for_region(*size, self.extent_tail))
+                tail_cov = tail.position_cov if tail is not None else None
+            box = reach_box(mover.u_px, mover.v_px, *size)
+            sightings.append(
+                Sighting(
+                    measurement,
+                    _histogram(mover),
+                    mover.box_height_px,
+                    box,
+                    tail_cov,
+                    self.tail_weight if tail_cov is not None else 0.0,
+                )
+            )
         return sightings
 
     def _ground_geometry(self, detection: Detection) -> GroundGeometry | None:

@@ -55,11 +55,13 @@ class MeasurementNoise:
         """Angle noise from the rig's [head]; pixel noise is the detector's."""
         return cls(head.angle_noise_rad, head.angle_rate_noise_rad_s, pixel_px, pixel_rate_px_s)
 
-    def for_region(self, width_px: float, height_px: float, fraction: float) -> MeasurementNoise:
+    def for_region(
+        self, width_px: float, height_px: float, fraction: tuple[float, float]
+    ) -> MeasurementNoise:
         """The noise of the point of a region (a mover's mask) `width_px` by `height_px`: where
         the region's extent is uncertain by a fraction of itself, so is its point, by
-        `fraction` of the extent on each axis."""
-        return replace(self, extent_px=(fraction * width_px, fraction * height_px))
+        `fraction` (u, v) of the extent on each axis."""
+        return replace(self, extent_px=(fraction[0] * width_px, fraction[1] * height_px))
 
     def pixel_variances(self) -> np.ndarray:
         """(2,): the point's variance along u and along v."""

@@ -92,6 +92,25 @@ def robust_std(x: np.ndarray) -> float:
     return float(1.4826 * np.median(np.abs(x - np.median(x))))
 
 
+def scale_mixture(x: np.ndarray, steps: int = 200) -> tuple[float, np.ndarray, np.ndarray]:
+    """A two-component zero-mean Gaussian scale mixture of the centred fractions x (K, 2), by
+    EM: the tail's weight, and the core's and the tail's std on each axis (2,). One weight for
+    both axes: a mask that splits or merges moves its point on both at once."""
+    x = x - np.median(x, axis=0)
+    core, tail, weight = np.array([robust_std(a) for a in x.T]), x.std(axis=0) * 2.0, 0.2
+    for _ in range(steps):
+        densities = []
+        for std in (core, tail):
+            d2 = np.square(x / std).sum(axis=1)
+            densities.append(np.exp(-0.5 * d2) / (2 * np.pi * std.prod()))
+        a, b = (1 - weight) * densities[0], weight * densities[1]
+        w = b / np.maximum(a + b, 1e-300)  # each sample's posterior of the tail
+        weight = float(w.mean())
+        core = np.sqrt(((1 - w)[:, None] * x**2).sum(axis=0) / (1 - w).sum())
+        tail = np.sqrt((w[:, None] * x**2).sum(axis=0) / w.sum())
+    return weight, core, tail
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--frames", default="0-794")
@@ -136,6 +155,11 @@ def main() -> None:
         print(
             f"  {name:>18}: u std {x[:, 0].std():.3f} robust {robust_std(x[:, 0]):.3f}   "
             f"v std {x[:, 1].std():.3f} robust {robust_std(x[:, 1]):.3f}"
+        )
+        weight, core, tail = scale_mixture(x)
+        print(
+            f"  {'':>18}  two-Gaussian scale mixture: core u {core[0]:.3f} v {core[1]:.3f}, "
+            f"tail u {tail[0]:.3f} v {tail[1]:.3f}, tail weight {weight:.3f}"
         )
 
 
