@@ -276,9 +276,9 @@ def test_a_regions_extent_widens_its_points_noise_per_axis() -> None:
     pan, tilt = look_at(pose, ground, 4, 0.02)
     sample = GazeSample(pan, tilt, 320.0, 240.0)
     point = MeasurementNoise(0.0, 0.0, 2.0, 5.0)
-    region = point.for_region(20.0, 60.0, 0.15)
+    region = point.for_region(20.0, 60.0, (0.15, 0.15))
     assert region.pixel_variances() == pytest.approx([4.0 + 3.0**2, 4.0 + 9.0**2])
-    assert point.for_region(0.0, 0.0, 0.15).pixel_variances() == pytest.approx([4.0, 4.0])
+    assert point.for_region(0.0, 0.0, (0.15, 0.15)).pixel_variances() == pytest.approx([4.0, 4.0])
     pixel = geometry.ground_jacobian(pan, tilt, 320.0, 240.0)[:, 2:]
     expected = pixel @ np.diag(region.pixel_variances()) @ pixel.T
     measured = geometry.measure(sample, region).covariance[:2, :2]

@@ -48,7 +48,8 @@ def mixture_costs(
 ) -> np.ndarray:
     """(T, D) costs of the predictions (T, m) with covariances P (T, m, m) against the points
     (D, m) with their core and tail covariances (D, m, m) and tail weights (D,) (0: the core
-    alone), inf where the tail's d² is outside the gate; `looks` as `pair_costs` takes them."""
+    alone), inf where the d² of the tail (of the core where ε = 0) is outside the gate; `looks`
+    as `pair_costs` takes them."""
     S_core = P[:, None] + core_R[None, :]
     S_tail = P[:, None] + tail_R[None, :]
     core = pair_costs(predicted, S_core, measured, math.inf, *looks)
@@ -56,7 +57,11 @@ def mixture_costs(
     eps = np.asarray(tail_weight, dtype=float)[None, :]
     with np.errstate(divide="ignore"):
         mixed = -2.0 * np.logaddexp(np.log1p(-eps) - core / 2.0, np.log(eps) - tail / 2.0)
-    return np.where(np.isfinite(tail), mixed, np.inf)
+    mixed = np.where(np.isfinite(tail), mixed, np.inf)
+    if (eps > 0).all():
+        return mixed
+    alone = pair_costs(predicted, S_core, measured, gate_d2, *looks)  # ε = 0: one Gaussian
+    return np.where(eps > 0, mixed, alone)
 
 
 def tail_posterior(
