@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 from bench.estimator_hop import detections
 
@@ -17,7 +18,7 @@ from gazed.estimation.target_tracker import (
     TargetTracker,
     TrackUpdate,
 )
-from gazed.messages import Detection, GazeDemand
+from gazed.messages import Detection, GazeDemand, Mover
 
 SIM_RIG = Path(__file__).resolve().parents[1] / "configs" / "sim.toml"
 STAGE = "estimator"
@@ -220,3 +221,53 @@ def test_a_change_of_the_cameras_delay_retimes_the_tracks() -> None:
     hidden, known = states
     assert hidden.ground_velocity_m_s == pytest.approx(known.ground_velocity_m_s, abs=1e-6)
     assert hidden.ground_xy_m == pytest.approx(known.ground_xy_m, abs=1e-6)
+
+
+@pytest.mark.parametrize("fraction", [(0.0, 0.0), (0.1, 0.05)])
+def test_a_movers_point_is_as_uncertain_as_its_box_is_large(fraction: tuple) -> None:
+    """Two movers at one point: the larger box's measurement is the less certain, by
+    `mover_extent_noise` of its extent on each axis; a point mover (no box) keeps the detector's
+    pixel noise alone, as the target of a detection without movers does."""
+    rig = load_rig(SIM_RIG)
+    rig = rig.model_copy(
+        update={"estimator": rig.estimator.model_copy(update={"mover_extent_noise": fraction})}
+    )
+    (first, *_) = detections(SIM_RIG, 1)
+    covariances = []
+    for box in [(0.0, 0.0), (0.0, 0.0), (30.0, 80.0)]:
+        mover = Mover(u_px=first.u_px, v_px=first.v_px, box_width_px=box[0], box_height_px=box[1])
+        detection = first if not covariances else first.model_copy(update={"movers": (mover,)})
+        tracker, clock = tracker_for(rig)
+        feed(tracker, clock, detection)
+        (track,) = tracker.tracks.tracks
+        state = track.estimator.predict(detection.t_capture_ns / 1e9)
+        assert state is not None
+        covariances.append(state.covariance[:2, :2])
+    own, point, box = covariances
+    assert point == pytest.approx(own, rel=1e-9)
+    assert (np.linalg.det(box) > 2.0 * np.linalg.det(point)) == (max(fraction) > 0.0)
+
+
+def test_a_movers_sighting_carries_the_mixtures_tail() -> None:
+    """With a tail weight, each mover's sighting holds the core's covariance and the tail's,
+    the tail the wider along v (the range axis) by its share of the box; without, none."""
+    rig = load_rig(SIM_RIG)
+    (first, *_) = detections(SIM_RIG, 1)
+    mover = Mover(u_px=first.u_px, v_px=first.v_px, box_width_px=30.0, box_height_px=80.0)
+    detection = first.model_copy(update={"movers": (mover,)})
+    for weight in (0.07, 0.0):
+        section = rig.estimator.model_copy(
+            update={
+                "mover_extent_noise": (0.1, 0.05),
+                "mover_extent_tail": (0.25, 0.5),
+                "mover_extent_tail_weight": weight,
+            }
+        )
+        tracker, _ = tracker_for(rig.model_copy(update={"estimator": section}))
+        (sighting,) = tracker._sightings(detection)
+        if weight == 0.0:
+            assert sighting.tail_cov is None and sighting.tail_weight == 0.0
+            continue
+        assert sighting.tail_weight == weight and sighting.tail_cov is not None
+        core = sighting.measurement.position_cov
+        assert np.linalg.det(sighting.tail_cov) > 4.0 * np.linalg.det(core)

@@ -265,3 +265,24 @@ def test_rig_refuses_a_singular_homography_and_a_target_above_the_camera() -> No
             '[rig]\nname = "x"\n[calibration]\ncamera_xyz_m = [0.0, 0.0, 1.0]\ntarget_height_m = 1.5\n'
         )
     assert HeadSection().angle_noise_rad == pytest.approx(math.radians(0.05))
+
+
+def test_a_regions_extent_widens_its_points_noise_per_axis() -> None:
+    """A region w by h whose extent is uncertain by a fraction f of itself: its point's pixel
+    variance is the detector's plus (f w)² along u and (f h)² along v, taken to the ground
+    through the pixel Jacobian."""
+    pose, ground = synthetic_rig("pan-tilt", 12.0, 60.0, -30.0, 3)
+    geometry = pose.ground_geometry(PINHOLE, 1.0)
+    pan, tilt = look_at(pose, ground, 4, 0.02)
+    sample = GazeSample(pan, tilt, 320.0, 240.0)
+    point = MeasurementNoise(0.0, 0.0, 2.0, 5.0)
+    region = point.for_region(20.0, 60.0, (0.15, 0.15))
+    assert region.pixel_variances() == pytest.approx([4.0 + 3.0**2, 4.0 + 9.0**2])
+    assert point.for_region(0.0, 0.0, (0.15, 0.15)).pixel_variances() == pytest.approx([4.0, 4.0])
+    pixel = geometry.ground_jacobian(pan, tilt, 320.0, 240.0)[:, 2:]
+    expected = pixel @ np.diag(region.pixel_variances()) @ pixel.T
+    measured = geometry.measure(sample, region).covariance[:2, :2]
+    assert measured == pytest.approx(expected, rel=1e-9)
+    assert np.linalg.det(measured) > np.linalg.det(
+        geometry.measure(sample, point).covariance[:2, :2]
+    )

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Literal, Self
 
-from pydantic import Field, model_validator
+from pydantic import Field, field_validator, model_validator
 
 from gazed.config.section import Section
 
@@ -125,6 +125,26 @@ class EstimatorSection(Section):
         le=1000,
         description="Std of a detection's target pixel (the live measurement's noise).",
     )
+    mover_extent_noise: tuple[float, float] = Field(
+        (0.0, 0.0),
+        description="Std a mover's point adds on each image axis (u, v), as a fraction of its "
+        "box's extent on that axis, for most movers (the core of a two-Gaussian scale mixture, "
+        "with mover_extent_tail): added in quadrature to pixel_noise_px. 0: the detector's point "
+        "is as precise as pixel_noise_px says (the sim's); a rig measures its own walkers' with "
+        "tests/bench/mover_extent.py (docs/estimation.md).",
+    )
+    mover_extent_tail: tuple[float, float] = Field(
+        (0.0, 0.0),
+        description="The same fraction (u, v) for the few movers whose mask splits, merges or "
+        "shows a part of its person (the mixture's tail, of weight mover_extent_tail_weight).",
+    )
+    mover_extent_tail_weight: float = Field(
+        0.0,
+        ge=0,
+        lt=0.5,
+        description="The share of movers whose point is off by the tail's fraction (0: every "
+        "mover by mover_extent_noise alone, a single Gaussian).",
+    )
     pixel_rate_noise_px_s: float = Field(
         10.0,
         gt=0,
@@ -164,6 +184,24 @@ class EstimatorSection(Section):
         description="The window of frames, from a track's first detection, in which it must reach "
         "`confirm_hits`.",
     )
+
+    @field_validator("mover_extent_noise", "mover_extent_tail")
+    @classmethod
+    def _fractions(cls, value: tuple[float, float]) -> tuple[float, float]:
+        if not all(0.0 <= f <= 1.0 for f in value):
+            raise ValueError(f"a share of a box's extent lies in [0, 1], got {value}")
+        return value
+
+    @model_validator(mode="after")
+    def _tail_is_wider(self) -> Self:
+        if self.mover_extent_tail_weight > 0 and any(
+            t < c for t, c in zip(self.mover_extent_tail, self.mover_extent_noise, strict=True)
+        ):
+            raise ValueError(
+                f"mover_extent_tail {self.mover_extent_tail} is the mixture's wide component: "
+                f"at least mover_extent_noise {self.mover_extent_noise} on each axis"
+            )
+        return self
 
     @model_validator(mode="after")
     def _confirmation_fits(self) -> Self:

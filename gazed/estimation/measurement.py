@@ -82,6 +82,18 @@ class Measurement:
         R[2:, 2:] = self.velocity_cov
         return R
 
+    def moving(self, threshold_d2: float) -> Measurement:
+        """This measurement where its velocity differs from zero (`vᵀ Σᵥ⁻¹ v` at least
+        `threshold_d2`), else its position alone: a velocity within its noise of zero has no
+        direction, and a filter whose state holds a speed and a heading, started from it, has
+        its heading fixed at an arbitrary angle (at zero speed no measurement moves it)."""
+        if self.velocity is None or self.velocity_cov is None:
+            return self
+        v = self.velocity
+        if float(v @ np.linalg.solve(self.velocity_cov, v)) >= threshold_d2:
+            return self
+        return Measurement(self.t_s, self.position, self.position_cov)
+
     @property
     def usable(self) -> bool:
         """Finite, with covariances symmetric (to 1e-9 relative) and positive definite: what

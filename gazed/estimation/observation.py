@@ -61,7 +61,7 @@ def gaze_measurement(
     )
     rates = target.rates(detection.du_px_s, detection.dv_px_s)
     j = target.pixel_jacobian
-    angle_cov = noise.angle_rad**2 * np.eye(2) + noise.pixel_px**2 * j @ j.T
+    angle_cov = noise.angle_rad**2 * np.eye(2) + (j * noise.pixel_variances()) @ j.T
     rate_cov = noise.angle_rate_rad_s**2 * np.eye(2) + noise.pixel_rate_px_s**2 * j @ j.T
     return Measurement.gaze(
         detection.t_capture_ns / 1e9, (target.pan_rad, target.tilt_rad), angle_cov, rates, rate_cov

@@ -96,6 +96,8 @@ class TargetTracker:
         self.noise = MeasurementNoise.from_head(
             rig.head, section.pixel_noise_px, section.pixel_rate_noise_px_s
         )
+        self.extent_core, self.extent_tail = section.mover_extent_noise, section.mover_extent_tail
+        self.tail_weight = section.mover_extent_tail_weight
         self.latency = LoopLatency(stage, section.actuation_latency_default_ms / 1000.0)
         self.messages = EstimatorMessages(self.filter, self.geometry, self.latency)
         self.counts = {
@@ -291,10 +293,25 @@ class TargetTracker:
         sightings = []
         for mover in movers:
             seen = detection.model_copy(update=_target_fields(mover))
-            measurement = self._measure(seen)
-            if measurement is not None:
-                box = reach_box(mover.u_px, mover.v_px, mover.box_width_px, mover.box_height_px)
-                sightings.append(Sighting(measurement, _histogram(mover), mover.box_height_px, box))
+            size = mover.box_width_px, mover.box_height_px
+            measurement = self._measure(seen, self.noise.for_region(*size, self.extent_core))
+            if measurement is None:
+                continue
+            tail_cov = None
+            if self.tail_weight > 0:  # the mixture's tail: the same point, its wider spread
+                tail = self._measure(seen, self.noise.for_region(*size, self.extent_tail))
+                tail_cov = tail.position_cov if tail is not None else None
+            box = reach_box(mover.u_px, mover.v_px, *size)
+            sightings.append(
+                Sighting(
+                    measurement,
+                    _histogram(mover),
+                    mover.box_height_px,
+                    box,
+                    tail_cov,
+                    self.tail_weight if tail_cov is not None else 0.0,
+                )
+            )
         return sightings
 
     def _ground_geometry(self, detection: Detection) -> GroundGeometry | None:
@@ -315,14 +332,18 @@ class TargetTracker:
         assert head is not None
         return lambda x_m, y_m: geometry.pixel_from_ground(x_m, y_m, head.pan_rad, head.tilt_rad)
 
-    def _measure(self, detection: Detection) -> Measurement | None:
-        """The measurement of a detection's target; None above the horizon (counted)."""
+    def _measure(
+        self, detection: Detection, noise: MeasurementNoise | None = None
+    ) -> Measurement | None:
+        """The measurement of a detection's target with `noise` (default: the detector's
+        pixel noise alone); None above the horizon (counted)."""
+        noise = self.noise if noise is None else noise
         try:
             geometry = self._ground_geometry(detection)
             if geometry is None:
                 camera = self.lens.at_pose(detection.head)
-                return gaze_measurement(detection, camera, self.kinematics, self.noise)
-            return ground_measurement(detection, geometry, self.noise)
+                return gaze_measurement(detection, camera, self.kinematics, noise)
+            return ground_measurement(detection, geometry, noise)
         except HorizonError:
             self.counts["above_horizon"] += 1
             return None

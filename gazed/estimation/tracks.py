@@ -6,11 +6,11 @@ Tracking Systems", 1999, §3.2 and §6.2; Bar-Shalom, Willett & Tian, "Tracking 
 Every frame (one detection message, with any number of movers):
 
 1. each track is predicted to the frame's capture; its predicted position and covariance P give
-   the innovation covariance `S = P + R_d` with each mover's own measurement noise R_d;
+   `S = P + R_d` with each mover's own noise R_d, a two-Gaussian scale mixture where the rig
+   gives one (`scale_mixture`: the cost, the gate and the update weigh both components);
 2. movers and tracks are assigned jointly inside the Mahalanobis gate, the appearance deciding
-   where positions are ambiguous (`association`). The gate and the cost use the position alone:
-   a mover's image velocity is a difference over one frame interval and too noisy to tell people
-   apart; the filter itself then takes the mover's full measurement and gates it again;
+   where positions are ambiguous (`association`), on the position alone (a mover's velocity is
+   too noisy to tell people apart); the filter then takes the full measurement and gates it;
 3. a confirmed track left without a mover may be one of two people the detector saw as one
    blob: where the blob hypothesis costs less than the one-person one (`association.find_blobs`)
    and both can lie in the mover's box seen through the frame's camera (`silhouette_reach`),
@@ -19,7 +19,8 @@ Every frame (one detection message, with any number of movers):
    holds them; the blob does not change their appearance templates;
 4. a track that takes a mover is updated, its appearance template and spread follow it; a track
    left without one coasts (predict-only) and ends once it has coasted past `coast_max_ms`;
-5. a mover left without a track starts a new, tentative track. A tentative track is confirmed
+5. a mover left without a track starts a new, tentative track, from its velocity where that
+   differs from zero (`Measurement.moving`), else from two points. A tentative track is confirmed
    once it has `confirm_hits` detections within its first `confirm_frames` frames (M of N); one
    that cannot is dropped as clutter. Where one track and one mover are all there is, the mover
    is the track's, inside its gate or not: outside it, it is an outlier the track's filter
@@ -61,13 +62,13 @@ from gazed.estimation.association import (
     gate_threshold,
     load_solver,
     member_measurement,
-    pair_costs,
     same_target,
 )
 from gazed.estimation.estimator import TRACKING, TrackEstimator
 from gazed.estimation.factory import build_estimator
-from gazed.estimation.measurement import Measurement
 from gazed.estimation.results import Outcome, PredictedState
+from gazed.estimation.scale_mixture import mixture_costs
+from gazed.estimation.sighting import Sighting
 from gazed.estimation.silhouette_reach import ToPixel, held
 
 MAX_TRACKS = 256  # an EstimatorState carries at most this many
@@ -77,17 +78,9 @@ SPREAD_FLOOR = 0.01  # a spread never below this: one colour change is not a dif
 PERSON_WIDTH_M = 0.5  # a detector may report any part of a person this wide (shoulder width)
 # the covariance of a point spread evenly across a person (w²/12 on each ground axis)
 PERSON_EXTENT_COV_M2 = np.eye(2) * PERSON_WIDTH_M**2 / 12.0
+# a first velocity that does not differ from zero at this level gives a track no heading
+MOVING_PROBABILITY = 0.95
 TAKEN = (Outcome.ACCEPTED, Outcome.INITIALISED, Outcome.PENDING, Outcome.REINITIALISED)
-
-
-@dataclass(frozen=True)
-class Sighting:
-    """One mover of a frame as a filter measurement, with what association compares."""
-
-    measurement: Measurement
-    appearance: np.ndarray | None = None  # (B,) normalised colour histogram
-    box_height_px: float = 0.0
-    box_px: np.ndarray | None = None  # (u0, v0, u1, v1) its box can cover (`silhouette_reach`)
 
 
 @dataclass
@@ -135,6 +128,7 @@ class TrackSet:
     def __post_init__(self) -> None:
         self.gate_d2 = gate_threshold(self.section.gate_probability, 2)
         self.duplicate_d2 = gate_threshold(self.section.gate_probability, 4)
+        self.moving_d2 = gate_threshold(MOVING_PROBABILITY, 2)
         self.coast_max_s = self.section.coast_max_ms / 1000.0
         load_solver()  # imported before several tracks first compete (`association`)
 
@@ -230,8 +224,9 @@ class TrackSet:
             return {}, tuple(range(len(sightings))), costs
         measured = np.array([s.measurement.position for s in sightings])  # (D, 2)
         R = np.array([s.measurement.position_cov for s in sightings])  # (D, 2, 2)
-        S = P[:, None] + R[None, :]  # (T, D, 2, 2)
-        costs = pair_costs(predicted, S, measured, self.gate_d2, *looks)
+        tails = np.array([s.tail_or_core for s in sightings])
+        weights = np.array([s.tail_weight for s in sightings])
+        costs = mixture_costs(predicted, P, measured, R, tails, weights, self.gate_d2, *looks)
         result = associate(costs)
         return dict(result.pairs), result.lone_detections, costs
 
@@ -294,7 +289,8 @@ class TrackSet:
         return templates, seen, np.array([t.spread for t in self.tracks])
 
     def _take(self, track: PersonTrack, sighting: Sighting, t_s: float) -> None:
-        outcome = track.estimator.update(sighting.measurement)
+        predicted = track.estimator.predict(t_s) if sighting.tail_weight > 0 else None
+        outcome = track.estimator.update(sighting.taken(predicted))
         track.coasting = outcome not in TAKEN
         if track.coasting:
             return
@@ -311,7 +307,8 @@ class TrackSet:
             self.counts["tracks_not_started"] += 1
             return
         estimator = build_estimator(self.section, mode=self.mode)
-        if estimator.update(sighting.measurement) not in TAKEN:
+        first = sighting.taken(None).moving(self.moving_d2)  # else: two-point initiation
+        if estimator.update(first) not in TAKEN:
             return  # not usable: `usable` refused it
         track = PersonTrack(
             self.next_id,

@@ -38,12 +38,15 @@ class MissingCalibrationError(ValueError):
 
 @dataclass(frozen=True)
 class MeasurementNoise:
-    """Standard deviations of an image measurement's inputs, independent, the same per axis."""
+    """Standard deviations of an image measurement's inputs, independent: the same per axis,
+    but for `extent_px`, the std on each image axis (u, v) that a region's extent adds to its
+    point (`for_region`)."""
 
     angle_rad: float
     angle_rate_rad_s: float
     pixel_px: float
     pixel_rate_px_s: float
+    extent_px: tuple[float, float] = (0.0, 0.0)
 
     @classmethod
     def from_head(
@@ -52,11 +55,23 @@ class MeasurementNoise:
         """Angle noise from the rig's [head]; pixel noise is the detector's."""
         return cls(head.angle_noise_rad, head.angle_rate_noise_rad_s, pixel_px, pixel_rate_px_s)
 
+    def for_region(
+        self, width_px: float, height_px: float, fraction: tuple[float, float]
+    ) -> MeasurementNoise:
+        """The noise of the point of a region (a mover's mask) `width_px` by `height_px`: where
+        the region's extent is uncertain by a fraction of itself, so is its point, by
+        `fraction` (u, v) of the extent on each axis."""
+        return replace(self, extent_px=(fraction[0] * width_px, fraction[1] * height_px))
+
+    def pixel_variances(self) -> np.ndarray:
+        """(2,): the point's variance along u and along v."""
+        return self.pixel_px**2 + np.square(self.extent_px)
+
     def variances(self) -> np.ndarray:
         """(8,), order (pan, tilt, u, v, pan_rate, tilt_rate, u_rate, v_rate)."""
-        stds = [self.angle_rad] * 2 + [self.pixel_px] * 2
-        stds += [self.angle_rate_rad_s] * 2 + [self.pixel_rate_px_s] * 2
-        return np.square(stds)
+        angles = np.square([self.angle_rad] * 2)
+        rates = np.square([self.angle_rate_rad_s] * 2 + [self.pixel_rate_px_s] * 2)
+        return np.concatenate([angles, self.pixel_variances(), rates])
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,167 @@
+"""How far a PETS 2009 S2.L1 mover's centroid lies from its person, against its own box's size:
+what `[estimator] mover_extent_noise` measures.
+
+    python tests/bench/mover_extent.py [--frames 0-794]
+
+The wide camera's movers (`WideMovers`, the rig's segmentation, centroids) over the frames:
+
+- against the annotation (frames 0-399): each mover whose centroid lies in exactly one
+  annotated person's box, that box holding no other mover's centroid, gives the offset of its
+  centroid from the box's centre as a fraction of the mover's own box width (u) and height (v).
+  Its std per axis, over every such mover of every frame, is the fraction a mover's point is off
+  the person it shows; it takes in the errors that last (a shadow, a part hidden for a while) as
+  well as those that come and go;
+- without the annotation (any frames): movers linked frame to frame (each the other's nearest
+  centroid, within half the larger box), and along every chain of three frames the centroid's
+  second difference c(t+1) - 2c(t) + c(t-1) over the middle mover's box. For a walker (whose
+  acceleration moves the centroid by a fraction of a pixel between 7 Hz frames) independent
+  errors of std s give a second difference of std sqrt(6) s: the part of the error that changes
+  from frame to frame, a lower bound of the first.
+
+Printed per axis: the std and the MAD-based std of each fraction, and how many movers or chains
+it comes from.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import sys
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(ROOT))
+
+from gazed.config import load_rig  # noqa: E402
+from gazed.geometry.camera import CameraModel  # noqa: E402
+from gazed.geometry.kinematics import HeadKinematics  # noqa: E402
+from gazed.geometry.zoom import ZoomLens  # noqa: E402
+from gazed.vision.digital_camera import wide_camera  # noqa: E402
+from gazed.vision.digital_view import DigitalView  # noqa: E402
+from gazed.vision.frames import CapturedFrame  # noqa: E402
+from gazed.vision.person_size import PersonSize  # noqa: E402
+from gazed.vision.wide_movers import WideMovers  # noqa: E402
+
+RIG = ROOT / "configs" / "pets.toml"
+TRUTH = ROOT.parent / "shared" / "data" / "footage" / "pets09-s2l1" / "truth_frames_0000-0399.csv"
+
+
+def links(a: np.ndarray, b: np.ndarray) -> dict[int, int]:
+    """Row of b -> row of a: mutual nearest centroids within half the larger box. Rows:
+    (u, v, w, h)."""
+    if not len(a) or not len(b):
+        return {}
+    d = np.hypot(a[:, None, 0] - b[None, :, 0], a[:, None, 1] - b[None, :, 1])
+    out = {}
+    for j in range(len(b)):
+        i = int(np.argmin(d[:, j]))
+        reach = 0.5 * max(a[i, 2], a[i, 3], b[j, 2], b[j, 3])
+        if int(np.argmin(d[i])) == j and d[i, j] <= reach:
+            out[j] = i
+    return out
+
+
+def annotated() -> dict[int, np.ndarray]:
+    """Frame -> the annotated people's boxes (N, 4): centre u, v, width, height."""
+    boxes: dict[int, list[list[float]]] = {}
+    with TRUTH.open(newline="") as handle:
+        for row in csv.DictReader(handle):
+            box = [float(row[k]) for k in ("box_u_px", "box_v_px", "box_w_px", "box_h_px")]
+            boxes.setdefault(int(row["frame"]), []).append(box)
+    return {frame: np.array(b) for frame, b in boxes.items()}
+
+
+def offsets(movers: np.ndarray, people: np.ndarray) -> list[np.ndarray]:
+    """Each mover alone in one person's box, alone there: its offset over its own box."""
+    if not len(movers) or not len(people):
+        return []
+    half = people[None, :, 2:] / 2.0
+    inside = (np.abs(movers[:, None, :2] - people[None, :, :2]) <= half).all(axis=2)
+    out = []
+    for i in range(len(movers)):
+        (held,) = np.nonzero(inside[i])
+        if len(held) == 1 and inside[:, held[0]].sum() == 1:
+            out.append((movers[i, :2] - people[held[0], :2]) / movers[i, 2:])
+    return out
+
+
+def robust_std(x: np.ndarray) -> float:
+    return float(1.4826 * np.median(np.abs(x - np.median(x))))
+
+
+def scale_mixture(x: np.ndarray, steps: int = 200) -> tuple[float, np.ndarray, np.ndarray]:
+    """A two-component zero-mean Gaussian scale mixture of the centred fractions x (K, 2), by
+    EM: the tail's weight, and the core's and the tail's std on each axis (2,). One weight for
+    both axes: a mask that splits or merges moves its point on both at once."""
+    x = x - np.median(x, axis=0)
+    core, tail, weight = np.array([robust_std(a) for a in x.T]), x.std(axis=0) * 2.0, 0.2
+    for _ in range(steps):
+        densities = []
+        for std in (core, tail):
+            d2 = np.square(x / std).sum(axis=1)
+            densities.append(np.exp(-0.5 * d2) / (2 * np.pi * std.prod()))
+        a, b = (1 - weight) * densities[0], weight * densities[1]
+        w = b / np.maximum(a + b, 1e-300)  # each sample's posterior of the tail
+        weight = float(w.mean())
+        core = np.sqrt(((1 - w)[:, None] * x**2).sum(axis=0) / (1 - w).sum())
+        tail = np.sqrt((w[:, None] * x**2).sum(axis=0) / w.sum())
+    return weight, core, tail
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--frames", default="0-794")
+    args = parser.parse_args()
+    first, last = (int(x) for x in args.frames.split("-"))
+    rig = load_rig(RIG)
+    view = DigitalView(
+        wide_camera(rig.wide),
+        CameraModel.from_section(rig.camera),
+        HeadKinematics.from_section(rig.head),
+        ZoomLens.from_section(rig.camera),
+    )
+    movers = WideMovers(view, rig.vision, "centroid", PersonSize.from_rig(rig, view.wide))
+    capture = cv2.VideoCapture(str(rig.wide_source))
+    capture.set(cv2.CAP_PROP_POS_FRAMES, first)
+    rows: list[np.ndarray] = []
+    for frame in range(first, last + 1):
+        ok, pixels = capture.read()
+        if not ok:
+            break
+        t_ns = round(frame / rig.wide.rate_hz * 1e9)
+        movers.observe(CapturedFrame(pixels, "bgr8", t_ns, frame))
+        seen = [(m.u_px, m.v_px, m.box[2], m.box[3]) for m in movers._movers[frame]]
+        rows.append(np.array(seen).reshape(-1, 4))
+    truth = annotated() if TRUTH.exists() else {}
+    off = [
+        o for k, r in enumerate(rows) for o in offsets(r, truth.get(first + k, np.zeros((0, 4))))
+    ]
+    second = []
+    for k in range(2, len(rows)):
+        back = links(rows[k - 1], rows[k])
+        before = links(rows[k - 2], rows[k - 1])
+        for j, i in back.items():
+            if i in before:
+                a, b, c = rows[k - 2][before[i]], rows[k - 1][i], rows[k][j]
+                second.append((c[:2] - 2 * b[:2] + a[:2]) / b[2:] / np.sqrt(6))
+    s = np.array(second).reshape(-1, 2)
+    print(f"frames {first}-{last}: {len(off)} movers alone in an annotated box, {len(s)} chains")
+    fractions = [("off the annotation", np.array(off).reshape(-1, 2))] if off else []
+    fractions += [("frame to frame", s)]
+    for name, x in fractions:
+        print(
+            f"  {name:>18}: u std {x[:, 0].std():.3f} robust {robust_std(x[:, 0]):.3f}   "
+            f"v std {x[:, 1].std():.3f} robust {robust_std(x[:, 1]):.3f}"
+        )
+        weight, core, tail = scale_mixture(x)
+        print(
+            f"  {'':>18}  two-Gaussian scale mixture: core u {core[0]:.3f} v {core[1]:.3f}, "
+            f"tail u {tail[0]:.3f} v {tail[1]:.3f}, tail weight {weight:.3f}"
+        )
+
+
+if __name__ == "__main__":
+    main()
