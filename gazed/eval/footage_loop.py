@@ -41,8 +41,6 @@ from gazed.eval.private_rig import private_document, write_rig
 from gazed.eval.progress import EvalProgress
 from gazed.eval.truth import Person, TruthFileError, read_truth
 from gazed.eval.view_people import ViewPeople
-from gazed.geometry.camera import CameraModel
-from gazed.geometry.kinematics import HeadKinematics
 from gazed.messages import Detection, GazeSelect, GazeState
 from gazed.sim.reach import FieldOfRegard
 from gazed.topics import (
@@ -53,8 +51,7 @@ from gazed.topics import (
     SERVO_STATUS,
     VISION_DETECTION,
 )
-from gazed.vision.digital_camera import file_frame_count, wide_camera
-from gazed.vision.digital_view import DigitalView
+from gazed.vision.digital_camera import file_frame_count, rig_view
 
 MODES = ("imm", "image-cv", "none")
 TOPICS = (VISION_DETECTION, GAZE_STATE, ESTIMATOR_STATE, SERVO_COMMAND, SERVO_STATUS)
@@ -167,11 +164,7 @@ def run_footage(
         "footage_frames": [frames[0].frame, frames[-1].frame] if frames else None,
         "pursuit": pursuit_summary(frames),
     }
-    view = DigitalView(
-        wide_camera(rig.wide),
-        CameraModel.from_section(rig.camera),
-        HeadKinematics.from_section(rig.head),
-    )
+    view = rig_view(rig, zoom=False)
     facts = FrameFacts.of(frames, people, ViewPeople(view, FieldOfRegard.for_scoring(rig)))
     person_id = select_id if select_id is not None else first_pursued(facts)
     fovea_deg = rig.gaze.fovea_half_angle_deg

@@ -170,6 +170,15 @@ class WideCapture(OpenCvCamera):
         return capture
 
 
+def rig_view(rig: Rig, *, zoom: bool = True) -> DigitalView:
+    """The digital head's view of `rig`: `[camera]` rendered from `[wide]` under `[head]`'s
+    kinematics, through `[camera]`'s zoom lens (`zoom=False`: a fixed lens, the view at its
+    widest, as the footage's scoring takes it)."""
+    camera = CameraModel.from_section(rig.camera)
+    lens = ZoomLens.from_section(rig.camera) if zoom else None
+    return DigitalView(wide_camera(rig.wide), camera, HeadKinematics.from_section(rig.head), lens)
+
+
 def file_frame_count(path: str) -> int | None:
     """The number of frames a video file holds, as its container says (None: not a file, or
     not said)."""
@@ -211,12 +220,7 @@ def open_digital_camera(
         on_frame=on_frame,
         file_rate_hz=wide.rate_hz,
     )
-    view = DigitalView(
-        wide_camera(wide),
-        CameraModel.from_section(rig.camera),
-        HeadKinematics.from_section(rig.head),
-        ZoomLens.from_section(rig.camera),
-    )
+    view = rig_view(rig)
     return DigitalCamera(
         source,
         view,

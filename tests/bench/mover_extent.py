@@ -36,11 +36,7 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 from gazed.config import load_rig  # noqa: E402
-from gazed.geometry.camera import CameraModel  # noqa: E402
-from gazed.geometry.kinematics import HeadKinematics  # noqa: E402
-from gazed.geometry.zoom import ZoomLens  # noqa: E402
-from gazed.vision.digital_camera import wide_camera  # noqa: E402
-from gazed.vision.digital_view import DigitalView  # noqa: E402
+from gazed.vision.digital_camera import rig_view  # noqa: E402
 from gazed.vision.frames import CapturedFrame  # noqa: E402
 from gazed.vision.person_size import PersonSize  # noqa: E402
 from gazed.vision.wide_movers import WideMovers  # noqa: E402
@@ -117,12 +113,7 @@ def main() -> None:
     args = parser.parse_args()
     first, last = (int(x) for x in args.frames.split("-"))
     rig = load_rig(RIG)
-    view = DigitalView(
-        wide_camera(rig.wide),
-        CameraModel.from_section(rig.camera),
-        HeadKinematics.from_section(rig.head),
-        ZoomLens.from_section(rig.camera),
-    )
+    view = rig_view(rig)
     movers = WideMovers(view, rig.vision, "centroid", PersonSize.from_rig(rig, view.wide))
     capture = cv2.VideoCapture(str(rig.wide_source))
     capture.set(cv2.CAP_PROP_POS_FRAMES, first)

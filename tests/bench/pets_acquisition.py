@@ -44,12 +44,9 @@ from gazed.eval import footage_loop  # noqa: E402
 from gazed.eval.person_score import FrameFacts  # noqa: E402
 from gazed.eval.truth import read_truth  # noqa: E402
 from gazed.eval.view_people import ViewPeople  # noqa: E402
-from gazed.geometry.camera import CameraModel  # noqa: E402
-from gazed.geometry.kinematics import HeadKinematics  # noqa: E402
 from gazed.sim.reach import FieldOfRegard  # noqa: E402
 from gazed.topics import ESTIMATOR_STATE, GAZE_STATE, VISION_CANDIDATES, VISION_DETECTION  # noqa: E402
-from gazed.vision.digital_camera import wide_camera  # noqa: E402
-from gazed.vision.digital_view import DigitalView  # noqa: E402
+from gazed.vision.digital_camera import rig_view  # noqa: E402
 
 RIG = ROOT / "configs" / "pets.toml"
 TRUTH = ROOT.parent / "shared" / "data" / "footage" / "pets09-s2l1" / "truth_frames_0000-0399.csv"
@@ -76,11 +73,7 @@ def analyse(result: dict[str, Any], messages: dict[str, list[Any]], people: dict
     frames = footage_loop.view_frames(
         messages[VISION_DETECTION.suffix], messages[GAZE_STATE.suffix]
     )
-    view = DigitalView(
-        wide_camera(rig.wide),
-        CameraModel.from_section(rig.camera),
-        HeadKinematics.from_section(rig.head),
-    )
+    view = rig_view(rig, zoom=False)
     facts = FrameFacts.of(frames, people, ViewPeople(view, FieldOfRegard.for_scoring(rig)))
     person_id = result["select_id"]
     own = facts.person(person_id)

@@ -36,10 +36,7 @@ sys.path.insert(0, str(ROOT))
 from gazed.config import load_rig  # noqa: E402
 from gazed.eval.person_score import people_at  # noqa: E402
 from gazed.eval.truth import read_truth  # noqa: E402
-from gazed.geometry.camera import CameraModel  # noqa: E402
-from gazed.geometry.kinematics import HeadKinematics  # noqa: E402
-from gazed.vision.digital_camera import wide_camera  # noqa: E402
-from gazed.vision.digital_view import DigitalView  # noqa: E402
+from gazed.vision.digital_camera import rig_view  # noqa: E402
 from gazed.vision.frames import CapturedFrame, gray_frame  # noqa: E402
 from gazed.vision.person_size import PersonSize  # noqa: E402
 from gazed.vision.wide_movers import WideMovers  # noqa: E402
@@ -75,11 +72,7 @@ def main() -> None:
     args = parser.parse_args()
     first, last = (int(x) for x in args.frames.split("-"))
     rig = load_rig(RIG)
-    view = DigitalView(
-        wide_camera(rig.wide),
-        CameraModel.from_section(rig.camera),
-        HeadKinematics.from_section(rig.head),
-    )
+    view = rig_view(rig, zoom=False)
     person = PersonSize.from_rig(rig, view.wide)
     silhouettes = WideMovers(view, rig.vision, "centroid", person).silhouettes
     people = read_truth(TRUTH)

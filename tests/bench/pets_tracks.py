@@ -48,14 +48,10 @@ from gazed.estimation.target_tracker import TargetTracker  # noqa: E402
 from gazed.eval.person_score import people_at  # noqa: E402
 from gazed.eval.truth import read_truth  # noqa: E402
 from gazed.eval.view_people import ViewPeople  # noqa: E402
-from gazed.geometry.camera import CameraModel  # noqa: E402
 from gazed.geometry.ground import GroundGeometry  # noqa: E402
-from gazed.geometry.kinematics import HeadKinematics  # noqa: E402
-from gazed.geometry.zoom import ZoomLens  # noqa: E402
 from gazed.messages import Detection, HeadPose  # noqa: E402
 from gazed.sim.reach import FieldOfRegard  # noqa: E402
-from gazed.vision.digital_camera import wide_camera  # noqa: E402
-from gazed.vision.digital_view import DigitalView  # noqa: E402
+from gazed.vision.digital_camera import rig_view  # noqa: E402
 from gazed.vision.frames import CapturedFrame  # noqa: E402
 from gazed.vision.person_size import PersonSize  # noqa: E402
 from gazed.vision.stage import mover_message  # noqa: E402
@@ -76,12 +72,7 @@ def replay(rig_path: Path, frames: range, mode: str | None, point: str) -> list[
         rig = rig.model_copy(
             update={"estimator": rig.estimator.model_copy(update={"filter": mode})}
         )
-    view = DigitalView(
-        wide_camera(rig.wide),
-        CameraModel.from_section(rig.camera),
-        HeadKinematics.from_section(rig.head),
-        ZoomLens.from_section(rig.camera),
-    )
+    view = rig_view(rig)
     person = PersonSize.from_rig(rig, view.wide)
     movers = WideMovers(view, rig.vision, point, person)  # type: ignore[arg-type]
     now_ns = [0]  # the replay's clock: each frame arrives as it is captured
@@ -186,11 +177,7 @@ def main() -> None:
     people = read_truth(TRUTH)
     replayed = replay(args.rig, range(first, last + 1), args.filter, args.point)
     geometry = ViewPeople(
-        DigitalView(
-            wide_camera(rig.wide),
-            CameraModel.from_section(rig.camera),
-            HeadKinematics.from_section(rig.head),
-        ),
+        rig_view(rig, zoom=False),
         FieldOfRegard.for_scoring(rig),
     )
     aim = GroundGeometry.from_rig(rig)
