@@ -51,10 +51,12 @@ def mixture_costs(
     alone), inf where the d² of the tail (of the core where ε = 0) is outside the gate; `looks`
     as `pair_costs` takes them."""
     S_core = P[:, None] + core_R[None, :]
+    eps = np.asarray(tail_weight, dtype=float)[None, :]
+    if not (eps > 0).any():  # one Gaussian for every point: the core's costs alone
+        return pair_costs(predicted, S_core, measured, gate_d2, *looks)
     S_tail = P[:, None] + tail_R[None, :]
     core = pair_costs(predicted, S_core, measured, math.inf, *looks)
     tail = pair_costs(predicted, S_tail, measured, gate_d2, *looks)
-    eps = np.asarray(tail_weight, dtype=float)[None, :]
     with np.errstate(divide="ignore"):
         mixed = -2.0 * np.logaddexp(np.log1p(-eps) - core / 2.0, np.log(eps) - tail / 2.0)
     mixed = np.where(np.isfinite(tail), mixed, np.inf)
