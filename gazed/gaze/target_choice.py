@@ -24,8 +24,8 @@ dimensions against the sum of their covariances (the coasting track's grows with
 has coasted, so the gate widens as the person could have walked further). Of several, the
 nearest (in that distance) continues it. A chosen track that ends without having coasted was
 merged by the estimator with another track of its person (a track ends by coasting otherwise),
-so any track within that gate continues it, however old. Tracks without a ground position (image-cv) are not
-continued.
+so any track within that gate continues it, however old. Tracks without a ground position
+(image-cv) are not continued.
 
 An operator points at a person the moment they see them, often before the estimator has a
 track of them (a person who has just walked in needs a few detections to be confirmed, and one
