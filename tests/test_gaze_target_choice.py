@@ -494,3 +494,17 @@ def test_a_track_that_explains_the_point_better_takes_it_over_within_the_start_u
     late_s = 1.0 + 1.01 * track_start_up_s(RIG)
     exact = walker(11, (0.0, 5.0), (0.0, 0.0)).model_copy(update={"age_s": 0.1})
     assert c.on_state(at(late_s, mine, exact), None) is None and c.target_id == 9
+
+
+def test_a_newcomer_is_held_to_the_fit_the_chosen_track_had_when_it_took_the_point() -> None:
+    """The chosen track took the point close to it; later its fit, taken back along its velocity
+    over a longer life, falls, but a newcomer born a walk away does not take the choice."""
+    c = choice(select_rule="first")
+    c.on_select(GazeSelect(t_capture_ns=1_000_000_000, ground_xy_m=(0.0, 5.0)), None)
+    mine = walker(3, (0.2, 5.0), (0.0, 0.0)).model_copy(update={"age_s": 0.3})
+    change = c.on_state(at(1.5, mine), None)
+    assert change is not None and change.target_id == 3
+    # 1.5 s on, its velocity says it came from 3 m away; a newcomer 1.5 m off is confirmed
+    drifted = mine.model_copy(update={"age_s": 1.5, "ground_velocity_m_s": (2.0, 0.0)})
+    newcomer = walker(8, (1.5, 5.0), (0.0, 0.0)).model_copy(update={"age_s": 0.3})
+    assert c.on_state(at(2.7, drifted, newcomer), None) is None and c.target_id == 3

@@ -60,9 +60,11 @@ The first track that fits need not be the person's: while nobody at the point ha
 grows, and someone else walking near the point can be born inside it first. Their own track
 comes within the same start-up (`track_start_up_s` from the request), so for that long the point
 stays open: a track confirmed since the choice that explains the point better (higher
-likelihood, as above) than the chosen track takes the choice over. Each track is judged once,
-when it is confirmed, so two tracks never trade the choice back and forth; past the start-up no
-new track is the person's first.
+likelihood, as above) than the chosen track did when it took it takes the choice over. The
+chosen track is held to that first fit, when it was as young as the newcomer is: its fit later
+takes its position back along a velocity over a longer life, and would fall behind any
+newcomer's for that alone. Each track is judged once, when it is confirmed, so two tracks never
+trade the choice back and forth; past the start-up no new track is the person's first.
 
 An operator chose one person, and a track of someone else is not them: where the chosen track
 ends and no track continues it, the choice is held for its person rather than handed to the
@@ -137,6 +139,7 @@ class TargetChoice:
         self.holding = False  # an operator's chosen track ended: held for its person
         self._t_state_ns = 0  # the capture time of the last estimator state
         self._point: GazeSelect | None = None  # the operator's point taken, open to revision
+        self._point_fit = 0.0  # how well the chosen track explained it when it took it
         self._confirmed: frozenset[int] = frozenset()  # the confirmed ids in the last state
 
     def accepts(self, prediction: Prediction) -> bool:
@@ -256,6 +259,9 @@ class TargetChoice:
                 self.target_id != before,
             )
         self._point = self.pending
+        self._point_fit = (
+            point_fit(self.pending, best, state.t_capture_ns, self.continuation_d2) or 0.0
+        )
         self.pending, self.target_id, self.by_operator = None, best.id, True
         self._chosen, self._known = best, frozenset(t.id for t in state.tracks)
         self._chosen_ns = self._seen_ns = state.t_capture_ns
@@ -282,17 +288,16 @@ class TargetChoice:
         if t_ns - point.t_capture_ns > self.pending_max_ns:
             self._point = None
             return None
-        chosen = next((t for t in tracks if t.id == self.target_id), None)
-        gate = self.continuation_d2
-        best, best_fit = None, point_fit(point, chosen, t_ns, gate) if chosen else None
+        best, best_fit = None, self._point_fit
         for track in tracks:
             if not track.confirmed or track.id in confirmed or track.id == self.target_id:
                 continue
-            fit = point_fit(point, track, t_ns, gate)
-            if fit is not None and (best_fit is None or fit > best_fit):
+            fit = point_fit(point, track, t_ns, self.continuation_d2)
+            if fit is not None and fit > best_fit:
                 best, best_fit = track, fit
         if best is None:
             return None
+        self._point_fit = best_fit
         before, self.target_id, self._chosen = self.target_id, best.id, best
         self._known = frozenset(t.id for t in tracks)
         self._chosen_ns = self._seen_ns = t_ns
@@ -329,6 +334,10 @@ class TargetChoice:
         changed = track.id != self.target_id
         self.target_id, self.by_operator, self.holding = track.id, True, False
         self._point = select if select.ground_xy_m is not None else None
+        if self._point is not None:
+            self._point_fit = (
+                point_fit(select, track, self._t_state_ns, self.continuation_d2) or 0.0
+            )
         self._chosen, self._known = track, frozenset(t.id for t in self.tracks)
         self._chosen_ns = self._seen_ns = self._t_state_ns
         return ChoiceChange(track.id, f"{OPERATOR} chose track {track.id} {how}", changed)
