@@ -13,13 +13,9 @@ from test_gaze_controller import RIG, Clock, detection, odometry, prediction
 from gazed.config import GazeSection
 from gazed.gaze.controller import GazeController
 from gazed.gaze.focus import focus
-from gazed.gaze.target_choice import (
-    WALK_MAX_M_S,
-    TargetChoice,
-    track_start_up_s,
-    walked_on,
-)
+from gazed.gaze.target_choice import TargetChoice, track_start_up_s
 from gazed.gaze.target_rule import GroundZone, rule_pick
+from gazed.gaze.walk_gate import WALK_MAX_M_S, walked_on
 from gazed.geometry.camera import CameraModel
 from gazed.geometry.kinematics import HeadKinematics
 from gazed.geometry.target_angles import target_angles
@@ -449,3 +445,66 @@ def test_the_controller_follows_no_other_track_while_the_choice_waits() -> None:
     controller.on_prediction(prediction(clock, -20.0, 0.0).model_copy(update={"track_id": 1}))
     assert controller.pursuit.prediction is pursued  # not the rule's first track
     assert controller.counts["other_tracks"] == 1 and controller.counts["held_for_person"] == 1
+
+
+def test_a_track_long_in_range_does_not_take_a_point_across_from_it() -> None:
+    """A track's covariance is long in range and narrow across: its range spread does not
+    reach a point beside it, which waits for the track of the person who is there."""
+    c = choice(select_rule="first")
+    ranged = walker(4, (1.2, 5.0), (0.0, 0.0)).model_copy(
+        update={"ground_cov_m2": ((0.01, 0.0), (0.0, 1.0)), "age_s": 2.0}
+    )
+    c.on_state(at(1.0, ranged), None)
+    held = c.on_select(GazeSelect(t_capture_ns=1_000_000_000, ground_xy_m=(0.0, 5.0)), None)
+    assert not held.changed and c.pending is not None and not c.by_operator
+    mine = walker(9, (0.3, 5.0), (0.5, 0.0)).model_copy(update={"age_s": 0.4})
+    change = c.on_state(at(1.5, ranged, mine), None)
+    assert change is not None and change.target_id == 9 and c.by_operator
+
+
+def test_a_track_that_explains_the_point_better_takes_it_over_within_the_start_up() -> None:
+    """Nobody at the point has a track yet; someone walking near it is born where the person
+    can have walked and takes it; the person's own track, confirmed later and far more likely,
+    takes the choice over; each is judged once, so the first never takes it back."""
+    c = choice(select_rule="first")
+    c.on_select(GazeSelect(t_capture_ns=1_000_000_000, ground_xy_m=(0.0, 5.0)), None)
+    # 1.4 s on: born 0.3 s ago 2.6 m off, where the person can just have walked (2.4 m/s)
+    someone = walker(4, (2.6, 5.0), (0.0, 0.0)).model_copy(update={"age_s": 0.3})
+    change = c.on_state(at(2.4, someone), None)
+    assert change is not None and change.target_id == 4 and c.by_operator
+    # the person's own track, 1 m from the point after 1.4 s of walking, now confirmed
+    mine = walker(9, (-1.0, 5.0), (-0.7, 0.0)).model_copy(update={"age_s": 0.4})
+    assert (
+        c.on_state(
+            at(
+                2.8,
+                someone.model_copy(update={"age_s": 0.7}),
+                mine.model_copy(update={"confirmed": False}),
+            ),
+            None,
+        )
+        is None
+    )
+    change = c.on_state(at(3.0, someone.model_copy(update={"age_s": 0.9}), mine), None)
+    assert change is not None and change.target_id == 9 and c.by_operator
+    assert change.reason == "operator: track 9 explains (0, 5) m better than 4"
+    assert c.counts["revised_selections"] == 1
+    # judged once: 4 never takes it back, and past the start-up nothing revises it
+    assert c.on_state(at(3.2, someone, mine), None) is None and c.target_id == 9
+    late_s = 1.0 + 1.01 * track_start_up_s(RIG)
+    exact = walker(11, (0.0, 5.0), (0.0, 0.0)).model_copy(update={"age_s": 0.1})
+    assert c.on_state(at(late_s, mine, exact), None) is None and c.target_id == 9
+
+
+def test_a_newcomer_is_held_to_the_fit_the_chosen_track_had_when_it_took_the_point() -> None:
+    """The chosen track took the point close to it; later its fit, taken back along its velocity
+    over a longer life, falls, but a newcomer born a walk away does not take the choice."""
+    c = choice(select_rule="first")
+    c.on_select(GazeSelect(t_capture_ns=1_000_000_000, ground_xy_m=(0.0, 5.0)), None)
+    mine = walker(3, (0.2, 5.0), (0.0, 0.0)).model_copy(update={"age_s": 0.3})
+    change = c.on_state(at(1.5, mine), None)
+    assert change is not None and change.target_id == 3
+    # 1.5 s on, its velocity says it came from 3 m away; a newcomer 1.5 m off is confirmed
+    drifted = mine.model_copy(update={"age_s": 1.5, "ground_velocity_m_s": (2.0, 0.0)})
+    newcomer = walker(8, (1.5, 5.0), (0.0, 0.0)).model_copy(update={"age_s": 0.3})
+    assert c.on_state(at(2.7, drifted, newcomer), None) is None and c.target_id == 3

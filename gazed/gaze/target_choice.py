@@ -24,29 +24,47 @@ dimensions against the sum of their covariances (the coasting track's grows with
 has coasted, so the gate widens as the person could have walked further). Of several, the
 nearest (in that distance) continues it. A chosen track that ends without having coasted was
 merged by the estimator with another track of its person (a track ends by coasting otherwise),
-so any track within that gate continues it, however old. Tracks without a ground position (image-cv) are not
-continued.
+so any track within that gate continues it, however old. Tracks without a ground position
+(image-cv) are not continued.
 
 An operator points at a person the moment they see them, often before the estimator has a
-track of them (a person who has just walked in needs a few detections to be confirmed), and
-often beside others who have tracks. A ground point is taken by the nearest confirmed track
-whose person can have been at that point when it was chosen. Its ground position is taken back
-along its velocity over the time its detections measured that velocity: to the request's
-capture time, or to its birth where it was born after the request (a young track's velocity is
-too poor to take back further). That lies within the reach of the point: as far as a person
-walks (`WALK_MAX_M_S`) from the request to the birth, plus a person's width (the point and the
-track's may each be anywhere on them) and three standard deviations of the track's position.
-Tentative tracks are not people yet and take no
-point, but one nearer the point than every confirmed track that can take it is waited for: a
-person who has just walked in is still tentative while those around them are confirmed, and a
-tentative track is confirmed or dropped within the estimator's `confirm_frames`. A point no
-confirmed track can take yet is held rather than refused, and taken by the first track that
-can. The same holds for a continuation: a tentative new track nearer (in the gate's distance)
-than every confirmed one is waited for. While it is held, the rule does not pick. It is held for as long as a
-person in view can go without a confirmed track (`track_start_up_s`): the detector's start-up
-(`[vision] background_learning_frames`), the estimator's confirmation (`confirm_frames`), and
-then as long as the estimator keeps a person through missed detections (`coast_max_ms`). A
-point no track has taken by then is refused, and the rule picks.
+track of them (a person who has just walked in needs a few detections to be confirmed, and one
+outside the head's view none until the view turns to them), and often beside others who have
+tracks. A ground point is taken by the confirmed track that explains it best: the one under
+whose position its person most likely was at the point when it was chosen. The track's ground
+position is taken back along its velocity over the time its detections measured that velocity:
+to the request's capture time, or to its birth where it was born after the request (a young
+track's velocity is too poor to take back further). The person at the point is spread over
+their width (the point and the track's position may each be anywhere across a shoulder,
+`PERSON_WIDTH_M`), and over where they can have walked from the request to the birth: the
+covariance `walked_on` gives a lost person, whose gate's edge lies at `WALK_MAX_M_S`. The track
+fits where that position lies within `CONTINUATION_GATE_PROBABILITY`'s χ² gate of two dimensions
+against the sum of this spread and the track's own covariance (all of it: a track's covariance
+is long in range and narrow across, and a point across from it is not explained by its range);
+of those that fit, the one of highest likelihood (the Gaussian density of that distance) takes
+it, not the nearest in metres: a track born later, after its person could have walked further,
+needs to lie nearer to be as likely. Tentative tracks are not people yet and take no point, but
+one more likely than every confirmed track that fits is waited for: a person who has just
+walked in is still tentative while those around them are confirmed, and a tentative track is
+confirmed or dropped within the estimator's `confirm_frames`. A point no confirmed track can
+take yet is held rather than refused, and taken by the first track that can. The same holds for
+a continuation: a tentative new track nearer (in the gate's distance) than every confirmed one
+is waited for. While it is held, the rule does not pick. It is held for as long as a person in
+view can go without a confirmed track (`track_start_up_s`): the detector's start-up (`[vision]
+background_learning_frames`), the estimator's confirmation (`confirm_frames`), and then as long
+as the estimator keeps a person through missed detections (`coast_max_ms`). A point no track has
+taken by then is refused, and the rule picks.
+
+The first track that fits need not be the person's: while nobody at the point has a track yet
+(they are outside the head's view, or the detector has not found them), the walk allowed them
+grows, and someone else walking near the point can be born inside it first. Their own track
+comes within the same start-up (`track_start_up_s` from the request), so for that long the point
+stays open: a track confirmed since the choice that explains the point better (higher
+likelihood, as above) than the chosen track did when it took it takes the choice over. The
+chosen track is held to that first fit, when it was as young as the newcomer is: its fit later
+takes its position back along a velocity over a longer life, and would fall behind any
+newcomer's for that alone. Each track is judged once, when it is confirmed, so two tracks never
+trade the choice back and forth; past the start-up no new track is the person's first.
 
 An operator chose one person, and a track of someone else is not them: where the chosen track
 ends and no track continues it, the choice is held for its person rather than handed to the
@@ -66,10 +84,7 @@ replaced at once.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
-
-import numpy as np
 
 from gazed.config import Rig
 from gazed.estimation.chi_square import chi2_quantile
@@ -78,6 +93,7 @@ from gazed.gaze.target_rule import (
     nearest_by_angle,
     rule_pick,
 )
+from gazed.gaze.walk_gate import ground_distance2, point_fit, walked_on
 from gazed.geometry.kinematics import HeadKinematics
 from gazed.geometry.target_angles import target_angles
 from gazed.geometry.zoom import ZoomLens
@@ -86,9 +102,6 @@ from gazed.messages import EstimatorState, GazeSelect, Prediction, Track
 OPERATOR = "operator"  # how every gaze/state reason about an operator's request begins
 REFUSED = "operator refused"  # ... and one that changed nothing
 CONTINUATION_GATE_PROBABILITY = 0.999  # the estimator's own default gate for a detection
-WALK_MAX_M_S = 2.5  # the upper end of walking speeds: how far a person gets in a given time
-PERSON_WIDTH_M = 0.5  # a shoulder width: a point, and a track's, anywhere on one person
-POSITION_SIGMAS = 3.0  # a track's position is taken as known to within this many std
 
 
 @dataclass(frozen=True)
@@ -114,7 +127,7 @@ class TargetChoice:
         self.tracks: tuple[Track, ...] = ()
         self.counts = dict.fromkeys(
             ("other_tracks", "refused_selections", "continued", "held_for_person"), 0
-        )
+        ) | {"revised_selections": 0}
         self.continuation_d2 = chi2_quantile(CONTINUATION_GATE_PROBABILITY, 2)
         self._chosen: Track | None = None  # the chosen track in the last state that held it
         self._chosen_ns = 0  # that state's capture time
@@ -125,6 +138,9 @@ class TargetChoice:
         self.hold_max_ns = round((gaze.lost_after_ms + gaze.search_after_ms) * 1e6)
         self.holding = False  # an operator's chosen track ended: held for its person
         self._t_state_ns = 0  # the capture time of the last estimator state
+        self._point: GazeSelect | None = None  # the operator's point taken, open to revision
+        self._point_fit = 0.0  # how well the chosen track explained it when it took it
+        self._confirmed: frozenset[int] = frozenset()  # the confirmed ids in the last state
 
     def accepts(self, prediction: Prediction) -> bool:
         """A prediction of the chosen track (or of the only track, or before any choice);
@@ -144,8 +160,11 @@ class TargetChoice:
         """The estimator's tracks at a frame: the chosen one ended, or the rule picks one."""
         self.tracks = state.tracks
         self._t_state_ns = state.t_capture_ns
+        revised = self._revised(state.tracks, state.t_capture_ns)
         if self.pending is not None:
             return self._take_pending(state, head_rad)
+        if revised is not None:
+            return revised
         continued = self._continuation(state.tracks, state.t_capture_ns)
         if continued is not None:
             return continued
@@ -202,7 +221,7 @@ class TargetChoice:
         for track in tracks:
             if (track.id in self._known and not merged) or track.coasting:
                 continue
-            d2 = _ground_distance2(lost, track)
+            d2 = ground_distance2(lost, track)
             if d2 is None or d2 > self.continuation_d2:
                 born_elsewhere.add(track.id)  # not where the person can have walked: never
             elif d2 <= best_d2:
@@ -239,40 +258,62 @@ class TargetChoice:
                 f"back to rule {self.rule}",
                 self.target_id != before,
             )
+        self._point = self.pending
+        self._point_fit = (
+            point_fit(self.pending, best, state.t_capture_ns, self.continuation_d2) or 0.0
+        )
         self.pending, self.target_id, self.by_operator = None, best.id, True
         self._chosen, self._known = best, frozenset(t.id for t in state.tracks)
         self._chosen_ns = self._seen_ns = state.t_capture_ns
         self.holding = False
         return ChoiceChange(best.id, f"{OPERATOR} chose track {best.id} at ({x:g}, {y:g}) m")
 
-    @staticmethod
-    def _reaching(select: GazeSelect, tracks: tuple[Track, ...], t_ns: int) -> Track | None:
-        """The nearest track at `t_ns` whose person can have been at the request's ground point
-        when it was made, if it is confirmed (module docstring); None if none can, or if the
-        nearest is tentative."""
-        assert select.ground_xy_m is not None
-        point = np.asarray(select.ground_xy_m)
-        dt_s = max(0.0, (t_ns - select.t_capture_ns) * 1e-9)
-        best, best_m = None, math.inf
+    def _reaching(self, select: GazeSelect, tracks: tuple[Track, ...], t_ns: int) -> Track | None:
+        """The track at `t_ns` that best explains the request's ground point, if it is confirmed
+        (module docstring); None if none fits, or if the best is tentative."""
+        best, best_fit = None, 0.0
         for track in tracks:
-            if track.ground_xy_m is None:
-                continue
-            back_s = min(dt_s, track.age_s)  # to the request, or to its birth after it
-            velocity = np.asarray(track.ground_velocity_m_s or (0.0, 0.0))
-            then = np.asarray(track.ground_xy_m) - velocity * back_s
-            spread = np.linalg.eigvalsh(track.ground_cov_m2)[-1] if track.ground_cov_m2 else 0.0
-            walked_m = WALK_MAX_M_S * (dt_s - back_s)
-            reach = walked_m + PERSON_WIDTH_M + POSITION_SIGMAS * math.sqrt(spread)
-            distance = float(np.linalg.norm(then - point))
-            if distance <= reach and distance < best_m:
-                best, best_m = track, distance
+            fit = point_fit(select, track, t_ns, self.continuation_d2)
+            if fit is not None and fit > best_fit:
+                best, best_fit = track, fit
         return best if best is not None and best.confirmed else None
+
+    def _revised(self, tracks: tuple[Track, ...], t_ns: int) -> ChoiceChange | None:
+        """A track confirmed since the last state that explains the operator's point better
+        than the chosen track, within the start-up from the request (module docstring)."""
+        point, confirmed = self._point, self._confirmed
+        self._confirmed = frozenset(t.id for t in tracks if t.confirmed)
+        if point is None or not self.by_operator:
+            return None
+        if t_ns - point.t_capture_ns > self.pending_max_ns:
+            self._point = None
+            return None
+        best, best_fit = None, self._point_fit
+        for track in tracks:
+            if not track.confirmed or track.id in confirmed or track.id == self.target_id:
+                continue
+            fit = point_fit(point, track, t_ns, self.continuation_d2)
+            if fit is not None and fit > best_fit:
+                best, best_fit = track, fit
+        if best is None:
+            return None
+        self._point_fit = best_fit
+        before, self.target_id, self._chosen = self.target_id, best.id, best
+        self._known = frozenset(t.id for t in tracks)
+        self._chosen_ns = self._seen_ns = t_ns
+        self.holding = False
+        self.counts["revised_selections"] += 1
+        assert point.ground_xy_m is not None
+        x, y = point.ground_xy_m
+        return ChoiceChange(
+            best.id, f"{OPERATOR}: track {best.id} explains ({x:g}, {y:g}) m better than {before}"
+        )
 
     def on_select(self, select: GazeSelect, head_rad: tuple[float, float] | None) -> ChoiceChange:
         """An operator's request: a track by id, or the nearest to a ground point or a pixel;
         an empty request hands the choice back to the rule. A ground point with no track on the
         ground yet is held (module docstring)."""
-        self.pending = None
+        self.pending, self._point = None, None
         if select.ground_xy_m is not None and (
             self._reaching(select, self.tracks, self._t_state_ns) is None
         ):
@@ -292,6 +333,11 @@ class TargetChoice:
             return ChoiceChange(self.target_id, f"{REFUSED}: {how}; target unchanged", False)
         changed = track.id != self.target_id
         self.target_id, self.by_operator, self.holding = track.id, True, False
+        self._point = select if select.ground_xy_m is not None else None
+        if self._point is not None:
+            self._point_fit = (
+                point_fit(select, track, self._t_state_ns, self.continuation_d2) or 0.0
+            )
         self._chosen, self._known = track, frozenset(t.id for t in self.tracks)
         self._chosen_ns = self._seen_ns = self._t_state_ns
         return ChoiceChange(track.id, f"{OPERATOR} chose track {track.id} {how}", changed)
@@ -320,36 +366,3 @@ def track_start_up_s(rig: Rig) -> float:
     digital = rig.camera.source == "digital"  # its views come one per wide frame
     period_s = 1.0 / rig.wide.rate_hz if digital else rig.camera.frame_period_s
     return frames * period_s + rig.estimator.coast_max_ms / 1000.0
-
-
-def walked_on(track: Track, dt_s: float, gate_d2: float) -> Track:
-    """A track's person `dt_s` after its last state: on along its velocity, its covariance grown
-    so that the edge of the gate `gate_d2` (a squared Mahalanobis distance) lies as far as a
-    person can stray from that in the time (module docstring)."""
-    if track.ground_xy_m is None or track.ground_cov_m2 is None or dt_s <= 0.0:
-        return track
-    velocity = np.asarray(track.ground_velocity_m_s or (0.0, 0.0))
-    xy = np.asarray(track.ground_xy_m) + velocity * dt_s
-    stray_m2 = (WALK_MAX_M_S * dt_s) ** 2 / gate_d2
-    cov = np.asarray(track.ground_cov_m2) + stray_m2 * np.eye(2)
-    return track.model_copy(
-        update={
-            "ground_xy_m": (float(xy[0]), float(xy[1])),
-            "ground_cov_m2": tuple(tuple(float(c) for c in row) for row in cov),
-        }
-    )
-
-
-def _ground_distance2(a: Track, b: Track) -> float | None:
-    """Δᵀ (Pa + Pb)⁻¹ Δ of two tracks' ground positions; None without both positions and
-    covariances (or a singular sum)."""
-    if a.ground_xy_m is None or b.ground_xy_m is None or a.ground_cov_m2 is None:
-        return None
-    if b.ground_cov_m2 is None:
-        return None
-    delta = np.subtract(a.ground_xy_m, b.ground_xy_m)
-    C = np.add(a.ground_cov_m2, b.ground_cov_m2)
-    try:
-        return float(delta @ np.linalg.solve(C, delta))
-    except np.linalg.LinAlgError:
-        return None
