@@ -166,7 +166,8 @@ class Publisher(Generic[M]):
     def put(self, message: M) -> None:
         if not isinstance(message, self.topic.model) or self.topic.frames:
             raise TypeError(
-                f"{self.topic.suffix} carries {self.topic.model.__name__}, not {type(message).__name__}"
+                f"{self.topic.suffix} carries {self.topic.model.__name__}, "
+                f"not {type(message).__name__}"
             )
         self._publisher.put(message.to_json())
 

@@ -68,7 +68,10 @@ class LiveStatus:
     def line(self, up: int, total: int) -> str:
         target = f"({self.target[0]:+.2f}, {self.target[1]:+.2f}) m" if self.target else "-"
         latency = f"{np.median(self._processing_ms):.1f} ms" if self._processing_ms else "-"
-        return f"gaze {self.gaze:<8} target {target:<20} model {self.model:<4} latency p50 {latency:<9} up {up}/{total}"
+        return (
+            f"gaze {self.gaze:<8} target {target:<20} model {self.model:<4} "
+            f"latency p50 {latency:<9} up {up}/{total}"
+        )
 
     def close(self) -> None:
         if self.live:

@@ -25,7 +25,8 @@ class Notifier:
         return self._socket is not None
 
     def notify(self, *assignments: str) -> bool:
-        """Send `READY=1`, `STATUS=…` and the like in one datagram; False if it could not be sent."""
+        """Send `READY=1`, `STATUS=…` and the like in one datagram; False if it could not be
+        sent."""
         if self._socket is None or self._address is None:
             return False
         try:

@@ -9,8 +9,8 @@ its exposure, a delay gazed is not told, and published `[sim] visual_latency_ms`
 exposure of every frame, published at once).
 Settings: [camera] size, intrinsics and rate; [head] kinematics and limits (the emulated axes);
 [servo] protocol and port; [sim] seed, trajectory and its speed/scale/centre, target size,
-frame encoding, distractor, the true camera pose, latency and hidden camera delay, noise, flicker, blur, the court
-(ground lines to trace), and the emulated head's keys.
+frame encoding, distractor, the true camera pose, latency and hidden camera delay, noise, flicker,
+blur, the court (ground lines to trace), and the emulated head's keys.
 
 The world's snapshots and pixels are `gazed.sim.world`; when frames are captured, rendered and
 published is `gazed.sim.camera_schedule`.

@@ -9,8 +9,8 @@ Outputs: `vision/detection` for every frame processed, found or not, with the he
          interpolated at capture time, `compensated` telling whether the head's rotation
          was removed, and the movers (a digital head's: every mover its still wide camera
          segments); `vision/candidates` (when `[vision] candidates`, and not while
-         `gaze/state` says the controller pursues, saccades or traces); while it traces a ground line
-         (`trace`), `vision/edge` instead: the edge under the fovea.
+         `gaze/state` says the controller pursues, saccades or traces); while it traces a ground
+         line (`trace`), `vision/edge` instead: the edge under the fovea.
 Settings: [camera] (source, size, intrinsics, reopen_max_s, timeout_ms, delay_ms,
          delay_estimate), [head] kinematics,
          [servo] protocol, [wide] (the digital head's wide camera and stream),

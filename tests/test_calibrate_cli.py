@@ -277,7 +277,8 @@ LINE = "[[line]]\nphi_deg = {phi}\nd_m = {d}\nsamples_deg = {samples}\n"
     [
         (
             "[[1.0], [2.0, 3.0]]",
-            "{f}:2: [[line]] #1: samples_deg[1]: expected [pan, tilt] as two finite numbers, got [1.0]",
+            "{f}:2: [[line]] #1: samples_deg[1]: "
+            "expected [pan, tilt] as two finite numbers, got [1.0]",
         ),
         ('"along the kerb"', "[[line]] #1: samples_deg: expected [[pan, tilt], ...]"),
         ("[[-10.0, -30.0]]", "line 1: needs at least 2 distinct gaze samples"),

@@ -94,8 +94,8 @@ def test_out_of_range(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> Non
     )
     assert code == 2
     assert (
-        ": estimator.stay_probability: input should be less than 1, got 1.5 (expected a number > 0 and < 1"
-        in lines[0]
+        ": estimator.stay_probability: input should be less than 1, got 1.5 "
+        "(expected a number > 0 and < 1" in lines[0]
     )
 
 
@@ -140,7 +140,8 @@ def test_cross_field_check_names_its_key(
     )
     assert code == 2
     assert lines == [
-        f"{tmp_path / 'rig.toml'}: head.pan_max_deg: must be above pan_min_deg (expected pan_min_deg < pan_max_deg)"
+        f"{tmp_path / 'rig.toml'}: head.pan_max_deg: must be above pan_min_deg "
+        "(expected pan_min_deg < pan_max_deg)"
     ]
 
 
@@ -150,7 +151,8 @@ def test_servo_protocol_is_a_discriminator(
     code, lines = check(tmp_path, '[rig]\nname = "x"\n[servo]\nprotocol = "pelco"\n', capsys)
     assert code == 2
     assert lines[0].endswith(
-        "servo.protocol: unknown protocol 'pelco' (expected one of 'pelco-d', 'visca', 'flir-ptu', 'dynamixel', 'digital', 'onvif')"
+        "servo.protocol: unknown protocol 'pelco' "
+        "(expected one of 'pelco-d', 'visca', 'flir-ptu', 'dynamixel', 'digital', 'onvif')"
     )
 
 
@@ -229,7 +231,8 @@ def test_rig_error_lists_problems() -> None:
     with pytest.raises(RigError) as info:
         parse_rig('[rig]\nname = "x"\n[bus]\nrouter = false\n', "r.toml")
     assert info.value.problems == [
-        "r.toml: bus.connect: must name the router's endpoint(s) when router = false (expected a list of endpoints)"
+        "r.toml: bus.connect: must name the router's endpoint(s) when router = false "
+        "(expected a list of endpoints)"
     ]
 
 

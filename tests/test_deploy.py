@@ -23,7 +23,8 @@ def test_unit_lints_clean_with_systemd_analyze(tmp_path: Path) -> None:
         pytest.skip("systemd-analyze is not installed (Debian package: systemd)")
     if shutil.which("unshare") is None or os.geteuid() != 0:
         pytest.skip(
-            "needs root and unshare to install `gazed` into /usr/local/bin inside a private mount namespace"
+            "needs root and unshare to install `gazed` into /usr/local/bin "
+            "inside a private mount namespace"
         )
     gazed = Path(sys.executable).parent / "gazed"
     assert gazed.exists(), "the gazed console script is not installed beside this Python"

@@ -15,7 +15,8 @@ from gazed.sim.renderer import Renderer
 from gazed.vision.edge_trace import EdgeTracer
 
 RIG = parse_rig(
-    '[rig]\nname = "e"\n[sim]\ncamera_xyz_m = [0.0, -5.0, 3.0]\ncamera_yaw_deg = 90.0\ncamera_pitch_deg = -25.0\n'
+    '[rig]\nname = "e"\n[sim]\ncamera_xyz_m = [0.0, -5.0, 3.0]\n'
+    "camera_yaw_deg = 90.0\ncamera_pitch_deg = -25.0\n"
 )
 CAMERA = CameraModel.from_section(RIG.camera)
 POSE = CameraPose.from_rig(RIG)

@@ -61,7 +61,8 @@ def measure_ground(estimator, truth: np.ndarray, seed: int) -> Iterator[None]:
 )
 def test_each_ground_ekf_recovers_its_own_motion(model: str, factory, bounds) -> None:
     """A one-model IMM is that model's EKF. RMSE bounds over the second half: position (m),
-    speed (m/s), and the model's rate (turn rate for CS rad/s, ṡ for CD m/s², heading rad for CSD)."""
+    speed (m/s), and the model's rate (turn rate for CS rad/s, ṡ for CD m/s², heading rad for
+    CSD)."""
     truth = simulate_ground(model, 0)
     estimator = ImmEstimator((factory(),), np.array([[1.0]]))
     estimates = [estimator.imm.x[0, 0].copy() for _ in measure_ground(estimator, truth, seed=0)]

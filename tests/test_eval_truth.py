@@ -1,4 +1,5 @@
-"""The annotated-people reader: the PETS truth as the footage's README describes it, and clear errors."""
+"""The annotated-people reader: the PETS truth as the footage's README describes it, and clear
+errors."""
 
 from __future__ import annotations
 

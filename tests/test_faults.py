@@ -146,7 +146,8 @@ def test_tracking_survives_each_process_being_killed(tmp_path: Path) -> None:
             recovery_s = max((back - killed_ns) / 1e9, alive_again_s - killed_s)
             recoveries[name] = recovery_s
             print(
-                f"{name}: killed; back up after {alive_again_s - killed_s:.2f} s, tracking after {recovery_s:.2f} s"
+                f"{name}: killed; back up after {alive_again_s - killed_s:.2f} s, "
+                f"tracking after {recovery_s:.2f} s"
             )
             if name in ("estimator", "gaze"):
                 watch.pump()

@@ -262,7 +262,8 @@ def test_rig_refuses_a_singular_homography_and_a_target_above_the_camera() -> No
         parse_rig(RIG_TEXT.format(homography=[[1.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 0.0, 1.0]]))
     with pytest.raises(RigError, match=r"calibration\.target_height_m: not below the camera"):
         parse_rig(
-            '[rig]\nname = "x"\n[calibration]\ncamera_xyz_m = [0.0, 0.0, 1.0]\ntarget_height_m = 1.5\n'
+            '[rig]\nname = "x"\n[calibration]\ncamera_xyz_m = [0.0, 0.0, 1.0]\n'
+            "target_height_m = 1.5\n"
         )
     assert HeadSection().angle_noise_rad == pytest.approx(math.radians(0.05))
 

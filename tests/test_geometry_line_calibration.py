@@ -95,7 +95,8 @@ def test_lines_and_points_agree_under_noise() -> None:
     difference = np.linalg.norm(
         from_lines.ground_from_direction(rays) - from_points.ground_from_direction(rays), axis=1
     )
-    # each is within 5 sqrt(2) sigma (rho² + Zc²) / Zc of the truth (test_geometry_point_calibration)
+    # each is within 5 sqrt(2) sigma (rho² + Zc²) / Zc of the truth
+    # (test_geometry_point_calibration)
     rho = np.linalg.norm(ground - pose.centre_m[:2], axis=1)
     scale = math.sqrt(2) * SIGMA_RAD * (rho**2 + 4.0**2) / 4.0
     assert np.all(difference < 2 * 5 * scale)
@@ -216,6 +217,7 @@ def test_bad_samples_are_refused_naming_the_line_and_sample() -> None:
         )
     with pytest.raises(
         CalibrationError,
-        match=r"line 1 sample 1: tilt -31.757 deg is outside the head.s tilt limits \[-20, 30\] deg",
+        match=r"line 1 sample 1: tilt -31.757 deg "
+        r"is outside the head.s tilt limits \[-20, 30\] deg",
     ):
         calibrate_lines(lines, SIM_POSE.head, HeadSection(tilt_min_deg=-20.0))

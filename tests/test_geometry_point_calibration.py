@@ -242,7 +242,8 @@ def test_gazes_that_disagree_with_the_ground_are_refused() -> None:
     swapped = angles[[0, 1, 3, 2]]
     with pytest.raises(
         CalibrationError,
-        match="point 3, point 4: the fitted homography puts these gazes on the other side of the horizon",
+        match="point 3, point 4: "
+        "the fitted homography puts these gazes on the other side of the horizon",
     ):
         calibrate(SQUARE, swapped)
 

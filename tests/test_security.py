@@ -187,7 +187,8 @@ def make_certificates(directory: Path) -> Path:
         "extendedKeyUsage=serverAuth,clientAuth\n"
     )
     run("x509", "-req", "-in", "router.csr", "-CA", "ca.pem", "-CAkey", "ca.key",
-        "-CAcreateserial", "-out", "router.pem", "-days", "1", "-extfile", "router.ext")  # fmt: skip
+        "-CAcreateserial", "-out", "router.pem", "-days", "1",
+        "-extfile", "router.ext")  # fmt: skip
     return tls
 
 

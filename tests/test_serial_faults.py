@@ -52,19 +52,22 @@ def test_the_servo_rides_out_a_bad_line(tmp_path: Path, fault: str) -> None:
         servo = start_servo(rig_path)
         try:
             loop.until(lambda s: s.status is not None and s.status.link == "connected")
-            loop.until(lambda s: s.odometry is not None and abs(s.odometry.pan_rad - math.radians(10)) < 0.01,
+            loop.until(lambda s: s.odometry is not None
+                       and abs(s.odometry.pan_rad - math.radians(10)) < 0.01,
                        keep_demanding=(10.0, 0.0))  # fmt: skip
             errors, timeouts = loop.status.errors, loop.status.timeouts
 
             head.fault = fault
             # the line is bad while demands keep coming, some beyond the limits
             loop.until(
-                lambda s: s.status.link != "connected" or s.status.errors + s.status.timeouts > errors + timeouts + 2,
+                lambda s: s.status.link != "connected"
+                or s.status.errors + s.status.timeouts > errors + timeouts + 2,
                 timeout_s=15.0,
                 keep_demanding=(80.0, -70.0),
             )  # fmt: skip
             report = subprocess.run(
-                [PYTHON, "-m", "gazed.cli", "status", "--rig", str(rig_path), "--json", "--seconds", "1.5"],
+                [PYTHON, "-m", "gazed.cli", "status", "--rig", str(rig_path),
+                 "--json", "--seconds", "1.5"],
                 capture_output=True, text=True, env=child_env(), timeout=60,
             )  # fmt: skip
             servo_entry = json.loads(report.stdout)["rigs"][rig.name]["processes"]["servo"]
@@ -73,7 +76,8 @@ def test_the_servo_rides_out_a_bad_line(tmp_path: Path, fault: str) -> None:
             head.fault = None
             loop.until(lambda s: s.status.link == "connected", timeout_s=20.0)
             loop.until(
-                lambda s: s.odometry is not None and abs(s.odometry.pan_rad - math.radians(-20)) < 0.01,
+                lambda s: s.odometry is not None
+                and abs(s.odometry.pan_rad - math.radians(-20)) < 0.01,
                 timeout_s=20.0,
                 keep_demanding=(-20.0, 5.0),
             )  # fmt: skip

@@ -30,7 +30,8 @@ STATUS = """<?xml version="1.0" encoding="UTF-8"?>
 IPYCAM_STATUS = """<?xml version="1.0" encoding="UTF-8"?>
 <s:Envelope xmlns:s="http://www.w3.org/2003/05/soap-envelope" xmlns:tds="http://www.onvif.org/ver10/device/wsdl"
  xmlns:tt="http://www.onvif.org/ver10/schema" xmlns:trt="http://www.onvif.org/ver10/media/wsdl"><s:Body>
- <ptz:GetStatusResponse><ptz:PTZStatus><tt:Position><tt:PanTilt x="0.2" y="-0.1"/><tt:Zoom x="0.5"/></tt:Position>
+ <ptz:GetStatusResponse><ptz:PTZStatus><tt:Position><tt:PanTilt x="0.2" y="-0.1"/>\
+<tt:Zoom x="0.5"/></tt:Position>
  <tt:MoveStatus><tt:PanTilt>{{pan_tilt_status}}</tt:PanTilt><tt:Zoom>{{zoom_status}}</tt:Zoom></tt:MoveStatus>
  <tt:UtcTime>{{utc_time}}</tt:UtcTime></ptz:PTZStatus></ptz:GetStatusResponse></s:Body></s:Envelope>"""
 

@@ -1,5 +1,6 @@
 """The `sim` process on the bus: frames after the visual latency stamped on arrival (the hidden
-camera delay after their exposure), truth at every exposure, the head's pty where the rig's [servo] port says."""
+camera delay after their exposure), truth at every exposure, the head's pty where the rig's
+[servo] port says."""
 
 from __future__ import annotations
 

@@ -3,7 +3,8 @@ the odometry is recovered; a still head or one turning at a constant rate gives 
 wrong shifts among the good ones do not move the estimate; one motion onset identifies the lag,
 a stretch that several lags explain alike is not taken; a map from the head's rotation to
 the image's shift that hides a direction of the head's motion is not fitted; the window is
-fitted on every frame until the first fit, then every `fit_every_s`. `ImageShift` measures a known translation of a textured image."""
+fitted on every frame until the first fit, then every `fit_every_s`. `ImageShift` measures a
+known translation of a textured image."""
 
 from __future__ import annotations
 

@@ -97,7 +97,8 @@ def latency_text(report: dict[str, Any]) -> str:
     for suffix, entry in report["keys"].items():
         e = entry["end_to_end_ms"]
         lines.append(
-            f"{suffix + ' (end to end, n=' + str(entry['n']) + ')':<36} {e['p50']:9.2f} {e['p95']:9.2f} {e['p99']:9.2f}"
+            f"{suffix + ' (end to end, n=' + str(entry['n']) + ')':<36} "
+            f"{e['p50']:9.2f} {e['p95']:9.2f} {e['p99']:9.2f}"
         )
         for stage, s in entry["stages_ms"].items():
             lines.append(f"  {stage:<34} {s['p50']:9.2f} {s['p95']:9.2f} {s['p99']:9.2f}")

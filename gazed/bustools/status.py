@@ -61,7 +61,8 @@ def status_command(args: argparse.Namespace) -> int:
         session.close()
     if not alive and not counts:
         print(
-            f"gazed status: nothing answers for rig '{target.rig}' on {', '.join(target.bus.client_endpoints)}",
+            f"gazed status: nothing answers for rig '{target.rig}' "
+            f"on {', '.join(target.bus.client_endpoints)}",
             file=sys.stderr,
         )
         return 1

@@ -38,7 +38,8 @@ class BusSection(Section):
     )
     connect: list[Endpoint] = Field(
         default_factory=list,
-        description="Endpoints the processes and tools connect to; empty means the listen endpoints.",
+        description="Endpoints the processes and tools connect to; "
+        "empty means the listen endpoints.",
     )
     router: bool = Field(
         True,
@@ -58,10 +59,10 @@ class BusSection(Section):
     )
     credentials_path: Path | None = Field(
         None,
-        description="File of NAME:PASSWORD lines (zenoh's user/password dictionary, not readable by "
-        "other users): every process authenticates as its own name (supervisor, sim, servo, "
-        "vision, estimator, gaze; bus tools as 'tools') and the supervisor's router checks each "
-        "against it. Relative paths are from the rig file.",
+        description="File of NAME:PASSWORD lines (zenoh's user/password dictionary, "
+        "not readable by other users): every process authenticates as its own name "
+        "(supervisor, sim, servo, vision, estimator, gaze; bus tools as 'tools') and the "
+        "supervisor's router checks each against it. Relative paths are from the rig file.",
     )
 
     peer_links: bool = Field(
@@ -96,7 +97,8 @@ class BusSection(Section):
     def _connectable(self) -> BusSection:
         if not self.router and not self.connect:
             raise ValueError(
-                "connect: must name the router's endpoint(s) when router = false (expected a list of endpoints)"
+                "connect: must name the router's endpoint(s) when router = false "
+                "(expected a list of endpoints)"
             )
         return self
 

@@ -17,11 +17,13 @@ class CalibrationSection(Section):
         max_length=3,
         description="3x3 matrix M (rows) mapping frontal-plane points to ground XY (metres), "
         "M33 = 1 when the rest gaze points below the horizon, else a unit third row; lambda = "
-        "(M x)_3 > 0 below the horizon. Written by `gazed calibrate points|lines FILE --write RIG`.",
+        "(M x)_3 > 0 below the horizon. "
+        "Written by `gazed calibrate points|lines FILE --write RIG`.",
     )
     camera_xyz_m: tuple[float, float, float] | None = Field(
         None,
-        description="Camera rotation centre on the ground plane (X, Y) and its height Z, for height correction.",
+        description="Camera rotation centre on the ground plane (X, Y) and its height Z, "
+        "for height correction.",
     )
     target_height_m: float = Field(
         0.0,
@@ -41,7 +43,8 @@ class CalibrationSection(Section):
             scale = math.sqrt(sum(v * v for v in values))
             if abs(determinant) <= 1e-12 * scale**3:
                 raise ValueError(
-                    "homography: singular (expected an invertible matrix, as `gazed calibrate` writes)"
+                    "homography: singular "
+                    "(expected an invertible matrix, as `gazed calibrate` writes)"
                 )
         if self.camera_xyz_m is not None and self.target_height_m >= self.camera_xyz_m[2]:
             raise ValueError(
@@ -49,6 +52,7 @@ class CalibrationSection(Section):
             )
         if self.target_height_m > 0 and self.camera_xyz_m is None:
             raise ValueError(
-                "camera_xyz_m: missing (expected [X, Y, Z] when target_height_m > 0, for the height correction)"
+                "camera_xyz_m: missing "
+                "(expected [X, Y, Z] when target_height_m > 0, for the height correction)"
             )
         return self

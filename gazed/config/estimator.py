@@ -13,7 +13,8 @@ class EstimatorSection(Section):
     filter: Literal["imm", "innovation", "alphabeta", "image-cv"] = Field(
         "imm",
         description="'imm' CSD/CS/CD EKFs on the ground plane; 'innovation' CP/CV/CA selection; "
-        "'alphabeta' adaptive alpha-beta; 'image-cv' constant velocity on gaze angles (2D baseline).",
+        "'alphabeta' adaptive alpha-beta; "
+        "'image-cv' constant velocity on gaze angles (2D baseline).",
     )
     stay_probability: float = Field(
         0.96, gt=0, lt=1, description="IMM switching matrix diagonal J_d (the paper's 0.96)."
@@ -154,8 +155,9 @@ class EstimatorSection(Section):
     )
     predict_over_latency: bool = Field(
         True,
-        description="Predict to the instant the demand acts; false predicts to the measurement's own "
-        "time (no latency compensation: the baseline `gazed eval loop --filter none` compares against).",
+        description="Predict to the instant the demand acts; "
+        "false predicts to the measurement's own time "
+        "(no latency compensation: the baseline `gazed eval loop --filter none` compares against).",
     )
     actuation_latency_default_ms: float = Field(
         20.0,

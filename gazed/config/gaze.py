@@ -18,10 +18,12 @@ GroundPoint = Annotated[list[float], Field(min_length=2, max_length=2)]
 class GazeSection(Section):
     control: Literal["pursuit", "look-and-move", "pid", "move-wait-move"] = Field(
         "pursuit",
-        description="'pursuit': continuous smooth pursuit (dynamic look-and-move); 'look-and-move': "
-        "move, settle, then look (PTZ cameras that cannot image while moving). The peers' laws, "
-        "to compare with: 'pid': a PID on the pixel error with a deadband, no prediction; "
-        "'move-wait-move': move to where the target was seen, wait until the head stops, look again.",
+        description="'pursuit': continuous smooth pursuit (dynamic look-and-move); "
+        "'look-and-move': move, settle, then look (PTZ cameras that cannot image while moving). "
+        "The peers' laws, to compare with: "
+        "'pid': a PID on the pixel error with a deadband, no prediction; "
+        "'move-wait-move': move to where the target was seen, "
+        "wait until the head stops, look again.",
     )
     pid_kp_per_s: float = Field(
         4.0,
@@ -38,7 +40,8 @@ class GazeSection(Section):
     pid_deadband_px: float = Field(
         10.0,
         ge=0,
-        description="control 'pid': an error within this many pixels of the image centre counts as none.",
+        description="control 'pid': an error within this many pixels of the image centre "
+        "counts as none.",
     )
     rate_hz: float = Field(
         50.0, gt=0, le=1000, description="Rate of the gaze controller's demands."
@@ -73,7 +76,8 @@ class GazeSection(Section):
         0.3,
         ge=0,
         le=1,
-        description="Pursuit feedback: share of the smoothed prediction residual added to the demand.",
+        description="Pursuit feedback: share of the smoothed prediction residual "
+        "added to the demand.",
     )
     residual_smoothing: float = Field(
         0.2,
@@ -109,7 +113,8 @@ class GazeSection(Section):
         0.3,
         gt=0,
         le=10,
-        description="Line tracing: a sample this far off the line through the earlier ones means the edge turned.",
+        description="Line tracing: a sample this far off the line through the earlier ones "
+        "means the edge turned.",
     )
     trace_misses: int = Field(
         3,

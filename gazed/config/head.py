@@ -82,11 +82,13 @@ class HeadSection(Section):
             )
         if not self.pan_min_deg <= self.park_pan_deg <= self.pan_max_deg:
             raise ValueError(
-                "park_pan_deg: outside the pan limits (expected pan_min_deg <= park_pan_deg <= pan_max_deg)"
+                "park_pan_deg: outside the pan limits "
+                "(expected pan_min_deg <= park_pan_deg <= pan_max_deg)"
             )
         if not self.tilt_min_deg <= self.park_tilt_deg <= self.tilt_max_deg:
             raise ValueError(
-                "park_tilt_deg: outside the tilt limits (expected tilt_min_deg <= park_tilt_deg <= tilt_max_deg)"
+                "park_tilt_deg: outside the tilt limits "
+                "(expected tilt_min_deg <= park_tilt_deg <= tilt_max_deg)"
             )
         return self
 

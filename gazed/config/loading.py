@@ -1,4 +1,5 @@
-"""Reading a rig file: `load_rig`, `parse_rig`, and `load_rig_or_exit` for commands and processes."""
+"""Reading a rig file: `load_rig`, `parse_rig`, and `load_rig_or_exit` for commands and
+processes."""
 
 from __future__ import annotations
 
@@ -43,7 +44,8 @@ def cannot_start(rig: Rig) -> list[str]:
     if source is None:
         if rig.servo.protocol == "digital":
             return [
-                f"{where}: wide.source: missing (expected the wide camera the digital head looks through)"
+                f"{where}: wide.source: missing "
+                "(expected the wide camera the digital head looks through)"
             ]
         return []
     if source.isdigit() or "://" in source or Path(source).is_file():

@@ -36,7 +36,8 @@ class ServicesSection(Section):
         5,
         ge=1,
         le=1000,
-        description="Restarts of one process within restart_window_s before the supervisor gives up.",
+        description="Restarts of one process within restart_window_s "
+        "before the supervisor gives up.",
     )
     restart_window_s: float = Field(60.0, gt=0, description="Window of the restart intensity.")
     backoff_initial_s: float = Field(

@@ -94,7 +94,8 @@ class PelcoDServo(ServoLink):
     address: int = Field(1, ge=1, le=255, description="Receiver address of the camera.")
     position_feedback: bool = Field(
         True,
-        description="The unit answers the 0x51/0x53 position queries; otherwise odometry is dead-reckoned.",
+        description="The unit answers the 0x51/0x53 position queries; "
+        "otherwise odometry is dead-reckoned.",
     )
     pan_speed_max_deg_s: float = Field(
         120.0, gt=0, le=3600, description="Pan rate of drive speed 0x3F (speeds map linearly)."

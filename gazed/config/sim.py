@@ -16,7 +16,8 @@ class SimSection(Section):
     seed: int = Field(1, ge=0, description="Seed of everything random in the simulated world.")
     trajectory: str = Field(
         "oval",
-        description="rounded-square, oval, stop-and-go, figure-eight, random, or file:PATH[#ped_id].",
+        description="rounded-square, oval, stop-and-go, figure-eight, random, "
+        "or file:PATH[#ped_id].",
     )
     camera_xyz_m: tuple[float, float, float] = Field(
         (0.0, -6.0, 4.0), description="True camera rotation centre (X, Y on the ground, Z height)."
@@ -105,8 +106,8 @@ class SimSection(Section):
     )
     frame_encoding: Literal["bgr8", "gray8"] = Field(
         "bgr8",
-        description="Pixels of the published frames: colour, or grey (a third of the bytes on the bus; "
-        "the detectors work on grey anyway).",
+        description="Pixels of the published frames: colour, "
+        "or grey (a third of the bytes on the bus; the detectors work on grey anyway).",
     )
     noise_std_levels: float = Field(
         2.0, ge=0, le=64, description="Sensor noise: standard deviation in grey levels (0-255)."
@@ -139,6 +140,7 @@ class SimSection(Section):
             if value not in TRAJECTORY_NAMES and not value.startswith("file:"):
                 names = ", ".join(TRAJECTORY_NAMES)
                 raise ValueError(
-                    f"{key}: unknown trajectory {value!r} (expected one of {names} or file:PATH[#ped_id])"
+                    f"{key}: unknown trajectory {value!r} "
+                    f"(expected one of {names} or file:PATH[#ped_id])"
                 )
         return self

@@ -13,7 +13,8 @@ from gazed.config.section import Section
 class VisionSection(Section):
     detector: Literal["flow", "pyramid", "background"] = Field(
         "flow",
-        description="'flow' foveal normal flow, 'pyramid' motion-energy pyramid, 'background' subtraction.",
+        description="'flow' foveal normal flow, 'pyramid' motion-energy pyramid, "
+        "'background' subtraction.",
     )
     fovea_deg: float = Field(
         6.0, gt=0, le=90, description="Side of the square foveal window (the paper's ~6°)."

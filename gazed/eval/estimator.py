@@ -27,7 +27,8 @@ def estimator_arguments(parser: argparse.ArgumentParser) -> None:
     source.add_argument(
         "--scenario",
         choices=("rounded-square", "kelly"),
-        help="seeded simulation: rounded-square (seed 000 Table 1, imm) or kelly (seed 003 Table 3, innovation)",
+        help="seeded simulation: rounded-square (seed 000 Table 1, imm) "
+        "or kelly (seed 003 Table 3, innovation)",
     )
     source.add_argument(
         "--data", type=Path, help="pedestrian track file: 'frame_id ped_id x y' lines"
@@ -107,7 +108,8 @@ def estimator_command(args: argparse.Namespace) -> int:
             horizons = []
         if not horizons or not all(math.isfinite(h) and h > 0 for h in horizons):
             print(
-                f"gazed eval estimator: --horizons: expected positive seconds like 0.4,0.8, got {args.horizons!r}",
+                "gazed eval estimator: --horizons: expected positive seconds like 0.4,0.8, "
+                f"got {args.horizons!r}",
                 file=sys.stderr,
             )
             return 2
@@ -141,16 +143,20 @@ def format_report(report: dict[str, Any]) -> str:
     lines: list[str] = []
     if report.get("scenario") == "rounded-square":
         lines.append(
-            f"rounded square, imm, seed {report['seed']}: {report['observations']} observations at {report['period_s']} s"
+            f"rounded square, imm, seed {report['seed']}: "
+            f"{report['observations']} observations at {report['period_s']} s"
         )
         lines.append(
-            f"{'model':<6}{'true':<6}{'actual':>7}{'estim.':>7}  {'p_CSD':>6}{'p_CS':>6}{'p_CD':>6}  {'s_dot m/s2':>10}{'theta_dot rad/s':>16}"
+            f"{'model':<6}{'true':<6}{'actual':>7}{'estim.':>7}  "
+            f"{'p_CSD':>6}{'p_CS':>6}{'p_CD':>6}  "
+            f"{'s_dot m/s2':>10}{'theta_dot rad/s':>16}"
         )
         for r in report["segments"]:
             p = r["mean_probability"]
             lines.append(
                 f"{r['model']:<6}{r['true_model']:<6}{r['actual_obs']:>7}{r['estimated_obs']:>7}  "
-                f"{p['CSD']:>6.3f}{p['CS']:>6.3f}{p['CD']:>6.3f}  {r['mean_s_dot_m_s2']:>10.3f}{r['mean_theta_dot_rad_s']:>16.3f}"
+                f"{p['CSD']:>6.3f}{p['CS']:>6.3f}{p['CD']:>6.3f}  "
+                f"{r['mean_s_dot_m_s2']:>10.3f}{r['mean_theta_dot_rad_s']:>16.3f}"
             )
         d = report["switch_delay_obs"]
         tr = report["turn_rate_rad_s"]
@@ -160,7 +166,8 @@ def format_report(report: dict[str, Any]) -> str:
             f"{d['ratio_to_ideal']:.2f}x the ideal's"
         )
         lines.append(
-            f"turn rate in CS segments: {tr['cs_segments']:.3f} rad/s (CS model) vs {tr['true']:.3f} "
+            f"turn rate in CS segments: {tr['cs_segments']:.3f} rad/s (CS model) "
+            f"vs {tr['true']:.3f} "
             f"true: relative error {report['turn_rate_rel_error']:.1%}; IMM combined "
             f"{tr['cs_segments_combined']:.3f} ({report['turn_rate_rel_error_combined']:.1%})"
         )

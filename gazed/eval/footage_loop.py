@@ -1,8 +1,8 @@
 """`gazed eval loop --truth FILE.csv`: run a digital head's rig over its footage on a private bus
 and score it against the annotated people (`person_score`).
 
-The rig file is copied as for the simulator (`private_rig.private_document`) with the footage's first
-frame (`[wide] start_frame`) and the frames' delay (`[wide] frame_delay_ms`, from
+The rig file is copied as for the simulator (`private_rig.private_document`) with the footage's
+first frame (`[wide] start_frame`) and the frames' delay (`[wide] frame_delay_ms`, from
 `--latency-ms`). Each view the head renders carries its footage frame as its sequence number and
 the pose it was rendered at, so every detection names both. With `--select-id`, the person's
 ground point in the first frame of the run that shows them goes out on `gaze/select` (the

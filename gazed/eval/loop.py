@@ -68,7 +68,8 @@ def loop_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--scenario",
-        help="a trajectory: rounded-square, oval, stop-and-go, figure-eight, random, file:PATH#ped_id",
+        help="a trajectory: rounded-square, oval, stop-and-go, figure-eight, random, "
+        "file:PATH#ped_id",
     )
     parser.add_argument(
         "--truth",
@@ -95,7 +96,8 @@ def loop_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--latency-ms",
         type=float,
-        help="the simulated visual latency; with --truth, the frames' delay ([wide] frame_delay_ms)",
+        help="the simulated visual latency; "
+        "with --truth, the frames' delay ([wide] frame_delay_ms)",
     )
     parser.add_argument("--seed", type=int, help="the simulated world's seed")
     parser.add_argument("--control", choices=CONTROLS, help="gaze control mode")

@@ -95,8 +95,8 @@ def _prediction_errors(
     steps: Iterable[int] | None = None,
 ) -> dict[str, Any]:
     """Each track stepped causally (`steps`: the step indices, 0 to the longest track's
-    length, by default a plain range); from its second measurement on, its forecast to every horizon the track still
-    covers against the recorded position then."""
+    length, by default a plain range); from its second measurement on, its forecast to every
+    horizon the track still covers against the recorded position then."""
     t, xy, length = data.t, data.xy, data.length
     errors: dict[float, list[np.ndarray]] = {h: [] for h in horizons_s}
     for k in range(t.shape[1]) if steps is None else steps:

@@ -7,16 +7,16 @@ nothing, so `gazed.geometry.kinematics` does not pull in OpenCV).
 Estimator and gaze — one object per rig, `ground.GroundGeometry`:
 
     geometry = GroundGeometry.from_rig(rig)   # MissingCalibrationError without a homography
-    xy = geometry.ground_from_gaze(pan, tilt, u_px, v_px)            # (2,), height-corrected
+    xy = geometry.ground_from_gaze(pan, tilt, u_px, v_px)           # (2,), height-corrected
     m = geometry.measure(GazeSample(pan, tilt, u, v, pan_rate, tilt_rate, u_rate, v_rate),
                          MeasurementNoise.from_head(rig.head, pixel_px=1.0, pixel_rate_px_s=5.0))
-    m.position_m, m.velocity_m_s, m.covariance                       # (2,), (2,), 4x4 (X Y X' Y')
-    geometry.ground_jacobian(pan, tilt, u, v)                        # 2x4 d(X, Y)/d(pan, tilt, u, v)
-    pan, tilt = geometry.gaze_from_ground(x, y)                      # centre a ground point
+    m.position_m, m.velocity_m_s, m.covariance                      # (2,), (2,), 4x4 (X Y X' Y')
+    geometry.ground_jacobian(pan, tilt, u, v)                       # 2x4 d(X, Y)/d(pan, tilt, u, v)
+    pan, tilt = geometry.gaze_from_ground(x, y)                     # centre a ground point
     pan_rate, tilt_rate = geometry.gaze_rates_from_ground(x, y, x_rate, y_rate)
     pan, tilt, pan_rate, tilt_rate = geometry.gaze_motion_from_ground(x, y, x_rate, y_rate)  # both
-    geometry.gaze_jacobian(x, y)                                     # 2x2 d(pan, tilt)/d(X, Y)
-    geometry.pixel_from_ground(x, y, pan, tilt)                      # where it appears now
+    geometry.gaze_jacobian(x, y)                                    # 2x2 d(pan, tilt)/d(X, Y)
+    geometry.pixel_from_ground(x, y, pan, tilt)                     # where it appears now
 
   `u_rate`, `v_rate` are the total rate of change of the target's pixel (ego-motion included).
   A ray at or above the horizon raises `homography.HorizonError` (a ValueError), never NaN.

@@ -74,7 +74,8 @@ def _toml_file(path: Path, text: str) -> CalibrationFile:
     allowed = get_args(Kinematics)
     if kinematics is not None and kinematics not in allowed:
         raise CalibrationFileError(
-            f"{path}: kinematics: expected one of {', '.join(map(repr, allowed))}, got {kinematics!r}"
+            f"{path}: kinematics: expected one of {', '.join(map(repr, allowed))}, "
+            f"got {kinematics!r}"
         )
     points = tuple(
         _point(entry, f"point {k}", _where(path, text, "point", k))
@@ -129,7 +130,8 @@ def _line(entry: dict[str, Any], label: str, where: str) -> CalibrationLine:
             and all(_is_finite_number(v) for v in sample)
         ):
             raise CalibrationFileError(
-                f"{where}: samples_deg[{n}]: expected [pan, tilt] as two finite numbers, got {sample!r}"
+                f"{where}: samples_deg[{n}]: expected [pan, tilt] as two finite numbers, "
+                f"got {sample!r}"
             )
         pairs.append(sample)
     samples_rad = np.radians(np.array(pairs, dtype=float).reshape(-1, 2))

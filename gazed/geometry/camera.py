@@ -115,7 +115,8 @@ class CameraModel:
         return ideal[:, 0].reshape(u.shape), ideal[:, 1].reshape(v.shape)
 
     def ray(self, u_px: np.ndarray | float, v_px: np.ndarray | float) -> np.ndarray:
-        """Camera-frame direction (x right, y down, z forward; z = 1) through pixel(s); shape (..., 3)."""
+        """Camera-frame direction (x right, y down, z forward; z = 1) through pixel(s);
+        shape (..., 3)."""
         u, v = self.undistort(u_px, v_px)
         K = self.K
         ray = np.empty((*np.shape(u), 3))

@@ -1,5 +1,5 @@
-"""The base of the wire schemas: every message on the bus is one of these pydantic models, sent as JSON with the
-zenoh encoding `application/json;gazed.<Name>/<version>`.
+"""The base of the wire schemas: every message on the bus is one of these pydantic models, sent
+as JSON with the zenoh encoding `application/json;gazed.<Name>/<version>`.
 
 Every message carries `t_capture_ns` (when the light hit the sensor, or the source time of the
 data it derives from; wall clock, integer ns) and `stamps`, a list of `(stage, t_ns)` pairs that

@@ -44,10 +44,11 @@ class Reply:
     """One decoded reply from the device.
 
     `pan_rad` / `tilt_rad` are device angles, None where the reply carries only one axis (or
-    none). A `zoom` reply's `value` is the zoom position, 0 widest to 1 longest. `reason` is the device's own words for errors and notices; `value` a number the reply
-    carries that is not an angle (a PTU resolution, a Dynamixel register); `socket` the VISCA
-    command socket; `device_id` the Dynamixel ID. `asynchronous` replies (completions, limit
-    notices) do not answer the request in flight.
+    none). A `zoom` reply's `value` is the zoom position, 0 widest to 1 longest. `reason` is the
+    device's own words for errors and notices; `value` a number the reply carries that is not an
+    angle (a PTU resolution, a Dynamixel register); `socket` the VISCA command socket; `device_id`
+    the Dynamixel ID. `asynchronous` replies (completions, limit notices) do not answer the request
+    in flight.
     """
 
     kind: ReplyKind

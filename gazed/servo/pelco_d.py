@@ -12,10 +12,10 @@ Tilt raw 0 is the horizon and grows downwards: `raw = round(-tilt_up_deg*100) mo
 Set position is the pan frame (0x4B) then the tilt frame (0x4D); query is 0x51 then 0x53,
 answered by 0x59 (pan) and 0x5B (tilt) extended responses. The zoom goes to a position with
 0x4F and is read with 0x55, answered by 0x5D; its units are the device's, 0 the widest (the
-rig's `zoom_max_units` is the longest zoom, 65535 on units that scale it to their zoom limit). Motion commands get no reply; a bad
-checksum or an unsupported command is silently ignored by the device. The 4-byte general
-response `FF addr alarm cksum` of C466M-E is not produced by the units this targets; its bytes
-are skipped as garbage.
+rig's `zoom_max_units` is the longest zoom, 65535 on units that scale it to their zoom limit).
+Motion commands get no reply; a bad checksum or an unsupported command is silently ignored by the
+device. The 4-byte general response `FF addr alarm cksum` of C466M-E is not produced by the units
+this targets; its bytes are skipped as garbage.
 
 The frame helpers below are shared by the host codec and the emulated device (gazed.sim).
 """

@@ -19,8 +19,8 @@ Every command is answered by an ACK `z0 4y FF` (accepted into socket y) or an er
 technical manual p.28). The camera has two command sockets: the codec keeps which of them hold
 a command (from the ACKs, completions and errors it decodes), so the driver sends a command only
 when one is free (`has_room`), and one refused with `z0 60 03 FF` (buffer full: both busy, as
-when the codec lost track after a timeout) is sent again once a socket frees. Pan is positive to the right and
-tilt positive up; units per degree depend on the model (the rig's `pan_deg_per_unit`). The
+when the codec lost track after a timeout) is sent again once a socket frees. Pan is positive to the
+right and tilt positive up; units per degree depend on the model (the rig's `pan_deg_per_unit`). The
 zoom's position runs from 0 (widest) to the model's telephoto end (0x4000 on most Sony models'
 optical zoom; the rig's `zoom_max_units`), which gazed calls zoom 1.
 """

@@ -5,9 +5,9 @@ absolute move and are not answered; the standard drive command (cmd2 direction b
 speeds 0..0x3F, 0x40 turbo) drives continuously until the stop command (all bits clear); queries
 0x51 / 0x53 are answered with 0x59 / 0x5B extended responses carrying the encoder reading in
 hundredths of a degree (tilt in Pelco's downward-positive convention); set zoom (0x4F) moves
-the lens and the zoom query (0x55) is answered with 0x5D, in `zoom_max_units` of the rig. Frames with a bad
-checksum, another address or an unsupported command are ignored in silence, as the protocol
-says. With `position_feedback = false` the unit does not answer queries either.
+the lens and the zoom query (0x55) is answered with 0x5D, in `zoom_max_units` of the rig. Frames
+with a bad checksum, another address or an unsupported command are ignored in silence, as the
+protocol says. With `position_feedback = false` the unit does not answer queries either.
 """
 
 from __future__ import annotations

@@ -236,7 +236,8 @@ class Supervisor:
             return False
         if new.rig != self.rig.rig or new.bus != self.rig.bus:
             log.error(
-                "reload: [rig] and [bus] changes need a restart of gazed run; keeping the running rig"
+                "reload: [rig] and [bus] changes need a restart of gazed run; "
+                "keeping the running rig"
             )
             self.notifier.status("reload refused: [rig]/[bus] changed (restart gazed run)")
             return False

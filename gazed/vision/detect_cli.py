@@ -136,7 +136,8 @@ def _run(args: argparse.Namespace, rig: Rig | None, capture: cv2.VideoCapture) -
             f"{args.video}: {index} frames at {fps:g} fps ({width}x{height}), detector {detector}\n"
             f"found in {found} ({100.0 * found / index:.1f}%), head rotation compensated in "
             f"{compensated}\n"
-            f"time per frame: median {np.median(times):.2f} ms, p99 {np.percentile(times, 99):.2f} ms"
+            f"time per frame: median {np.median(times):.2f} ms, "
+            f"p99 {np.percentile(times, 99):.2f} ms"
         )
         if args.annotate:
             print(f"annotated video: {args.annotate}")

@@ -5,9 +5,9 @@ moment `read()` returns it (the closest this side of the driver gets to the capt
 camera's own exposure-to-delivery delay is not included), and keeps only the newest. A video
 file is paced at its own frame rate (or `file_rate_hz` where its container says otherwise),
 so it behaves like a camera. When opening fails or a read returns nothing (device unplugged,
-stream dropped, file ended) the capture is released and reopened after a backoff delay (doubling up to `reopen_max_s`); files therefore loop. Streams
-get FFmpeg open/read timeouts, so a dead URL never blocks the thread for long, and the process
-never waits on the thread at all.
+stream dropped, file ended) the capture is released and reopened after a backoff delay (doubling up
+to `reopen_max_s`); files therefore loop. Streams get FFmpeg open/read timeouts, so a dead URL never
+blocks the thread for long, and the process never waits on the thread at all.
 """
 
 from __future__ import annotations

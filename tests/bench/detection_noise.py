@@ -67,7 +67,8 @@ def main() -> None:
     )
     print(f"  position error: bias {position.mean(0).round(4)} m, std {position.std(0).round(4)} m")
     print(
-        f"  velocity error: bias {velocity.mean(0).round(3)} m/s, std {velocity.std(0).round(3)} m/s"
+        f"  velocity error: bias {velocity.mean(0).round(3)} m/s, "
+        f"std {velocity.std(0).round(3)} m/s"
     )
     told_std = np.median(told, axis=0)
     print(

@@ -71,9 +71,8 @@ def main() -> None:
         }
         baselines = baseline_errors(tracks, horizons, 0.0, 0)
         print(f"{path.name} (mean error m at {', '.join(keys)} s)")
-        print(
-            f"  imm default        {'  '.join(f'{e:.4f}' for e in means(track_errors(default, tracks, 'imm', horizons, 0, 0)))}"
-        )
+        default_errors = means(track_errors(default, tracks, "imm", horizons, 0, 0))
+        print(f"  imm default        {'  '.join(f'{e:.4f}' for e in default_errors)}")
         for i, key in enumerate(keys):
             (scale, r), errors = min(grid.items(), key=lambda item: item[1][i])
             best = "  ".join(f"{e:.4f}" for e in errors)
@@ -91,7 +90,8 @@ def main() -> None:
         for name, report in baselines.items():
             print(f"  {name:<18} {'  '.join(f'{e:.4f}' for e in means(report))}")
         print(
-            f"  cv-ml's r = {baselines['cv-ml']['r']:.3g} m², q = {baselines['cv-ml']['q']:.3g} m²/s³"
+            f"  cv-ml's r = {baselines['cv-ml']['r']:.3g} m², "
+            f"q = {baselines['cv-ml']['q']:.3g} m²/s³"
         )
 
 

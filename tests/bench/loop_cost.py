@@ -102,7 +102,8 @@ def summary(phases: list[dict[str, Any]]) -> str:
     for p in phases:
         lines.append(
             f"{p['phase']:<8} {p['n']:>5} {p['processing_p50_ms']:>8.2f} "
-            f"{p['processing_p99_ms']:>8.2f} {p['loop_cpu_percent']:>10.1f}  {p['other_cpu_percent']}"
+            f"{p['processing_p99_ms']:>8.2f} {p['loop_cpu_percent']:>10.1f}  "
+            f"{p['other_cpu_percent']}"
         )
     lines.append("median over phases:")
     for label in ("without", "with"):

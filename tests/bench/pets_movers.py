@@ -143,7 +143,8 @@ def main() -> None:
         if rows:
             ratio = np.array(rows)
             print(
-                f"  {key} ({len(rows)}): width / a person's {np.quantile(ratio[:, 0], QUANTILES).round(2)}"
+                f"  {key} ({len(rows)}): "
+                f"width / a person's {np.quantile(ratio[:, 0], QUANTILES).round(2)}"
                 f", height / a person's {np.quantile(ratio[:, 1], QUANTILES).round(2)}"
                 f" (quantiles {', '.join(str(q) for q in QUANTILES)})"
             )

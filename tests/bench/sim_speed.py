@@ -40,7 +40,8 @@ def main() -> int:
         times_ms.append((time.perf_counter() - start) * 1e3)
     p50, p99 = np.percentile(times_ms[10:], [50, 99])
     print(
-        f"render 640x480 (OpenCV threads: {cv2.getNumThreads()}): median {p50:.2f} ms, p99 {p99:.2f} ms "
+        f"render 640x480 (OpenCV threads: {cv2.getNumThreads()}): "
+        f"median {p50:.2f} ms, p99 {p99:.2f} ms "
         f"over {args.frames - 10} frames; a 60 Hz rig needs < 16.7 ms"
     )
     return 0

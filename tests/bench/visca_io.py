@@ -1,8 +1,9 @@
 """VISCA on the emulated camera over each of its transports: Sony's VISCA over IP (UDP), raw
 VISCA over TCP (PTZOptics' `socket://`, through the tests' TCP-to-pty bridge) and a serial line
-(a pty at `--baud`; the TCP camera's pty is paced as a network, not a line): the command rate each sustains (absolute moves, Pan-tiltDrives and
-position inquiries back to back, each answered before the next is sent) and the time from a
-command to the first position inquiry that shows the head moving.
+(a pty at `--baud`; the TCP camera's pty is paced as a network, not a line): the command rate
+each sustains (absolute moves, Pan-tiltDrives and position inquiries back to back, each answered
+before the next is sent) and the time from a command to the first position inquiry that shows
+the head moving.
 
     python tests/bench/visca_io.py [--count 300] [--latency-ms 0] [--baud 9600]
 
