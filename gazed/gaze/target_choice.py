@@ -93,7 +93,7 @@ from gazed.gaze.target_rule import (
     nearest_by_angle,
     rule_pick,
 )
-from gazed.gaze.walk_gate import ground_distance2, point_fit, walked_on
+from gazed.gaze.walk_gate import ground_distance2, most_likely, point_fit, walked_on
 from gazed.geometry.kinematics import HeadKinematics
 from gazed.geometry.target_angles import target_angles
 from gazed.geometry.zoom import ZoomLens
@@ -271,11 +271,7 @@ class TargetChoice:
     def _reaching(self, select: GazeSelect, tracks: tuple[Track, ...], t_ns: int) -> Track | None:
         """The track at `t_ns` that best explains the request's ground point, if it is confirmed
         (module docstring); None if none fits, or if the best is tentative."""
-        best, best_fit = None, 0.0
-        for track in tracks:
-            fit = point_fit(select, track, t_ns, self.continuation_d2)
-            if fit is not None and fit > best_fit:
-                best, best_fit = track, fit
+        best, _ = most_likely(select, tracks, t_ns, self.continuation_d2)
         return best if best is not None and best.confirmed else None
 
     def _revised(self, tracks: tuple[Track, ...], t_ns: int) -> ChoiceChange | None:
@@ -288,13 +284,10 @@ class TargetChoice:
         if t_ns - point.t_capture_ns > self.pending_max_ns:
             self._point = None
             return None
-        best, best_fit = None, self._point_fit
-        for track in tracks:
-            if not track.confirmed or track.id in confirmed or track.id == self.target_id:
-                continue
-            fit = point_fit(point, track, t_ns, self.continuation_d2)
-            if fit is not None and fit > best_fit:
-                best, best_fit = track, fit
+        newcomers = [
+            t for t in tracks if t.confirmed and t.id not in confirmed and t.id != self.target_id
+        ]
+        best, best_fit = most_likely(point, newcomers, t_ns, self.continuation_d2, self._point_fit)
         if best is None:
             return None
         self._point_fit = best_fit

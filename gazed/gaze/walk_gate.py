@@ -11,6 +11,7 @@ likelihood that its person was there when the point was chosen (`point_fit`).
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 
 import numpy as np
 
@@ -61,6 +62,23 @@ def point_fit(select: GazeSelect, track: Track, t_ns: int, gate_d2: float) -> fl
     if d2 > gate_d2:
         return None
     return math.exp(-0.5 * d2) / (2.0 * math.pi * math.sqrt(float(np.linalg.det(spread))))
+
+
+def most_likely(
+    select: GazeSelect,
+    tracks: Iterable[Track],
+    t_ns: int,
+    gate_d2: float,
+    better_than: float = 0.0,
+) -> tuple[Track | None, float]:
+    """The track of `tracks` that best explains the request's ground point (`point_fit`) and
+    its fit, where that fit exceeds `better_than`; (None, `better_than`) where none does."""
+    best, best_fit = None, better_than
+    for track in tracks:
+        fit = point_fit(select, track, t_ns, gate_d2)
+        if fit is not None and fit > best_fit:
+            best, best_fit = track, fit
+    return best, best_fit
 
 
 def ground_distance2(a: Track, b: Track) -> float | None:
