@@ -44,7 +44,8 @@ class PluggableLine(VirtualLine):
         super().connect()
 
     def read(self, timeout_s: float) -> tuple[bytes, int]:
-        if self.silent:
+        if self.silent:  # the port blocks for the whole timeout
+            self.now_s += max(0.0, timeout_s)
             return b"", self.wall_ns()
         return super().read(timeout_s)
 
@@ -109,6 +110,20 @@ def test_it_connects_follows_a_demand_and_reports_odometry_dated_by_the_head() -
         (20.0, -10.0)
     )
     assert link.link.counters()["commands"] > 1 and link.link.counters()["odometry"] > 1
+
+
+def test_reply_deadlines_run_on_the_links_clock_not_the_machines(monkeypatch) -> None:
+    """A loaded machine (here: its monotonic clock jumps a second per reading) does not time out
+    replies that come in time on the link's own clock."""
+    idle = Link()
+    idle_steps = idle.run(0.5, keep_demanding=demand(20.0, -10.0))
+    machine_s = itertools.count(start=1000.0, step=1.0)
+    monkeypatch.setattr(time, "monotonic", lambda: next(machine_s))
+    loaded = Link()
+    steps = loaded.run(0.5, keep_demanding=demand(20.0, -10.0))
+    assert loaded.link.counters()["timeouts"] == 0 and loaded.link.last_error is None
+    assert [r.pan_rad for r in odometry(steps)] == [r.pan_rad for r in odometry(idle_steps)]
+    assert len(odometry(steps)) > 10
 
 
 def test_an_immediate_step_writes_the_demand_and_nothing_slow() -> None:

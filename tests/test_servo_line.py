@@ -112,8 +112,10 @@ class VirtualLine:
         return max(0.0, self._free_s - self.now_s)
 
     def read(self, timeout_s: float) -> tuple[bytes, int]:
+        """Blocks as a port does: until the next byte is due, or for the whole timeout."""
         due = self.line.next_due_s()
-        self.now_s = due if due is not None and due <= self.now_s + timeout_s else self.now_s
+        until_s = self.now_s + max(0.0, timeout_s)
+        self.now_s = max(self.now_s, due) if due is not None and due <= until_s else until_s
         data = self.line.service(self.now_s)
         self.line_s += len(data) * self.byte_time_s
         return data, self.wall_ns()
@@ -130,7 +132,7 @@ def test_each_axis_is_dated_when_the_head_read_it() -> None:
     rig = pelco_rig("unused", 9600)
     transport = VirtualLine(rig)
     codec = make_codec("pelco-d", **rig.servo_params())
-    driver = ServoDriver(codec, transport, 0.1)  # type: ignore[arg-type]
+    driver = ServoDriver(codec, transport, 0.1, lambda: transport.now_s)  # type: ignore[arg-type]
     driver.connect()
     driver.set_velocity(math.radians(60.0), math.radians(30.0))
     transport.run_until(101.0)  # up to speed

@@ -21,7 +21,9 @@ PERIOD_S = 0.02
 def parked_from(pan_deg: float, timeout_s: float) -> tuple[VirtualLine, SetpointGenerator]:
     rig = link_rig()
     line = VirtualLine(rig)
-    driver = ServoDriver(make_codec("pelco-d", **rig.servo_params()), line, 0.05)
+    driver = ServoDriver(
+        make_codec("pelco-d", **rig.servo_params()), line, 0.05, lambda: line.now_s
+    )
     driver.connect()
     setpoints = SetpointGenerator(rig.head, line.now_s)
     setpoints.reset(math.radians(pan_deg), 0.0, line.now_s)

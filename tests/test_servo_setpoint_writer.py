@@ -27,7 +27,9 @@ class Writer:
     def __init__(self, command_rate_hz: float = 50.0) -> None:
         rig = link_rig()
         self.line = VirtualLine(rig)
-        self.driver = ServoDriver(make_codec("pelco-d", **rig.servo_params()), self.line, 0.05)
+        self.driver = ServoDriver(
+            make_codec("pelco-d", **rig.servo_params()), self.line, 0.05, lambda: self.line.now_s
+        )
         self.driver.connect()
         self.demands = Demands()
         self.commands: list[tuple[GazeDemand, int]] = []
@@ -145,7 +147,9 @@ def test_a_demand_between_a_polls_frames_goes_out_at_once_and_nothing_else_does(
 def test_where_a_head_without_feedback_is_sent_when_the_link_opens() -> None:
     rig = link_rig()
     line = VirtualLine(rig)
-    driver = ServoDriver(make_codec("pelco-d", **rig.servo_params()), line, 0.05)
+    driver = ServoDriver(
+        make_codec("pelco-d", **rig.servo_params()), line, 0.05, lambda: line.now_s
+    )
     writer = SetpointWriter(rig.head, driver, list, lambda *_: None, 0.02, 0.3, line.now_s)
     assert writer.start_point(line.now_s) == rig.head.park_rad  # nothing written yet
     writer.reset(0.1, -0.1, line.now_s)

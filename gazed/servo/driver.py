@@ -56,10 +56,17 @@ class DevicePosition:
 class ServoDriver:
     """The head behind one serial port, speaking one protocol."""
 
-    def __init__(self, codec: Codec, transport: Transport, timeout_s: float) -> None:
+    def __init__(
+        self,
+        codec: Codec,
+        transport: Transport,
+        timeout_s: float,
+        mono_s: Callable[[], float] = time.monotonic,
+    ) -> None:
         self.codec = codec
         self.transport = transport
         self.timeout_s = timeout_s
+        self._mono_s = mono_s
         self.counters: Counter[str] = Counter()
         self.notices: deque[Reply] = deque(maxlen=32)
         self.last_error: str | None = None
@@ -201,9 +208,9 @@ class ServoDriver:
     def _collect(self, expected: int) -> list[tuple[Reply, int]]:
         replies: list[tuple[Reply, int]] = []
         byte_time_ns = self.transport.byte_time_s * 1e9
-        deadline = time.monotonic() + self.transport.line_busy_s() + self.timeout_s
+        deadline = self._mono_s() + self.transport.line_busy_s() + self.timeout_s
         while len(replies) < expected:
-            remaining = deadline - time.monotonic()
+            remaining = deadline - self._mono_s()
             if remaining <= 0:
                 self.counters["timeouts"] += 1
                 self.codec.reset()
@@ -234,9 +241,9 @@ class ServoDriver:
         if self.codec.has_room(frame):
             return
         self.counters["waits_for_room"] += 1
-        deadline = time.monotonic() + self.timeout_s
+        deadline = self._mono_s() + self.timeout_s
         while not self.codec.has_room(frame):
-            remaining = deadline - time.monotonic()
+            remaining = deadline - self._mono_s()
             if remaining <= 0:
                 self.counters["room_waits_expired"] += 1
                 self.codec.reset()

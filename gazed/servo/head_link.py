@@ -139,6 +139,7 @@ class HeadLink:
                 make_codec(rig.servo.protocol, **rig.servo_params()),
                 transport or open_transport(rig.servo.port, rig.servo.baud, timeout_s),
                 timeout_s,
+                mono_s,
             )
             if rig.camera.zoom_focal_px and self.driver.codec.zooms:
                 self.zoom = ZoomDrive(self.driver, rig.head.zoom_rate_max_s)
@@ -211,7 +212,7 @@ class HeadLink:
                     odometry = self._poll(now)
                 self.line.measure(now.mono_s, self.driver.transport)
         except LinkError as exc:
-            self._link_lost(now.mono_s, exc)
+            self._link_lost(self._mono_s(), exc)  # the backoff runs from when it failed
         except (DeviceError, CodecError) as exc:
             self.counts["errors"] += 1
             self.last_error = str(exc)
@@ -270,7 +271,7 @@ class HeadLink:
             self.link = "down"
             self.counts["errors"] += 1
             self.last_error = f"connect: {exc}"
-            self._next_connect_s = mono_s + self.backoff.next_delay_s()
+            self._next_connect_s = self._mono_s() + self.backoff.next_delay_s()
             return
         self.writer.reset(pan, tilt, mono_s)
         self.response_lag.reset()
