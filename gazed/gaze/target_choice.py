@@ -30,31 +30,31 @@ merged by the estimator with another track of its person (a track ends by coasti
 so any track within that gate continues it, however old. Tracks without a ground position
 (image-cv) are not continued.
 
-An operator points at a person the moment they see them, often before the estimator has a track
-of them (a person who has just walked in needs a few detections to be confirmed, and one outside
-the head's view none until the view turns to them), and often beside others who have tracks. A
-ground point is taken by the confirmed track that explains it best: the one under whose position
-its person most likely was at the point when it was chosen. The track's ground position is taken
-back along its velocity over the time its detections measured that velocity: to the request's
-capture time, or to its birth where it was born after the request (a young track's velocity is
-too poor to take back further). The person at the point is spread over their width (the point
-and the track's position may each be anywhere across a shoulder, `PERSON_WIDTH_M`), and over
-where they can have walked from the request to the birth: the covariance `walked_on` gives a
-lost person, whose gate's edge lies at `WALK_MAX_M_S`. The track fits where that position lies
-within `CONTINUATION_GATE_PROBABILITY`'s χ² gate of two dimensions against the sum of this
-spread and the track's own covariance (all of it: a track's covariance is long in range and
-narrow across, and a point across from it is not explained by its range); of those that fit, the
-one of highest likelihood (the Gaussian density of that distance) takes it, not the nearest in
-metres: a track born later, after its person could have walked further, needs to lie nearer to
-be as likely. Tentative tracks are not people yet and take no point, but one more likely than
-every confirmed track that fits is waited for: a person who has just walked in is still
-tentative while those around them are confirmed, and a tentative track is confirmed or dropped
-within the estimator's `confirm_frames`. A point no confirmed track can take yet is held rather
-than refused, and taken by the first track that can (the gaze turns to a held point outside its
-view, `point_look`, so that its person can get a track). The same holds for a continuation: a
-tentative new track nearer (in the gate's distance) than every confirmed one is waited for.
-While it is held, the rule does not pick. It is held for as long as a person in view can go
-without a confirmed track (`track_start_up_s`): the detector's start-up (`[vision]
+An operator points at a person the moment they see them, often before the estimator has a
+track of them (a person who has just walked in needs a few detections to be confirmed, and one
+outside the head's view none until the view turns to them), and often beside others who have
+tracks. A ground point is taken by the confirmed track that explains it best: the one under
+whose position its person most likely was at the point when it was chosen. The track's ground
+position is taken back along its velocity over the time its detections measured that velocity:
+to the request's capture time, or to its birth where it was born after the request (a young
+track's velocity is too poor to take back further). The person at the point is spread over
+their width (the point and the track's position may each be anywhere across a shoulder,
+`PERSON_WIDTH_M`), and over where they can have walked from the request to the birth: the
+covariance `walked_on` gives a lost person, whose gate's edge lies at `WALK_MAX_M_S`. The track
+fits where that position lies within `CONTINUATION_GATE_PROBABILITY`'s χ² gate of two dimensions
+against the sum of this spread and the track's own covariance (all of it: a track's covariance
+is long in range and narrow across, and a point across from it is not explained by its range);
+of those that fit, the one of highest likelihood (the Gaussian density of that distance) takes
+it, not the nearest in metres: a track born later, after its person could have walked further,
+needs to lie nearer to be as likely. Tentative tracks are not people yet and take no point, but
+one more likely than every confirmed track that fits is waited for: a person who has just
+walked in is still tentative while those around them are confirmed, and a tentative track is
+confirmed or dropped within the estimator's `confirm_frames`. A point no confirmed track can
+take yet is held rather than refused, and taken by the first track that can (the gaze turns to a
+held point outside its view, `point_look`, so that its person can get a track). The same holds
+for a continuation: a tentative new track nearer (in the gate's distance) than every confirmed
+one is waited for. While it is held, the rule does not pick. It is held for as long as a person in
+view can go without a confirmed track (`track_start_up_s`): the detector's start-up (`[vision]
 background_learning_frames`), the estimator's confirmation (`confirm_frames`), and then as long
 as the estimator keeps a person through missed detections (`coast_max_ms`). A point no track has
 taken by then is refused, and the rule picks.
