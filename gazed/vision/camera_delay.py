@@ -295,16 +295,6 @@ class CameraDelayEstimator:
         angles = np.vstack([inside, np.reshape(ends, (2, 2))])
         return bool(np.all(np.ptp(angles, axis=0) <= tolerance_rad))
 
-    def angles_at(self, t_s: np.ndarray) -> np.ndarray | None:
-        """(N, 2) pan and tilt at the times `t_s` (held at the odometry's ends past them); None
-        where the odometry does not reach back to the earliest."""
-        if not self._odometry:
-            return None
-        odometry = np.array(self._odometry)
-        if odometry[0, 0] > float(np.min(t_s)):
-            return None
-        return np.stack([np.interp(t_s, odometry[:, 0], odometry[:, j]) for j in (1, 2)], -1)
-
     @property
     def uncertainty_s(self) -> float:
         """How far the estimate may lie from the delay: until three fits, the most spread a

@@ -33,7 +33,6 @@ TIMING_WINDOW = 100  # frames over which the shift's cost is reported
 # period of it: a margin on the stamps' tolerance of a frame, as the spread is the least the
 # lag is uncertain by (camera_delay)
 SPREAD_PER_FRAME = 0.25
-UNCERTAINTY_SAMPLES = 5  # exposure times over the estimate's uncertainty its pose is checked at
 STILL_SHIFT_PX = 1.0  # the image moved less than this since a still frame: the same pose
 
 
@@ -49,7 +48,6 @@ class CaptureStampCorrection:
         self._last_arrival_s: float | None = None
         # a pixel's angle: a pose known to within it is as good as exact for the detectors
         self.pixel_rad = 1.0 / CameraModel.from_section(camera).focal_px
-        self.frame_period_s = camera.frame_period_s
         self.pose_known = True
         # where the head's pose at the last frame's exposure is read (None: at its stamp)
         self.pose_ns: int | None = None
@@ -114,20 +112,15 @@ class CaptureStampCorrection:
         self.pose_known = False
 
     def _pose_certain(self, exposure_s: float) -> bool:
-        """Whether the head's rotation over the frame period up to `exposure_s`, which the
-        detectors' ego-motion takes out, is known to within a pixel whatever the delay within
-        the estimate's uncertainty: the head turned at a steady rate, or stood, over it. A
-        saccade (the head accelerating) seen through an estimate a few milliseconds off has its
-        rotation degrees off, a steady pursuit's is right whatever the offset."""
+        """Whether the head's pose at `exposure_s` is known to within a pixel whatever the
+        delay within the estimate's uncertainty: the head turned less than a pixel over each
+        side of it (a saccade seen through an estimate a few milliseconds off puts the pose
+        degrees off, and the detectors' ego-motion with it)."""
         u_s = self.estimator.uncertainty_s
-        if u_s <= 0.0:
-            return True
-        ends = exposure_s + np.linspace(-u_s, u_s, UNCERTAINTY_SAMPLES)
-        angles = self.estimator.angles_at(np.concatenate([ends - self.frame_period_s, ends]))
-        if angles is None:
-            return False
-        turns = angles[len(ends) :] - angles[: len(ends)]
-        return bool(np.all(np.ptp(turns, axis=0) <= self.pixel_rad))
+        return u_s <= 0.0 or (
+            self.estimator.still_over(exposure_s - u_s, exposure_s, self.pixel_rad)
+            and self.estimator.still_over(exposure_s, exposure_s + u_s, self.pixel_rad)
+        )
 
     def note(self) -> str:
         """The delay applied, and where it comes from."""
