@@ -148,37 +148,3 @@ def test_a_frame_whose_image_did_not_move_since_a_still_one_has_the_still_pose()
         seen.append((correction.pose_known, correction.pose_ns))
     still_ns = T0_NS + 2_960_000_000
     assert seen == [(True, None)] + [(True, still_ns)] * 3 + [(False, None)] * 2
-
-
-def test_with_a_first_fit_a_saccade_s_pose_is_unknown_within_the_estimate_s_uncertainty() -> None:
-    """One fit taken: the delay is known to the spread a fit is taken with, so a frame
-    exposed while the head turns fast (a saccade) has no known pose, one exposed while it
-    turns slowly or stands has; once the recent fits agree closely, the saccade's pose is
-    known too."""
-    correction = CaptureStampCorrection(
-        CameraSection(width_px=640, height_px=480, delay_estimate=True)
-    )
-    estimator = correction.estimator
-    gray = np.zeros((480, 640), np.uint8)
-
-    def pan_rad(t_s: float) -> float:  # still for 3 s, a 0.2 rad saccade, then a slow pan
-        saccade = 0.2 * min(max((t_s - 3.0) / 0.2, 0.0), 1.0)
-        return 0.1 + saccade + 0.002 * max(t_s - 3.2, 0.0)
-
-    for j in range(600):  # odometry at 100 Hz over 6 s
-        correction.add_odometry(
-            Odometry(t_capture_ns=T0_NS + j * 10_000_000, pan_rad=pan_rad(j * 0.01), tilt_rad=0)
-        )
-    delay_s = 0.2
-
-    def known_at(exposure_s: float) -> bool:
-        correction.frame(frame(0, gray, T0_NS + round((exposure_s + delay_s) * 1e9)), gray)
-        return correction.pose_known
-
-    estimator.fits, estimator.delay_s = 1, delay_s
-    estimator._recent.append(delay_s)
-    assert estimator.uncertainty_s == estimator.max_spread_s
-    assert [known_at(s) for s in (2.5, 3.1, 4.0)] == [True, False, True]
-    estimator._recent.extend([delay_s + 0.0004, delay_s - 0.0004])
-    assert estimator.uncertainty_s == pytest.approx(0.0004)
-    assert known_at(3.1)

@@ -279,30 +279,16 @@ class CameraDelayEstimator:
         grid's negative lags (there so that a delay near zero is not on the grid's edge) are no
         exposure times: the odometry a frame processed late finds past its arrival (the head's
         first move, commanded from the frames before it) leaves its pose known."""
-        t0_s, t1_s = arrival_s - self.lags_s[-1], arrival_s - max(float(self.lags_s[0]), 0.0)
-        return self.still_over(t0_s, t1_s, tolerance_rad)
-
-    def still_over(self, t0_s: float, t1_s: float, tolerance_rad: float) -> bool:
-        """Whether pan and tilt stayed within `tolerance_rad` from `t0_s` to `t1_s`; False
-        where the odometry does not reach back to `t0_s`."""
         if not self._odometry:
             return False
         odometry = np.array(self._odometry)
+        t0_s, t1_s = arrival_s - self.lags_s[-1], arrival_s - max(float(self.lags_s[0]), 0.0)
         if odometry[0, 0] > t0_s:
             return False  # the odometry does not reach back that far
         inside = odometry[(odometry[:, 0] >= t0_s) & (odometry[:, 0] <= t1_s), 1:]
         ends = [np.interp(t, odometry[:, 0], odometry[:, j]) for t in (t0_s, t1_s) for j in (1, 2)]
         angles = np.vstack([inside, np.reshape(ends, (2, 2))])
         return bool(np.all(np.ptp(angles, axis=0) <= tolerance_rad))
-
-    @property
-    def uncertainty_s(self) -> float:
-        """How far the estimate may lie from the delay: until three fits, the most spread a
-        fit is taken with (a fit's own spread is the least the lag is uncertain by), then the
-        farthest of the recent fits from their median."""
-        if len(self._recent) < 3:
-            return self.max_spread_s
-        return max(abs(lag_s - self.delay_s) for lag_s in self._recent)
 
     def fit_due(self, now_s: float) -> bool:
         """Whether `update(now_s)` would fit the window: there are shifts, and no fit has

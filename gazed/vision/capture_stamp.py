@@ -96,7 +96,6 @@ class CaptureStampCorrection:
         shifted by `shift` from the frame before."""
         if self.estimator.fits:
             self._still_ns = None
-            self.pose_known = self._pose_certain(arrival_ns * 1e-9 - self.estimator.delay_s)
             return
         if self.estimator.still_before(arrival_ns * 1e-9, self.pixel_rad):
             self._still_ns, self._moved_px = arrival_ns, (0.0, 0.0)
@@ -110,17 +109,6 @@ class CaptureStampCorrection:
                 return
         self._still_ns = None
         self.pose_known = False
-
-    def _pose_certain(self, exposure_s: float) -> bool:
-        """Whether the head's pose at `exposure_s` is known to within a pixel whatever the
-        delay within the estimate's uncertainty: the head turned less than a pixel over each
-        side of it (a saccade seen through an estimate a few milliseconds off puts the pose
-        degrees off, and the detectors' ego-motion with it)."""
-        u_s = self.estimator.uncertainty_s
-        return u_s <= 0.0 or (
-            self.estimator.still_over(exposure_s - u_s, exposure_s, self.pixel_rad)
-            and self.estimator.still_over(exposure_s, exposure_s + u_s, self.pixel_rad)
-        )
 
     def note(self) -> str:
         """The delay applied, and where it comes from."""
