@@ -483,3 +483,37 @@ def test_pid_control_drives_the_head_at_a_rate_towards_the_pixel_error() -> None
     assert c.pid.rate_rad_s[0] == pytest.approx(rig.gaze.pid_kp_per_s * error_rad[0])
     # the head's acceleration limit shapes the step in rate
     assert demand.pan_rate_rad_s <= c.pid.rate_rad_s[0]
+
+
+def settled_after_a_saccade(clock: Clock, held_deg: float) -> tuple[GazeController, float]:
+    """A saccade to a detection 200 px right, a prediction `held_deg` in pan from its goal
+    held when it settles; the controller in pursuit and the goal's pan (degrees)."""
+    c = in_search(clock)
+    run_up(c, clock, 519.5, 239.5)
+    c.on_detection(detection(clock, 519.5, 239.5))
+    goal_deg = math.degrees(c.tick(clock.wall_ns, clock.mono_s).demand.pan_rad)
+    clock.advance(0.2)
+    c.on_prediction(prediction(clock, goal_deg + held_deg, 0.0, actuation_s=0.0))
+    c.on_odometry(odometry(clock, goal_deg, 0.0))
+    c.tick(clock.wall_ns, clock.mono_s)
+    clock.advance(0.11)
+    c.on_odometry(odometry(clock, goal_deg, 0.0))
+    settled = c.tick(clock.wall_ns, clock.mono_s)
+    assert settled.transition.reason == "settled on the target"
+    clock.advance(0.02)
+    return c, goal_deg
+
+
+def test_a_saccade_lands_without_pursuing_a_prediction_that_leaves_the_fovea() -> None:
+    """Settled after a saccade, pursuit takes up a held prediction only where it puts the
+    target in the fovea: one elsewhere is another target's (a track made before the move)
+    and would send the head back; without it the head holds until a prediction comes."""
+    clock = Clock()
+    c, goal_deg = settled_after_a_saccade(clock, -15.0)  # back near where the head began
+    demand = c.tick(clock.wall_ns, clock.mono_s).demand
+    assert math.degrees(demand.pan_rad) == pytest.approx(goal_deg, abs=0.5)
+    clock = Clock()
+    c, goal_deg = settled_after_a_saccade(clock, 1.0)  # a degree from the landing: pursued
+    demand = c.tick(clock.wall_ns, clock.mono_s).demand
+    assert demand.kind == "pursuit"
+    assert math.degrees(demand.pan_rad) == pytest.approx(goal_deg + 1.0, abs=0.1)

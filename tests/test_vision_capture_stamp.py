@@ -118,3 +118,33 @@ def test_the_vision_stage_gives_no_pose_to_a_frame_whose_exposure_is_unknown(
     estimating, told = poses
     assert estimating and all(head is None for head in estimating)
     assert told and all(head is not None for head in told)
+
+
+def test_a_frame_whose_image_did_not_move_since_a_still_one_has_the_still_pose() -> None:
+    """The head's first move begun but not yet in the image (the frames of the delay after it
+    were exposed before it): a frame whose background stands where a still frame's did has
+    that frame's pose, read where it arrived; once the image moves, the pose is unknown."""
+    correction = CaptureStampCorrection(
+        CameraSection(width_px=320, height_px=240, delay_estimate=True)
+    )
+    texture = cv2.GaussianBlur(
+        np.random.default_rng(3).integers(0, 256, (240, 400)).astype(np.uint8), (0, 0), 2.0
+    )
+
+    def pan_rad(t_s: float) -> float:  # still for 3 s, then a 0.2 rad saccade
+        return 0.1 + 0.2 * min(max((t_s - 3.0) / 0.2, 0.0), 1.0)
+
+    for j in range(600):  # odometry at 100 Hz over 6 s
+        correction.add_odometry(
+            Odometry(t_capture_ns=T0_NS + j * 10_000_000, pan_rad=pan_rad(j * 0.01), tilt_rad=0)
+        )
+    still = np.ascontiguousarray(texture[:, 40:360])
+    moved = np.ascontiguousarray(texture[:, 60:380])  # the background 20 px on
+    seen = []
+    for k, (arrival_s, gray) in enumerate(
+        [(2.96, still), (3.04, still), (3.08, still), (3.12, still), (3.16, moved), (3.2, moved)]
+    ):
+        correction.frame(frame(k, gray, T0_NS + round(arrival_s * 1e9)), gray)
+        seen.append((correction.pose_known, correction.pose_ns))
+    still_ns = T0_NS + 2_960_000_000
+    assert seen == [(True, None)] + [(True, still_ns)] * 3 + [(False, None)] * 2

@@ -311,6 +311,7 @@ class GazeController:
         assert goal is not None
         if self.move.over(self.odometry, mono_s):
             self.sightings.forget()  # only detections from after the move count
+            self.pursuit.landed(self._head_rad(), wall_ns)
             self.enter("pursuit", "settled on the target", wall_ns, mono_s)
             self.look_and_move.restart()
             return self._hold(wall_ns)

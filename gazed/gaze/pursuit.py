@@ -10,7 +10,7 @@ from __future__ import annotations
 from collections import deque
 
 from gazed.config import GazeSection
-from gazed.gaze.aim import Aim, detection_aim
+from gazed.gaze.aim import Aim, angle_between, detection_aim
 from gazed.gaze.demand import make_demand
 from gazed.geometry.kinematics import HeadKinematics
 from gazed.geometry.zoom import ZoomLens
@@ -64,6 +64,7 @@ class Pursuit:
         kinematics: HeadKinematics,
     ) -> None:
         self.gain = gaze.residual_gain
+        self.fovea_rad = fovea_rad
         self.feedback = ResidualFeedback(gaze.residual_smoothing, fovea_rad)
         self.lens = lens
         self.kinematics = kinematics
@@ -79,6 +80,20 @@ class Pursuit:
         self.prediction = None
         self.feedback.predictions.clear()
         self.feedback.correction = (0.0, 0.0)
+
+    def landed(self, head_rad: tuple[float, float] | None, wall_ns: int) -> None:
+        """A saccade has settled with the head at `head_rad`: a held prediction that does not
+        put the target in the fovea now is another target's (a track taken up before the move,
+        from the frames the move was not aimed by), and is forgotten rather than pursued."""
+        p = self.prediction
+        if p is None:
+            return
+        pan, tilt = Aim.of_prediction(p).at(wall_ns)
+        if (
+            head_rad is None
+            or angle_between(pan, tilt, *head_rad, self.kinematics) > self.fovea_rad
+        ):
+            self.restart()
 
     def on_detection(self, detection: Detection) -> None:
         """A detection seen in pursuit: it updates the residual feedback."""

@@ -2,7 +2,13 @@
 
 The delay is the rig's `[camera] delay_ms`, or, with `[camera] delay_estimate`, the online
 estimate of `camera_delay` that starts from it: every frame's global shift from the one before
-(phase correlation on a small grey copy) and every odometry sample feed it. A digital head's
+(phase correlation on a small grey copy) and every odometry sample feed it. Until its first fit,
+a frame's pose is known where the head stood still over every exposure time the lag grid allows
+(`still_before`), and, after such a frame, while the image has moved less than a pixel since
+it: the background still where it was, the frame was exposed before the head moved, at the
+still pose, whenever it arrives (the head's first move shows in the image a delay after it
+begins, and the frames of that delay are the ones that see the target before the move). A
+digital head's
 views carry the pose they were rendered at and are stamped at their exposure: they pass as they
 are.
 """
@@ -10,6 +16,7 @@ are.
 from __future__ import annotations
 
 import dataclasses
+import math
 import time
 
 import numpy as np
@@ -26,6 +33,7 @@ TIMING_WINDOW = 100  # frames over which the shift's cost is reported
 # period of it: a margin on the stamps' tolerance of a frame, as the spread is the least the
 # lag is uncertain by (camera_delay)
 SPREAD_PER_FRAME = 0.25
+STILL_SHIFT_PX = 1.0  # the image moved less than this since a still frame: the same pose
 
 
 class CaptureStampCorrection:
@@ -41,7 +49,13 @@ class CaptureStampCorrection:
         # a pixel's angle: a pose known to within it is as good as exact for the detectors
         self.pixel_rad = 1.0 / CameraModel.from_section(camera).focal_px
         self.pose_known = True
+        # where the head's pose at the last frame's exposure is read (None: at its stamp)
+        self.pose_ns: int | None = None
         self.applied_ms = 0.0  # the delay the last frame's stamp was moved back by
+        # the last frame known exposed with the head still (its arrival), and the image's
+        # motion since it
+        self._still_ns: int | None = None
+        self._moved_px = (0.0, 0.0)
 
     def add_odometry(self, odometry: Odometry) -> None:
         if self.online:
@@ -52,8 +66,11 @@ class CaptureStampCorrection:
     def frame(self, frame: CapturedFrame, gray: np.ndarray) -> CapturedFrame:
         """The frame stamped at its exposure; `gray` (its grey pixels) feeds the estimate.
         `pose_known` then says whether the head's pose at that exposure is known: not while the
-        online estimate has no fit yet and the head moved over the exposure times it allows."""
+        online estimate has no fit yet and the head moved over the exposure times it allows,
+        unless the image has not moved since a frame exposed with the head still; `pose_ns`
+        says where that pose is read."""
         self.pose_known = True
+        self.pose_ns = None
         self.applied_ms = 0.0
         if frame.head is not None:
             return frame
@@ -69,12 +86,29 @@ class CaptureStampCorrection:
             if self.estimator.fit_due(arrival_s):
                 self.estimator.update(arrival_s)
                 self.fit_time.add(time.perf_counter() - fitting)
-            self.pose_known = bool(self.estimator.fits) or self.estimator.still_before(
-                arrival_s, self.pixel_rad
-            )
+            self._know_pose(frame.t_capture_ns, shift)
         delay_ns = round(self.estimator.delay_s * 1e9)
         self.applied_ms = delay_ns * 1e-6
         return dataclasses.replace(frame, t_capture_ns=frame.t_capture_ns - delay_ns)
+
+    def _know_pose(self, arrival_ns: int, shift: tuple[float, float, float] | None) -> None:
+        """`pose_known` and `pose_ns` for a frame that arrived at `arrival_ns`, its image
+        shifted by `shift` from the frame before."""
+        if self.estimator.fits:
+            self._still_ns = None
+            return
+        if self.estimator.still_before(arrival_ns * 1e-9, self.pixel_rad):
+            self._still_ns, self._moved_px = arrival_ns, (0.0, 0.0)
+            return
+        if self._still_ns is not None and shift is not None:
+            du, dv, response = shift
+            self._moved_px = (self._moved_px[0] + du, self._moved_px[1] + dv)
+            steady = math.hypot(*self._moved_px) < STILL_SHIFT_PX
+            if steady and response >= self.estimator.min_response:
+                self.pose_ns = self._still_ns  # the head stood still there, as it did here
+                return
+        self._still_ns = None
+        self.pose_known = False
 
     def note(self) -> str:
         """The delay applied, and where it comes from."""

@@ -128,7 +128,8 @@ class VisionStage:
             self._drop(exc.reason, str(exc))
             return VisionOutput()
         frame = self.capture_stamp.frame(frame, gray)  # stamped at exposure, not arrival
-        head = frame.head if frame.head is not None else self.history.pose_at(frame.t_capture_ns)
+        pose_ns = self.capture_stamp.pose_ns or frame.t_capture_ns
+        head = frame.head if frame.head is not None else self.history.pose_at(pose_ns)
         if not self.capture_stamp.pose_known:  # the delay not estimated yet, the head moving
             head = None
         if self.gaze_state == "trace":  # line calibration: the edge under the fovea, nothing else
