@@ -8,9 +8,8 @@ a frame's pose is known where the head stood still over every exposure time the 
 it: the background still where it was, the frame was exposed before the head moved, at the
 still pose, whenever it arrives (the head's first move shows in the image a delay after it
 begins, and the frames of that delay are the ones that see the target before the move). A
-digital head's
-views carry the pose they were rendered at and are stamped at their exposure: they pass as they
-are.
+digital head's views carry the pose they were rendered at and are stamped at their exposure:
+they pass as they are.
 """
 
 from __future__ import annotations
