@@ -13,16 +13,13 @@ States and transitions (each published with its reason):
     lost    --reacquire_detections in a row (one per frame)-------> pursuit
             --lost for search_after_ms, the region too wide, or--> search
               no prediction to coast on
-    park, search, pursuit, lost
-            --an operator's held point outside the view---------> saccade
     any     --a `trace` command (`gazed calibrate trace`)---------> trace
             --an operator's park, search or hold (`operator`)---> park, search, hold
     trace   --corner, lost edge, enough samples, joint limit, stop--> search
 
 Each state's behaviour lives in its part: taking a target up (`sightings`), the saccade's
 ballistic move (`move`, `aim.arrival_aim`), pursuit with feedback on the residual (`pursuit`),
-the lost state's coasting search (`lost_search`), the line trace (`trace`, run as a state
-by `trace_state`), the look at an operator's point outside the view (`point_look`), and the
+the lost state's coasting search (`lost_search`), the line trace (`trace`), and the
 look-and-move and peer control laws (`look_and_move`, `pixel_pid`); docs/gaze.md describes each.
 
 Which of the estimator's tracks is the target is `target_choice` (the rig's rule or an
@@ -49,12 +46,10 @@ from gazed.gaze.lost_search import LostSearch
 from gazed.gaze.move import Move, Settling, at_goal
 from gazed.gaze.operator import OperatorControl
 from gazed.gaze.pixel_pid import PixelPid, pixel_error
-from gazed.gaze.point_look import PointLook
 from gazed.gaze.pursuit import Pursuit
 from gazed.gaze.sightings import Sightings
 from gazed.gaze.target_choice import ChoiceChange, TargetChoice
 from gazed.gaze.trace import LineTracer
-from gazed.gaze.trace_state import TraceState
 from gazed.gaze.zoom import ZoomControl
 from gazed.geometry.kinematics import HeadKinematics
 from gazed.geometry.zoom import ZoomLens
@@ -70,6 +65,7 @@ from gazed.messages import (
     GazeStateName,
     Odometry,
     Prediction,
+    TraceResult,
 )
 
 PARK_TOLERANCE_RAD = math.radians(1.0)  # this close to the park pose, the head is parked
@@ -112,16 +108,15 @@ class GazeController:
             gaze, self.fovea_rad, rig.calibration.camera_xyz_m, move_limits, frame_period_s
         )
         self.tracer = LineTracer(gaze, lens, kinematics, limits_rad)
-        self.trace_state = TraceState(self)  # the trace command's run
         self.choice = TargetChoice(rig, lens, kinematics)
         self.zoom = ZoomControl(gaze, lens, self.sightings)
         self.operator = OperatorControl(self)  # park, search, hold, resume
-        self.point_look = PointLook(self, rig)  # an operator's point outside the view
         # the state machine
         self.state: GazeStateName = "park"
         self.entered_s = mono_s
         self.entered_ns = 0
         self.pending: list[GazeState] = []  # this tick's transitions
+        self.finished_trace: TraceResult | None = None
         self.odometry: Odometry | None = None
         self.last_tick_s = mono_s
         self.own_counts = dict.fromkeys(
@@ -194,10 +189,10 @@ class GazeController:
         """`trace` a ground line's edge from a start gaze, `stop` it, or an operator's command."""
         if command.command == "stop":
             if self.tracer.job is not None:
-                self.trace_state.finish("stopped by request", wall_ns, mono_s)
+                self._finish_trace("stopped by request", wall_ns, mono_s)
             return
         if self.tracer.job is not None:
-            self.trace_state.finish("replaced by a new request", wall_ns, mono_s)
+            self._finish_trace("replaced by a new request", wall_ns, mono_s)
         if self.operator.on_command(command.command, wall_ns, mono_s):
             return
         self.tracer.begin(command)
@@ -214,10 +209,9 @@ class GazeController:
             "saccade": self._saccade,
             "pursuit": self._pursuit,
             "lost": self._lost,
-            "trace": self.trace_state.demand,
+            "trace": self._trace,
         }
-        handler = self.operator.handler or self.point_look.handler(wall_ns) or handlers[self.state]
-        demand = handler(wall_ns, mono_s)
+        demand = (self.operator.handler or handlers[self.state])(wall_ns, mono_s)
         if demand is None or demand.kind != "hold":
             self.hold.release()
         if demand is not None:
@@ -226,7 +220,8 @@ class GazeController:
                 demand = self._hold(wall_ns)
         demand = self.zoom.apply(demand, self.state, self.odometry, wall_ns, mono_s)
         transitions, self.pending = tuple(self.pending), []
-        return Decision(demand, transitions, self.trace_state.take_finished())
+        trace, self.finished_trace = self.finished_trace, None
+        return Decision(demand, transitions, trace)
 
     def enter(self, state: GazeStateName, reason: str, wall_ns: int, mono_s: float) -> None:
         if state == self.state:
@@ -275,7 +270,7 @@ class GazeController:
             return taken
         candidate = self.sightings.best_candidate(wall_ns, since_ns=self.entered_ns)
         if candidate is not None:
-            return self.start_saccade(candidate, "motion candidate", wall_ns, mono_s)
+            return self._start_saccade(candidate, "motion candidate", wall_ns, mono_s)
         return self._hold(wall_ns)
 
     def _take_up_detection(self, wall_ns: int, mono_s: float) -> GazeDemand | None:
@@ -293,9 +288,9 @@ class GazeController:
         if off_axis_rad <= self.fovea_rad:
             self.enter("pursuit", "target in the fovea", wall_ns, mono_s)
             return self._pursuit(wall_ns, mono_s)
-        return self.start_saccade(target, "detection outside the fovea", wall_ns, mono_s)
+        return self._start_saccade(target, "detection outside the fovea", wall_ns, mono_s)
 
-    def start_saccade(
+    def _start_saccade(
         self, target: Aim, reason: str, wall_ns: int, mono_s: float
     ) -> GazeDemand | None:
         """Aim where the target will be when the move (at the head's limits) is over."""
@@ -377,6 +372,22 @@ class GazeController:
         return demand.model_copy(
             update={"pan_rad": demand.pan_rad + pan_rad, "tilt_rad": demand.tilt_rad + tilt_rad}
         )
+
+    def _trace(self, wall_ns: int, mono_s: float) -> GazeDemand | None:
+        job = self.tracer.job
+        if job is None:
+            self.enter("search", "no line to trace", wall_ns, mono_s)
+            return self._hold(wall_ns)
+        ended = self.tracer.step(self.odometry, wall_ns, mono_s)
+        if ended is not None:
+            return self._finish_trace(ended, wall_ns, mono_s)
+        return make_demand("position", *job.goal_rad, wall_ns)
+
+    def _finish_trace(self, reason: str, wall_ns: int, mono_s: float) -> GazeDemand | None:
+        result = self.finished_trace = self.tracer.end(reason, wall_ns)
+        samples = len(result.samples_rad)
+        self.enter("search", f"trace ended: {reason} ({samples} samples)", wall_ns, mono_s)
+        return self._hold(wall_ns)
 
     # -- demands ---------------------------------------------------------------------------------
 
