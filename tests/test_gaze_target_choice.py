@@ -508,3 +508,22 @@ def test_a_newcomer_is_held_to_the_fit_the_chosen_track_had_when_it_took_the_poi
     drifted = mine.model_copy(update={"age_s": 1.5, "ground_velocity_m_s": (2.0, 0.0)})
     newcomer = walker(8, (1.5, 5.0), (0.0, 0.0)).model_copy(update={"age_s": 0.3})
     assert c.on_state(at(2.7, drifted, newcomer), None) is None and c.target_id == 3
+
+
+def test_the_continuation_gate_grows_with_the_walk_since_the_chosen_track_was_seen() -> None:
+    c = choice(select_rule="first")
+    chosen = walker(2, (0.0, 5.0), (0.0, 0.0))
+    c.on_state(at(1.0, chosen), None)
+    c.on_select(GazeSelect(t_capture_ns=1, track_id=2), None)
+    # 2 coasts: the estimator's covariance grows little, but its person can walk 2.5 m in 1 s
+    coasting = chosen.model_copy(update={"coasting": True, "ground_cov_m2": ((0.06, 0), (0, 0.06))})
+    assert c.on_state(at(1.5, coasting), None) is None
+    # a new track beyond where 2's person can have walked since its last detection: not them
+    assert c.on_state(at(2.0, coasting, walker(8, (3.2, 5.0), (0.0, 0.0))), None) is None
+    # one a walk away (1.5 m in 1.1 s), outside the coasting covariance's gate: continues it
+    change = c.on_state(
+        at(2.1, coasting, walker(8, (3.2, 5.0), (0.0, 0.0)), walker(7, (1.5, 5.0), (0.0, 0.0))),
+        None,
+    )
+    assert change is not None and change.target_id == 7 and c.by_operator
+    assert change.reason == "track 2 lost; its person continues as 7"

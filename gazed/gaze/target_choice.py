@@ -20,8 +20,11 @@ track-segment association: Blackman & Popoli, "Design and Analysis of Modern Tra
 1999, §7.4): while the chosen track coasts, or once it has ended, a confirmed track that did not
 exist when the chosen one last took a detection, and that takes detections now, continues it
 where the two ground positions agree within `CONTINUATION_GATE_PROBABILITY`'s χ² gate of two
-dimensions against the sum of their covariances (the coasting track's grows with the time it
-has coasted, so the gate widens as the person could have walked further). Of several, the
+dimensions against the sum of their covariances. The chosen track's side is the wider of two:
+the estimator's own (its coasting covariance, or once it has ended its last state walked on,
+below), and the chosen track in the state of its last detection walked on (`walked_on`) over the
+time since, so the gate widens as far as the person can have walked since they were last seen,
+however little the estimator's covariance grows while it coasts. Of several, the
 nearest (in that distance) continues it. A chosen track that ends without having coasted was
 merged by the estimator with another track of its person (a track ends by coasting otherwise),
 so any track within that gate continues it, however old. Tracks without a ground position
@@ -131,7 +134,8 @@ class TargetChoice:
         self.continuation_d2 = chi2_quantile(CONTINUATION_GATE_PROBABILITY, 2)
         self._chosen: Track | None = None  # the chosen track in the last state that held it
         self._chosen_ns = 0  # that state's capture time
-        self._seen_ns = 0  # the capture time of the chosen track's last detection
+        self._seen: Track | None = None  # the chosen track in the state of its last detection
+        self._seen_ns = 0  # that state's capture time
         self._known: frozenset[int] = frozenset()  # the ids when it last took a detection
         self.pending: GazeSelect | None = None  # an operator's point no track was near yet
         self.pending_max_ns = round(track_start_up_s(rig) * 1e9)
@@ -205,7 +209,7 @@ class TargetChoice:
             newly = self._chosen is None or self._chosen.id != chosen.id
             if newly or not chosen.coasting:
                 self._known = frozenset(t.id for t in tracks)
-                self._seen_ns = t_ns
+                self._seen, self._seen_ns = chosen, t_ns
             self._chosen, self._chosen_ns = chosen, t_ns
             self.holding = False
             if not chosen.coasting:
@@ -217,11 +221,13 @@ class TargetChoice:
         merged = chosen is None and not lost.coasting and not self.holding
         if chosen is None:
             lost = walked_on(lost, (t_ns - self._chosen_ns) * 1e-9, self.continuation_d2)
+        seen = self._seen if self._seen is not None and self._seen.id == lost.id else lost
+        walked = walked_on(seen, (t_ns - self._seen_ns) * 1e-9, self.continuation_d2)
         best, best_d2, born_elsewhere = None, self.continuation_d2, set()
         for track in tracks:
             if (track.id in self._known and not merged) or track.coasting:
                 continue
-            d2 = ground_distance2(lost, track)
+            d2 = _nearer(ground_distance2(lost, track), ground_distance2(walked, track))
             if d2 is None or d2 > self.continuation_d2:
                 born_elsewhere.add(track.id)  # not where the person can have walked: never
             elif d2 <= best_d2:
@@ -230,6 +236,7 @@ class TargetChoice:
         if best is None or not best.confirmed:  # none, or wait for the tentative (docstring)
             return None
         self.target_id, self._chosen, self._chosen_ns, self._seen_ns = best.id, best, t_ns, t_ns
+        self._seen = best
         self._known = frozenset(t.id for t in tracks)
         self.holding = False
         self.counts["continued"] += 1
@@ -263,7 +270,8 @@ class TargetChoice:
             point_fit(self.pending, best, state.t_capture_ns, self.continuation_d2) or 0.0
         )
         self.pending, self.target_id, self.by_operator = None, best.id, True
-        self._chosen, self._known = best, frozenset(t.id for t in state.tracks)
+        self._chosen = self._seen = best
+        self._known = frozenset(t.id for t in state.tracks)
         self._chosen_ns = self._seen_ns = state.t_capture_ns
         self.holding = False
         return ChoiceChange(best.id, f"{OPERATOR} chose track {best.id} at ({x:g}, {y:g}) m")
@@ -291,7 +299,7 @@ class TargetChoice:
         if best is None:
             return None
         self._point_fit = best_fit
-        before, self.target_id, self._chosen = self.target_id, best.id, best
+        before, self.target_id, self._chosen, self._seen = self.target_id, best.id, best, best
         self._known = frozenset(t.id for t in tracks)
         self._chosen_ns = self._seen_ns = t_ns
         self.holding = False
@@ -331,7 +339,8 @@ class TargetChoice:
             self._point_fit = (
                 point_fit(select, track, self._t_state_ns, self.continuation_d2) or 0.0
             )
-        self._chosen, self._known = track, frozenset(t.id for t in self.tracks)
+        self._chosen = self._seen = track
+        self._known = frozenset(t.id for t in self.tracks)
         self._chosen_ns = self._seen_ns = self._t_state_ns
         return ChoiceChange(track.id, f"{OPERATOR} chose track {track.id} {how}", changed)
 
@@ -351,6 +360,11 @@ class TargetChoice:
         angles = target_angles(camera, self.kinematics, head.pan_rad, head.tilt_rad, u, v)
         found = nearest_by_angle(self.tracks, angles.pan_rad, angles.tilt_rad, self.kinematics)
         return found, f"nearest pixel ({u:g}, {v:g})" if found else "no tracks"
+
+
+def _nearer(a: float | None, b: float | None) -> float | None:
+    """The smaller of two gate distances, either of which may be missing."""
+    return min((d for d in (a, b) if d is not None), default=None)
 
 
 def track_start_up_s(rig: Rig) -> float:
