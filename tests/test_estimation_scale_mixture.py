@@ -88,6 +88,21 @@ def test_a_track_takes_a_point_off_along_range_without_being_pulled_off() -> Non
     assert gated_core == 6 and worst_core < 0.3
 
 
+def test_a_velocity_outside_its_gate_is_left_out_of_the_measurement_taken() -> None:
+    """A mover's velocity is tested against the prediction's on its own: one off by more than
+    its gate (a mask that split, merged or changed shape) is left out, its position kept; one
+    within it, and a new track's first, keep theirs."""
+    predicted = PredictedState(0.0, np.zeros(2), np.array([1.0, 0.0]), np.eye(4) * 0.01)
+    velocity_cov = np.eye(2) * 0.09
+    steady = Sighting(Measurement.ground(0.0, (0.1, 0.0), CORE, (1.2, 0.1), velocity_cov))
+    wild = Sighting(Measurement.ground(0.0, (0.1, 0.0), CORE, (-5.0, -3.0), velocity_cov))
+    assert steady.taken(predicted, GATE).velocity is not None
+    taken = wild.taken(predicted, GATE)
+    assert taken.velocity is None and taken.position == pytest.approx((0.1, 0.0))
+    assert wild.taken(None, GATE).velocity is not None
+    assert wild.taken(predicted).velocity is not None  # no gate given: the whole measurement
+
+
 def test_a_track_started_at_rest_turns_to_its_persons_heading() -> None:
     """A first velocity within its noise of zero gives no heading: the track starts from two
     points instead, and follows a walker who walks along y (a state started at zero speed and

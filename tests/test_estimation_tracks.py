@@ -200,3 +200,37 @@ def test_a_person_hidden_behind_another_is_not_pulled_onto_them() -> None:
     assert tracks.counts["group_updates"] == 0
     hidden = tracks.get(1)
     assert hidden is not None and hidden.coasting
+
+
+def walk_side_by_side(wild_frame: int | None) -> TrackSet:
+    """Two people 0.8 m apart walking abreast at 1 m/s for 40 frames, each seen every frame; in
+    `wild_frame` the first one's mover has a velocity of 5.8 m/s (its mask changed shape)."""
+    section = load_rig(SIM_RIG).estimator
+    rng = np.random.default_rng(1)
+    tracks = TrackSet(section)
+    walking = np.array([1.0, 0.0])
+    cov = np.diag([0.01, 0.04])
+    for k in range(40):
+        t = k / 7.0
+        sightings = []
+        for lane_m in (10.0, 10.8):
+            velocity = walking + rng.normal(0.0, 0.1, 2)
+            if k == wild_frame and lane_m == 10.0:
+                velocity = np.array([-5.0, -3.0])
+            xy = np.array([t, lane_m]) + rng.normal(0.0, 0.05, 2)
+            sightings.append(Sighting(Measurement.ground(t, xy, cov, velocity, np.eye(2) * 0.09)))
+        tracks.step(t, sightings)
+    return tracks
+
+
+def test_a_mover_whose_velocity_is_off_still_gives_its_position() -> None:
+    """A mover's velocity outside its gate is left out and its position is taken: the person's
+    track neither coasts nor counts an outlier, and keeps its id where another person walks
+    alongside (a coasting track beside them would be merged into theirs: the id would follow
+    the other person, and the first would start a new one)."""
+    tracks = walk_side_by_side(wild_frame=20)
+    assert [t.id for t in tracks.tracks] == [0, 1]
+    lanes = {t.id: t.estimator.predict(39 / 7.0).position[1] for t in tracks.tracks}
+    assert lanes[0] == pytest.approx(10.0, abs=0.2) and lanes[1] == pytest.approx(10.8, abs=0.2)
+    assert tracks.health().get("gated", 0) == 0
+    assert tracks.counts["tracks_merged"] == 0

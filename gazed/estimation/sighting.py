@@ -3,6 +3,7 @@ the measurement a track's filter takes from it (`taken`, `scale_mixture`)."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -28,7 +29,22 @@ class Sighting:
         """(2, 2): the tail's position covariance, the core's without a tail."""
         return self.measurement.position_cov if self.tail_cov is None else self.tail_cov
 
-    def taken(self, predicted: PredictedState | None) -> Measurement:
+    def taken(self, predicted: PredictedState | None, gate_d2: float = math.inf) -> Measurement:
         """The measurement as a track predicted to `predicted` takes it (None: a new track),
-        at the precision the mixture's posterior expects (`scale_mixture.expected_precision`)."""
-        return expected_precision(self.measurement, self.tail_cov, self.tail_weight, predicted)
+        at the precision the mixture's posterior expects (`scale_mixture.expected_precision`);
+        its velocity left out where it lies outside the prediction's gate `gate_d2` (a mover's
+        velocity is its mask's shift, which jumps where the mask splits, merges or changes
+        shape: its position still tells where the person is)."""
+        z = self.measurement
+        if predicted is not None and not _velocity_agrees(z, predicted, gate_d2):
+            z = Measurement(z.t_s, z.position, z.position_cov)
+        return expected_precision(z, self.tail_cov, self.tail_weight, predicted)
+
+
+def _velocity_agrees(measurement: Measurement, predicted: PredictedState, gate_d2: float) -> bool:
+    """Whether the measured velocity (none: it agrees) lies in the predicted one's gate."""
+    if measurement.velocity is None or measurement.velocity_cov is None:
+        return True
+    S = predicted.covariance[2:, 2:] + measurement.velocity_cov
+    innovation = measurement.velocity - predicted.velocity
+    return float(innovation @ np.linalg.solve(S, innovation)) <= gate_d2

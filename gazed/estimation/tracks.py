@@ -10,7 +10,8 @@ Every frame (one detection message, with any number of movers):
    gives one (`scale_mixture`: the cost, the gate and the update weigh both components);
 2. movers and tracks are assigned jointly inside the Mahalanobis gate, the appearance deciding
    where positions are ambiguous (`association`), on the position alone (a mover's velocity is
-   too noisy to tell people apart); the filter then takes the full measurement and gates it;
+   too noisy to tell people apart); the filter then takes the full measurement and gates it,
+   its velocity left out where that alone lies outside its gate (`Sighting.taken`);
 3. a confirmed track left without a mover may be one of two people the detector saw as one
    blob: where the blob hypothesis costs less than the one-person one (`association.find_blobs`)
    and both can lie in the mover's box seen through the frame's camera (`silhouette_reach`),
@@ -289,8 +290,10 @@ class TrackSet:
         return templates, seen, np.array([t.spread for t in self.tracks])
 
     def _take(self, track: PersonTrack, sighting: Sighting, t_s: float) -> None:
-        predicted = track.estimator.predict(t_s) if sighting.tail_weight > 0 else None
-        outcome = track.estimator.update(sighting.taken(predicted))
+        predicted = track.estimator.predict(t_s)
+        # a velocity is gated against the track's own (none while it waits for a second point)
+        gate_d2 = self.gate_d2 if track.estimator.status[0] == TRACKING else math.inf
+        outcome = track.estimator.update(sighting.taken(predicted, gate_d2))
         track.coasting = outcome not in TAKEN
         if track.coasting:
             return
