@@ -87,11 +87,22 @@ class Measurement:
         `threshold_d2`), else its position alone: a velocity within its noise of zero has no
         direction, and a filter whose state holds a speed and a heading, started from it, has
         its heading fixed at an arbitrary angle (at zero speed no measurement moves it)."""
+        d2 = self.velocity_d2(np.zeros(2))
+        return self if d2 is None or d2 >= threshold_d2 else self.position_only()
+
+    def velocity_d2(
+        self, reference: np.ndarray, reference_cov: np.ndarray | None = None
+    ) -> float | None:
+        """The velocity's squared Mahalanobis distance from `reference`, against the sum of its
+        covariance and `reference_cov` (none: an exact reference); None without a velocity."""
         if self.velocity is None or self.velocity_cov is None:
-            return self
-        v = self.velocity
-        if float(v @ np.linalg.solve(self.velocity_cov, v)) >= threshold_d2:
-            return self
+            return None
+        S = self.velocity_cov if reference_cov is None else self.velocity_cov + reference_cov
+        innovation = self.velocity - reference
+        return float(innovation @ np.linalg.solve(S, innovation))
+
+    def position_only(self) -> Measurement:
+        """This measurement without its velocity."""
         return Measurement(self.t_s, self.position, self.position_cov)
 
     @property

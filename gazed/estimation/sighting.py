@@ -36,15 +36,8 @@ class Sighting:
         velocity is its mask's shift, which jumps where the mask splits, merges or changes
         shape: its position still tells where the person is)."""
         z = self.measurement
-        if predicted is not None and not _velocity_agrees(z, predicted, gate_d2):
-            z = Measurement(z.t_s, z.position, z.position_cov)
+        if predicted is not None and gate_d2 < math.inf:
+            d2 = z.velocity_d2(predicted.velocity, predicted.covariance[2:, 2:])
+            if d2 is not None and d2 > gate_d2:
+                z = z.position_only()
         return expected_precision(z, self.tail_cov, self.tail_weight, predicted)
-
-
-def _velocity_agrees(measurement: Measurement, predicted: PredictedState, gate_d2: float) -> bool:
-    """Whether the measured velocity (none: it agrees) lies in the predicted one's gate."""
-    if measurement.velocity is None or measurement.velocity_cov is None:
-        return True
-    S = predicted.covariance[2:, 2:] + measurement.velocity_cov
-    innovation = measurement.velocity - predicted.velocity
-    return float(innovation @ np.linalg.solve(S, innovation)) <= gate_d2

@@ -290,9 +290,10 @@ class TrackSet:
         return templates, seen, np.array([t.spread for t in self.tracks])
 
     def _take(self, track: PersonTrack, sighting: Sighting, t_s: float) -> None:
-        predicted = track.estimator.predict(t_s)
         # a velocity is gated against the track's own (none while it waits for a second point)
-        gate_d2 = self.gate_d2 if track.estimator.status[0] == TRACKING else math.inf
+        tracking = track.estimator.status[0] == TRACKING
+        gate_d2 = self.gate_d2 if tracking else math.inf
+        predicted = track.estimator.predict(t_s) if tracking or sighting.tail_weight > 0 else None
         outcome = track.estimator.update(sighting.taken(predicted, gate_d2))
         track.coasting = outcome not in TAKEN
         if track.coasting:
