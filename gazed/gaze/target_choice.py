@@ -235,10 +235,7 @@ class TargetChoice:
         self._known |= born_elsewhere
         if best is None or not best.confirmed:  # none, or wait for the tentative (docstring)
             return None
-        self.target_id, self._chosen, self._chosen_ns, self._seen_ns = best.id, best, t_ns, t_ns
-        self._seen = best
-        self._known = frozenset(t.id for t in tracks)
-        self.holding = False
+        self._bind(best, tracks, t_ns)
         self.counts["continued"] += 1
         return ChoiceChange(best.id, f"track {lost.id} lost; its person continues as {best.id}")
 
@@ -269,11 +266,8 @@ class TargetChoice:
         self._point_fit = (
             point_fit(self.pending, best, state.t_capture_ns, self.continuation_d2) or 0.0
         )
-        self.pending, self.target_id, self.by_operator = None, best.id, True
-        self._chosen = self._seen = best
-        self._known = frozenset(t.id for t in state.tracks)
-        self._chosen_ns = self._seen_ns = state.t_capture_ns
-        self.holding = False
+        self.pending, self.by_operator = None, True
+        self._bind(best, state.tracks, state.t_capture_ns)
         return ChoiceChange(best.id, f"{OPERATOR} chose track {best.id} at ({x:g}, {y:g}) m")
 
     def _reaching(self, select: GazeSelect, tracks: tuple[Track, ...], t_ns: int) -> Track | None:
@@ -299,10 +293,8 @@ class TargetChoice:
         if best is None:
             return None
         self._point_fit = best_fit
-        before, self.target_id, self._chosen, self._seen = self.target_id, best.id, best, best
-        self._known = frozenset(t.id for t in tracks)
-        self._chosen_ns = self._seen_ns = t_ns
-        self.holding = False
+        before = self.target_id
+        self._bind(best, tracks, t_ns)
         self.counts["revised_selections"] += 1
         assert point.ground_xy_m is not None
         x, y = point.ground_xy_m
@@ -333,16 +325,21 @@ class TargetChoice:
             self.counts["refused_selections"] += 1
             return ChoiceChange(self.target_id, f"{REFUSED}: {how}; target unchanged", False)
         changed = track.id != self.target_id
-        self.target_id, self.by_operator, self.holding = track.id, True, False
+        self.by_operator = True
         self._point = select if select.ground_xy_m is not None else None
         if self._point is not None:
             self._point_fit = (
                 point_fit(select, track, self._t_state_ns, self.continuation_d2) or 0.0
             )
-        self._chosen = self._seen = track
-        self._known = frozenset(t.id for t in self.tracks)
-        self._chosen_ns = self._seen_ns = self._t_state_ns
+        self._bind(track, self.tracks, self._t_state_ns)
         return ChoiceChange(track.id, f"{OPERATOR} chose track {track.id} {how}", changed)
+
+    def _bind(self, track: Track, tracks: tuple[Track, ...], t_ns: int) -> None:
+        """Follow `track`, seen at `t_ns` among `tracks` (the ids a continuation is not)."""
+        self.target_id, self.holding = track.id, False
+        self._chosen = self._seen = track
+        self._chosen_ns = self._seen_ns = t_ns
+        self._known = frozenset(t.id for t in tracks)
 
     def _resolve(self, select: GazeSelect) -> tuple[Track | None, str]:
         """The track a request names, and how it was found (or why none was)."""
