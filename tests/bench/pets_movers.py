@@ -14,6 +14,10 @@ person and frame:
 - merged: a mover covering at least half of the person's box covers half of another's too;
 - missed: no mover's box centre in the person's box, and no mover covering half of it.
 
+A mover spanning two people is counted by how the two stand in the image: one in front of the
+other (their boxes share at least half the narrower one's columns, so no cut between columns
+separates them) or side by side (a splitter's case).
+
 Over all movers: those on nobody (a shadow, a leg cut from its body, the strip joining two
 people, or a column of two people), the movers' box width and height against a person's where
 each stands (`PersonSize`, quantiles), and where the splits come from: cut from one blob or
@@ -113,7 +117,12 @@ def main() -> None:
                 key = "on nobody" if owner[m] < 0 else "on a person"
                 relative[key].append((box[2] / size[0], box[3] / size[1]))
         total["on nobody"] += int((owner < 0).sum())
-        total["spanning two"] += int((covers.sum(axis=1) >= 2).sum())
+        for m in np.flatnonzero(covers.sum(axis=1) >= 2):
+            a, b = corner[np.flatnonzero(covers[m])[:2]]
+            columns = min(a[0] + a[2], b[0] + b[2]) - max(a[0], b[0])
+            behind = columns >= 0.5 * min(a[2], b[2])
+            total["spanning two"] += 1
+            total["one in front of the other" if behind else "side by side"] += 1
         for p, pid in enumerate(ids):
             counts = per_person.setdefault(pid, Counter())
             counts["frames"] += 1
@@ -138,7 +147,11 @@ def main() -> None:
     print(f"frames {first}-{last}: movers {total['movers']}")
     if not per_person:
         return
-    print(f"  movers on nobody {total['on nobody']}, spanning two people {total['spanning two']}")
+    print(
+        f"  movers on nobody {total['on nobody']}, spanning two people {total['spanning two']}"
+        f" (one in front of the other {total['one in front of the other']},"
+        f" side by side {total['side by side']})"
+    )
     for key, rows in relative.items():
         if rows:
             ratio = np.array(rows)
