@@ -121,7 +121,6 @@ def main() -> None:
             a, b = corner[np.flatnonzero(covers[m])[:2]]
             columns = min(a[0] + a[2], b[0] + b[2]) - max(a[0], b[0])
             behind = columns >= 0.5 * min(a[2], b[2])
-            total["spanning two"] += 1
             total["one in front of the other" if behind else "side by side"] += 1
         for p, pid in enumerate(ids):
             counts = per_person.setdefault(pid, Counter())
@@ -147,10 +146,10 @@ def main() -> None:
     print(f"frames {first}-{last}: movers {total['movers']}")
     if not per_person:
         return
+    behind, beside = total["one in front of the other"], total["side by side"]
     print(
-        f"  movers on nobody {total['on nobody']}, spanning two people {total['spanning two']}"
-        f" (one in front of the other {total['one in front of the other']},"
-        f" side by side {total['side by side']})"
+        f"  movers on nobody {total['on nobody']}, spanning two people {behind + beside}"
+        f" (one in front of the other {behind}, side by side {beside})"
     )
     for key, rows in relative.items():
         if rows:
