@@ -40,9 +40,11 @@ Every frame (one detection message, with any number of movers):
    states' position and velocity, `Δ`, against the sum of their covariances and a person's
    extent (`PERSON_WIDTH_M`: each track may follow another part of the person),
    `Δᵀ (P₁ + P₂ + 2E)⁻¹ Δ` inside the χ² gate of four dimensions, against a confirmed track only
-   (a person, with a velocity of its own). The merged track keeps the older id (the person's,
-   and so the gaze's choice) and takes the filter that took the detection. People who cross
-   or pass move apart in velocity, and so are never merged where one hides the other.
+   (a person, with a velocity of its own), and only where the movers the two took in the same
+   frames can be one person's (`duplicates.seen_apart`). The merged track keeps the older id
+   (the person's, and so the gaze's choice) and takes the filter that took the detection.
+   People who cross or pass move apart in velocity, and people who walk side by side are seen
+   apart, and so neither are merged where one hides the other.
 
 Ids count up from 0 and are never reused, so a track's id names one person for its whole life;
 a person lost for longer than `coast_max_ms` comes back as a new track with a new id.
@@ -65,6 +67,7 @@ from gazed.estimation.association import (
     member_measurement,
     same_target,
 )
+from gazed.estimation.duplicates import Takes, seen_apart
 from gazed.estimation.estimator import TRACKING, TrackEstimator
 from gazed.estimation.factory import build_estimator
 from gazed.estimation.results import Outcome, PredictedState
@@ -99,6 +102,7 @@ class PersonTrack:
     box_height_px: float = 0.0
     appearance: np.ndarray | None = None
     spread: float = INITIAL_SPREAD
+    takes: Takes = field(default_factory=Takes)  # its latest movers (`duplicates`)
 
     def take_appearance(self, appearance: np.ndarray | None) -> None:
         """Move the template toward a detection's histogram, and the spread toward the squared
@@ -173,6 +177,8 @@ class TrackSet:
                 track.estimator.coast(t_s)
             else:
                 self._take(track, sightings[column], t_s)
+                if not track.coasting:
+                    track.takes.add(sightings[column].measurement, sightings[column].tail_or_core)
         for column in lone_sightings:
             self._start(sightings[column], t_s)
         self._merge_duplicates(t_s)
@@ -323,6 +329,7 @@ class TrackSet:
             appearance=sighting.appearance,
         )
         track.confirmed = self.section.confirm_hits <= 1
+        track.takes.add(sighting.measurement, sighting.tail_or_core)
         self.next_id += 1
         self.tracks.append(track)
         self.counts["tracks_started"] += 1
@@ -338,17 +345,23 @@ class TrackSet:
             if a is None:  # a filter without a state (stopped) is no duplicate of anything
                 continue
             twin = next(
-                (f for f in seen if f.id not in ended and self._duplicates(a, f, t_s)), None
+                (f for f in seen if f.id not in ended and self._duplicates(lost, a, f, t_s)),
+                None,
             )
             if twin is not None:
                 ended.add(self._merge(lost, twin))
         if ended:
             self.tracks = [track for track in self.tracks if track.id not in ended]
 
-    def _duplicates(self, state: PredictedState, found: PersonTrack, t_s: float) -> bool:
-        """Whether a coasting track's `state` and `found` are estimates of one person."""
+    def _duplicates(
+        self, lost: PersonTrack, state: PredictedState, found: PersonTrack, t_s: float
+    ) -> bool:
+        """Whether coasting `lost` (its `state` at t_s) and `found` are one person."""
         b = found.estimator.predict(t_s)  # None: restarted, waiting for a velocity
-        return b is not None and same_target(state, b, self.duplicate_d2, PERSON_EXTENT_COV_M2)
+        if b is None or not same_target(state, b, self.duplicate_d2, PERSON_EXTENT_COV_M2):
+            return False
+        p = self.section.gate_probability
+        return not seen_apart(lost.takes, found.takes, PERSON_EXTENT_COV_M2, p)
 
     def _merge(self, lost: PersonTrack, found: PersonTrack) -> int:
         """`found` took a detection where `lost` coasts: the older id lives on with `found`'s
@@ -361,10 +374,11 @@ class TrackSet:
         lost.estimator, lost.coasting = found.estimator, False
         lost.hits += found.hits
         lost.last_hit_s, lost.confirmed = found.last_hit_s, True
-        lost.box_height_px, lost.appearance, lost.spread = (
+        lost.box_height_px, lost.appearance, lost.spread, lost.takes = (
             found.box_height_px,
             found.appearance,
             found.spread,
+            found.takes,
         )
         return found.id
 
