@@ -20,6 +20,7 @@ from gazed.estimation.association import (
     pair_costs,
     same_target,
 )
+from gazed.estimation.duplicates import PERSON_EXTENT_COV_M2, Takes, seen_apart
 from gazed.estimation.measurement import Measurement
 from gazed.estimation.results import PredictedState
 
@@ -237,3 +238,20 @@ def test_a_blob_of_two_is_their_centroid_widened_by_their_unknown_shares() -> No
         d2 = own @ np.linalg.solve(state.covariance[:2, :2] + m.position_cov, own)
         assert d2 == pytest.approx(blob_d2)
     assert member_measurement(z, 0, states).position == pytest.approx([0.2, 0.2])
+
+
+def test_movers_taken_in_the_same_frames_tell_two_people_apart() -> None:
+    """Pooled over the frames both tracks took a mover: parts of one person (0.25 m apart,
+    within a person's extent) are one, people 1 m apart are two, and tracks that never took a
+    mover in the same frame are not told apart by their movers."""
+    cov = np.eye(2) * 0.01
+    a, near, far, later = Takes(), Takes(), Takes(), Takes()
+    for k in range(4):
+        t = k / 7.0
+        a.add(Measurement.ground(t, (t, 0.0), cov), cov)
+        near.add(Measurement.ground(t, (t, 0.25), cov), cov)
+        far.add(Measurement.ground(t, (t, 1.0), cov), cov)
+        later.add(Measurement.ground(t + 10.0, (t, 0.0), cov), cov)
+    assert not seen_apart(a, near, PERSON_EXTENT_COV_M2, 0.999)
+    assert seen_apart(a, far, PERSON_EXTENT_COV_M2, 0.999)
+    assert not seen_apart(a, later, PERSON_EXTENT_COV_M2, 0.999)

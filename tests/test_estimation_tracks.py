@@ -234,3 +234,64 @@ def test_a_mover_whose_velocity_is_off_still_gives_its_position() -> None:
     assert lanes[0] == pytest.approx(10.0, abs=0.2) and lanes[1] == pytest.approx(10.8, abs=0.2)
     assert tracks.health().get("gated", 0) == 0
     assert tracks.counts["tracks_merged"] == 0
+
+
+def walk_abreast(apart_m: float, hidden_frame: int) -> TrackSet:
+    """Two people `apart_m` apart walking abreast at 1 m/s for 40 frames at 7 Hz, each seen
+    every frame but the first one in `hidden_frame` (the other hides them)."""
+    rng = np.random.default_rng(2)
+    tracks = TrackSet(load_rig(SIM_RIG).estimator)
+    cov = np.eye(2) * 0.01
+    for k in range(40):
+        t = k / 7.0
+        sightings = []
+        for lane_m in (10.0, 10.0 + apart_m):
+            if k == hidden_frame and lane_m == 10.0:
+                continue
+            xy = np.array([t, lane_m]) + rng.normal(0.0, 0.05, 2)
+            velocity = np.array([1.0, 0.0]) + rng.normal(0.0, 0.1, 2)
+            sightings.append(Sighting(Measurement.ground(t, xy, cov, velocity, np.eye(2) * 0.09)))
+        tracks.step(t, sightings)
+    return tracks
+
+
+def test_people_walking_abreast_are_not_merged_when_one_is_hidden_a_frame() -> None:
+    """Their tracks' states agree within their covariances, but the movers they took frame
+    after frame are two people's: the one hidden for a frame coasts and keeps its id, and
+    the other's id does not take over (it would follow the other person)."""
+    tracks = walk_abreast(0.8, hidden_frame=20)
+    assert [t.id for t in tracks.tracks] == [0, 1] and tracks.counts["tracks_merged"] == 0
+    lanes = {t.id: t.estimator.predict(39 / 7.0).position[1] for t in tracks.tracks}
+    assert lanes[0] == pytest.approx(10.0, abs=0.2) and lanes[1] == pytest.approx(10.8, abs=0.2)
+
+
+def test_a_person_seen_as_two_movers_is_still_merged() -> None:
+    """Two movers of one person (parts 0.25 m apart, within the noise and a person's width)
+    start two tracks; the one left without its part for a frame is merged into the other."""
+    tracks = TrackSet(load_rig(SIM_RIG).estimator)
+    for k in range(10):
+        tracks.step(k / 7.0, [walking(k / 7.0, (k / 7.0, 1.0))])
+    for k in range(10, 18):
+        t = k / 7.0
+        tracks.step(t, [walking(t, (t, 1.0)), walking(t, (t, 1.25))])
+    tracks.step(18 / 7.0, [walking(18 / 7.0, (18 / 7.0, 1.25))])
+    assert [t.id for t in tracks.tracks] == [0] and tracks.counts["tracks_merged"] == 1
+
+
+def test_a_blob_share_is_no_detection_to_merge_a_coasting_track_into() -> None:
+    """Two people seen as one blob take its shares; a third walks 0.8 m beside them, seen only
+    since the blob formed, and is hidden for a frame: the share is a position the blob member's
+    own prediction made, so the hidden one coasts under its own id instead of ending in it."""
+    tracks = TrackSet(load_rig(SIM_RIG).estimator)
+    for k in range(50):  # a and b side by side 1.2 m apart, one blob from frame 15 on
+        t = k * 0.04
+        people = [walking(t, (t, 1.0)), walking(t, (t, 2.2))]
+        seen = people if k < 15 else [walking(t, (t, 1.6))]
+        if k >= 15 and k != 30:
+            seen.append(walking(t, (t, 0.2)))
+        tracks.step(t, seen)
+    assert [t.id for t in tracks.tracks] == [0, 1, 2] and tracks.counts["tracks_merged"] == 0
+    third = tracks.get(2)
+    assert third is not None and not third.coasting
+    state = third.estimator.predict(49 * 0.04)
+    assert state is not None and state.position[1] == pytest.approx(0.2, abs=0.1)

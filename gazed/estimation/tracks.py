@@ -40,9 +40,11 @@ Every frame (one detection message, with any number of movers):
    states' position and velocity, `Δ`, against the sum of their covariances and a person's
    extent (`PERSON_WIDTH_M`: each track may follow another part of the person),
    `Δᵀ (P₁ + P₂ + 2E)⁻¹ Δ` inside the χ² gate of four dimensions, against a confirmed track only
-   (a person, with a velocity of its own). The merged track keeps the older id (the person's,
-   and so the gaze's choice) and takes the filter that took the detection. People who cross
-   or pass move apart in velocity, and so are never merged where one hides the other.
+   (a person, with a velocity of its own), and only where the movers the two took in the same
+   frames can be one person's (`duplicates.seen_apart`). The merged track keeps the older id
+   (the person's, and so the gaze's choice) and takes the filter that took the detection.
+   People who cross or pass move apart in velocity, and people who walk side by side are seen
+   apart, and so neither are merged where one hides the other.
 
 Ids count up from 0 and are never reused, so a track's id names one person for its whole life;
 a person lost for longer than `coast_max_ms` comes back as a new track with a new id.
@@ -63,8 +65,8 @@ from gazed.estimation.association import (
     gate_threshold,
     load_solver,
     member_measurement,
-    same_target,
 )
+from gazed.estimation.duplicates import Merging, Takes
 from gazed.estimation.estimator import TRACKING, TrackEstimator
 from gazed.estimation.factory import build_estimator
 from gazed.estimation.results import Outcome, PredictedState
@@ -76,9 +78,6 @@ MAX_TRACKS = 256  # an EstimatorState carries at most this many
 APPEARANCE_SMOOTHING = 0.1  # weight of each new histogram in a track's template and its spread
 INITIAL_SPREAD = 0.05  # a new track's appearance spread (h²), until its detections measure it
 SPREAD_FLOOR = 0.01  # a spread never below this: one colour change is not a different person
-PERSON_WIDTH_M = 0.5  # a detector may report any part of a person this wide (shoulder width)
-# the covariance of a point spread evenly across a person (w²/12 on each ground axis)
-PERSON_EXTENT_COV_M2 = np.eye(2) * PERSON_WIDTH_M**2 / 12.0
 # a first velocity that does not differ from zero at this level gives a track no heading
 MOVING_PROBABILITY = 0.95
 TAKEN = (Outcome.ACCEPTED, Outcome.INITIALISED, Outcome.PENDING, Outcome.REINITIALISED)
@@ -99,6 +98,7 @@ class PersonTrack:
     box_height_px: float = 0.0
     appearance: np.ndarray | None = None
     spread: float = INITIAL_SPREAD
+    takes: Takes = field(default_factory=Takes)  # its latest movers (`duplicates`)
 
     def take_appearance(self, appearance: np.ndarray | None) -> None:
         """Move the template toward a detection's histogram, and the spread toward the squared
@@ -116,7 +116,7 @@ class PersonTrack:
 
 
 @dataclass
-class TrackSet:
+class TrackSet(Merging):
     """Every track of one filter mode; `step` once per frame with that frame's sightings."""
 
     section: EstimatorSection
@@ -173,9 +173,11 @@ class TrackSet:
                 track.estimator.coast(t_s)
             else:
                 self._take(track, sightings[column], t_s)
+                if not track.coasting:
+                    track.takes.add(sightings[column].measurement, sightings[column].tail_or_core)
         for column in lone_sightings:
             self._start(sightings[column], t_s)
-        self._merge_duplicates(t_s)
+        self._merge_duplicates(t_s, {self.tracks[row].id for row in members})
         self._end(t_s)
 
     def retime(self, shift_s: float) -> None:
@@ -323,50 +325,11 @@ class TrackSet:
             appearance=sighting.appearance,
         )
         track.confirmed = self.section.confirm_hits <= 1
+        track.takes.add(sighting.measurement, sighting.tail_or_core)
         self.next_id += 1
         self.tracks.append(track)
         self.counts["tracks_started"] += 1
         self.counts["tracks_confirmed"] += int(track.confirmed)
-
-    def _merge_duplicates(self, t_s: float) -> None:
-        """Each coasting track that is a duplicate (`same_target`) of a confirmed one that took a
-        detection this frame becomes one track with it (`_merge`), once."""
-        seen = [track for track in self.tracks if track.confirmed and not track.coasting]
-        ended: set[int] = set()
-        for lost in [track for track in self.tracks if track.coasting]:
-            a = lost.estimator.predict(t_s)
-            if a is None:  # a filter without a state (stopped) is no duplicate of anything
-                continue
-            twin = next(
-                (f for f in seen if f.id not in ended and self._duplicates(a, f, t_s)), None
-            )
-            if twin is not None:
-                ended.add(self._merge(lost, twin))
-        if ended:
-            self.tracks = [track for track in self.tracks if track.id not in ended]
-
-    def _duplicates(self, state: PredictedState, found: PersonTrack, t_s: float) -> bool:
-        """Whether a coasting track's `state` and `found` are estimates of one person."""
-        b = found.estimator.predict(t_s)  # None: restarted, waiting for a velocity
-        return b is not None and same_target(state, b, self.duplicate_d2, PERSON_EXTENT_COV_M2)
-
-    def _merge(self, lost: PersonTrack, found: PersonTrack) -> int:
-        """`found` took a detection where `lost` coasts: the older id lives on with `found`'s
-        filter and what it saw; the younger ends. Returns the id that ends."""
-        self.counts["tracks_merged"] += 1
-        self.counts["tracks_ended"] += 1
-        self.ended_health.update(lost.estimator.health())
-        if found.id < lost.id:
-            return lost.id
-        lost.estimator, lost.coasting = found.estimator, False
-        lost.hits += found.hits
-        lost.last_hit_s, lost.confirmed = found.last_hit_s, True
-        lost.box_height_px, lost.appearance, lost.spread = (
-            found.box_height_px,
-            found.appearance,
-            found.spread,
-        )
-        return found.id
 
     def _end(self, t_s: float) -> None:
         """Drop the tracks that coasted past coast_max_s, and the tentative ones that can no
