@@ -19,7 +19,11 @@ The wide camera's movers (`WideMovers`, the rig's segmentation, centroids) over 
   from frame to frame, a lower bound of the first.
 
 Printed per axis: the std and the MAD-based std of each fraction, and how many movers or chains
-it comes from.
+it comes from. Against the annotation also: whether the offsets are white, as the filters take
+them: the correlation of one person's offsets in consecutive frames (and two and five frames
+apart), and the tail's persistence, the chance that a mover whose offset is the tail's (by the
+fitted mixture's posterior) is followed by another in the person's next frame, beside the tail's
+weight, which is that chance for independent offsets.
 """
 
 from __future__ import annotations
@@ -61,37 +65,59 @@ def links(a: np.ndarray, b: np.ndarray) -> dict[int, int]:
 
 
 def annotated() -> dict[int, np.ndarray]:
-    """Frame -> the annotated people's boxes (N, 4): centre u, v, width, height."""
+    """Frame -> the annotated people (N, 5): id, box centre u, v, width, height."""
     boxes: dict[int, list[list[float]]] = {}
     with TRUTH.open(newline="") as handle:
         for row in csv.DictReader(handle):
-            box = [float(row[k]) for k in ("box_u_px", "box_v_px", "box_w_px", "box_h_px")]
+            box = [float(row[k]) for k in ("id", "box_u_px", "box_v_px", "box_w_px", "box_h_px")]
             boxes.setdefault(int(row["frame"]), []).append(box)
     return {frame: np.array(b) for frame, b in boxes.items()}
 
 
-def offsets(movers: np.ndarray, people: np.ndarray) -> list[np.ndarray]:
-    """Each mover alone in one person's box, alone there: its offset over its own box."""
+def offsets(movers: np.ndarray, people: np.ndarray) -> dict[int, np.ndarray]:
+    """Person id -> the offset over its own box of the mover alone in that person's box, where
+    the mover lies in no other person's box."""
     if not len(movers) or not len(people):
-        return []
-    half = people[None, :, 2:] / 2.0
-    inside = (np.abs(movers[:, None, :2] - people[None, :, :2]) <= half).all(axis=2)
-    out = []
+        return {}
+    half = people[None, :, 3:] / 2.0
+    inside = (np.abs(movers[:, None, :2] - people[None, :, 1:3]) <= half).all(axis=2)
+    out = {}
     for i in range(len(movers)):
         (held,) = np.nonzero(inside[i])
         if len(held) == 1 and inside[:, held[0]].sum() == 1:
-            out.append((movers[i, :2] - people[held[0], :2]) / movers[i, 2:])
+            out[int(people[held[0], 0])] = (movers[i, :2] - people[held[0], 1:3]) / movers[i, 2:]
     return out
+
+
+def lag_correlation(seen: dict[tuple[int, int], np.ndarray], lag: int) -> tuple[np.ndarray, int]:
+    """The correlation (2,) per axis of one person's offsets `lag` frames apart, over every
+    person and frame (keys: person id, frame) where both are seen, and how many pairs."""
+    pairs = [(x, seen[(p, f + lag)]) for (p, f), x in seen.items() if (p, f + lag) in seen]
+    if len(pairs) < 3:
+        return np.full(2, np.nan), len(pairs)
+    a, b = (np.array(side) for side in zip(*pairs, strict=True))
+    return np.array([np.corrcoef(a[:, k], b[:, k])[0, 1] for k in (0, 1)]), len(pairs)
+
+
+def tail_persistence(seen: dict[tuple[int, int], float]) -> float:
+    """P(tail in a person's next frame | tail in this one) from each offset's tail posterior
+    (keys: person id, frame)."""
+    now = np.array([w for (p, f), w in seen.items() if (p, f + 1) in seen])
+    after = np.array([seen[(p, f + 1)] for (p, f) in seen if (p, f + 1) in seen])
+    return float((now * after).sum() / now.sum())
 
 
 def robust_std(x: np.ndarray) -> float:
     return float(1.4826 * np.median(np.abs(x - np.median(x))))
 
 
-def scale_mixture(x: np.ndarray, steps: int = 200) -> tuple[float, np.ndarray, np.ndarray]:
+def scale_mixture(
+    x: np.ndarray, steps: int = 200
+) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
     """A two-component zero-mean Gaussian scale mixture of the centred fractions x (K, 2), by
-    EM: the tail's weight, and the core's and the tail's std on each axis (2,). One weight for
-    both axes: a mask that splits or merges moves its point on both at once."""
+    EM: the tail's weight, the core's and the tail's std on each axis (2,), and each sample's
+    posterior of the tail (K,). One weight for both axes: a mask that splits or merges moves its
+    point on both at once."""
     x = x - np.median(x, axis=0)
     core, tail, weight = np.array([robust_std(a) for a in x.T]), x.std(axis=0) * 2.0, 0.2
     for _ in range(steps):
@@ -104,7 +130,7 @@ def scale_mixture(x: np.ndarray, steps: int = 200) -> tuple[float, np.ndarray, n
         weight = float(w.mean())
         core = np.sqrt(((1 - w)[:, None] * x**2).sum(axis=0) / (1 - w).sum())
         tail = np.sqrt((w[:, None] * x**2).sum(axis=0) / w.sum())
-    return weight, core, tail
+    return weight, core, tail, w
 
 
 def main() -> None:
@@ -127,9 +153,12 @@ def main() -> None:
         seen = [(m.u_px, m.v_px, m.box[2], m.box[3]) for m in movers._movers[frame]]
         rows.append(np.array(seen).reshape(-1, 4))
     truth = annotated() if TRUTH.exists() else {}
-    off = [
-        o for k, r in enumerate(rows) for o in offsets(r, truth.get(first + k, np.zeros((0, 4))))
-    ]
+    seen = {
+        (person, first + k): o
+        for k, r in enumerate(rows)
+        for person, o in offsets(r, truth.get(first + k, np.zeros((0, 5)))).items()
+    }
+    off = list(seen.values())
     second = []
     for k in range(2, len(rows)):
         back = links(rows[k - 1], rows[k])
@@ -147,11 +176,27 @@ def main() -> None:
             f"  {name:>18}: u std {x[:, 0].std():.3f} robust {robust_std(x[:, 0]):.3f}   "
             f"v std {x[:, 1].std():.3f} robust {robust_std(x[:, 1]):.3f}"
         )
-        weight, core, tail = scale_mixture(x)
+        weight, core, tail, posterior = scale_mixture(x)
         print(
             f"  {'':>18}  two-Gaussian scale mixture: core u {core[0]:.3f} v {core[1]:.3f}, "
             f"tail u {tail[0]:.3f} v {tail[1]:.3f}, tail weight {weight:.3f}"
         )
+        if x is fractions[0][1] and off:
+            whiteness(seen, dict(zip(seen, posterior, strict=True)), weight)
+
+
+def whiteness(
+    seen: dict[tuple[int, int], np.ndarray], posterior: dict[tuple[int, int], float], weight: float
+) -> None:
+    """Print how far a person's offsets in consecutive frames are from independent."""
+    for lag in (1, 2, 5):
+        r, n = lag_correlation(seen, lag)
+        apart = f"{lag} frame{'s' if lag > 1 else ''} apart"
+        print(f"  {'':>18}  {apart}: correlation u {r[0]:.2f} v {r[1]:.2f} ({n} pairs)")
+    print(
+        f"  {'':>18}  tail persistence P(tail | tail the frame before) "
+        f"{tail_persistence(posterior):.2f}, against {weight:.3f} for independent offsets"
+    )
 
 
 if __name__ == "__main__":
