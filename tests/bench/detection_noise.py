@@ -8,6 +8,13 @@ Runs the rig on a private bus (as `gazed eval loop` does), skips the first 4 s (
 and prints the bias and standard deviation of the position (m) and velocity (m/s) errors per
 ground axis, and the standard deviations the estimator is told (the measurement covariance's
 median diagonal).
+
+Then the detection's point in the image against the truth's (the target's ground point at the
+rig's target height, seen through the lens at the detection's own pose), over the target's own
+box on each axis (u, v): what `[estimator] mover_extent_noise` measures on real walkers
+(`mover_extent.py`), with the two-Gaussian scale mixture fitted to it; for every detection, and
+apart for the fits that move less than the misregistration of two frames' head poses
+(√2 σ f per frame, σ `[head] angle_noise_deg`), whose region can take in the background.
 """
 
 from __future__ import annotations
@@ -18,11 +25,15 @@ import time
 from pathlib import Path
 
 import numpy as np
+from mover_extent import scale_mixture
 
+from gazed.config import Rig
 from gazed.estimation.observation import ground_measurement
 from gazed.eval.loop import observed
 from gazed.eval.private_rig import private_rig
 from gazed.geometry.ground import GroundGeometry, MeasurementNoise
+from gazed.geometry.zoom import ZoomLens
+from gazed.messages import Detection, SimTruth
 from gazed.topics import SIM_TRUTH, VISION_DETECTION
 
 REPO = Path(__file__).resolve().parents[2]
@@ -75,6 +86,55 @@ def main() -> None:
         f"  the estimator is told: position std {told_std[:2].round(4)} m,"
         f" velocity std {told_std[2:].round(3)} m/s"
     )
+    scored = [(d, truth.get(d.t_capture_ns)) for d in seen]
+    scored = [(d, t) for d, t in scored if t is not None and t.t_capture_ns >= start_ns]
+    over_box(scored, geometry, ZoomLens.from_section(rig.camera), rig)
+
+
+def target_box(detection: Detection) -> tuple[float, float] | None:
+    """The target's box (width, height): the mover at the detection's pixel."""
+    for mover in detection.movers:
+        if (mover.u_px, mover.v_px) == (detection.u_px, detection.v_px):
+            return mover.box_width_px, mover.box_height_px
+    return None
+
+
+def over_box(
+    scored: list[tuple[Detection, SimTruth]], geometry: GroundGeometry, lens: ZoomLens, rig: Rig
+) -> None:
+    """Print the point's image error over the target's box, all fits and the slow ones."""
+    fractions, slow = [], []
+    period_s = rig.camera.frame_period_s
+    for detection, t in scored:
+        head = detection.head
+        box = target_box(detection)
+        if not detection.found or head is None or box is None:
+            continue
+        camera = lens.at_pose(head)
+        try:
+            seen = geometry.with_camera(camera).pixel_from_ground(
+                *t.target_xy_m, head.pan_rad, head.tilt_rad
+            )
+        except ValueError:
+            continue
+        error = np.array([detection.u_px, detection.v_px]) - seen
+        fractions.append(error / np.array(box))
+        step_px = np.hypot(detection.du_px_s, detection.dv_px_s) * period_s
+        slow.append(step_px <= np.sqrt(2.0) * rig.head.angle_noise_rad * camera.focal_px)
+    if not fractions:
+        return
+    x, slow_fits = np.array(fractions), np.array(slow)
+    print("  the point's image error over the target's box (u, v):")
+    for name, part in (("every fit", x), ("slow fits", x[slow_fits]), ("the rest", x[~slow_fits])):
+        if len(part) < 10:
+            print(f"    {name:>9}: {len(part)} detections")
+            continue
+        weight, core, tail, _ = scale_mixture(part)
+        print(
+            f"    {name:>9}: {len(part)} detections, std u {part[:, 0].std():.3f} "
+            f"v {part[:, 1].std():.3f}; mixture core u {core[0]:.3f} v {core[1]:.3f}, "
+            f"tail u {tail[0]:.3f} v {tail[1]:.3f}, tail weight {weight:.3f}"
+        )
 
 
 if __name__ == "__main__":
