@@ -181,7 +181,7 @@ def main() -> None:
             f"  {'':>18}  two-Gaussian scale mixture: core u {core[0]:.3f} v {core[1]:.3f}, "
             f"tail u {tail[0]:.3f} v {tail[1]:.3f}, tail weight {weight:.3f}"
         )
-        if x is fractions[0][1] and off:
+        if name == "off the annotation":
             whiteness(seen, dict(zip(seen, posterior, strict=True)), weight)
 
 
