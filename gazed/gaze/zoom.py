@@ -42,7 +42,7 @@ from dataclasses import dataclass
 from gazed.config import GazeSection
 from gazed.gaze.sightings import Sightings
 from gazed.geometry.zoom import ZoomLens
-from gazed.messages import Detection, GazeDemand, GazeStateName, Odometry
+from gazed.messages import Detection, GazeDemand, GazeStateName, Mover, Odometry
 
 LEAVE_ALONE: tuple[GazeStateName, ...] = ("trace", "hold")  # states that never move the zoom
 TICK_MAX_S = 0.5  # a longer gap between ticks ramps the zoom by this much time at most
@@ -60,13 +60,19 @@ class ZoomSighting:
     room: float
 
 
+def target_mover(detection: Detection) -> Mover | None:
+    """The target's own mover: the one at the detection's pixel (None: no such mover)."""
+    for mover in detection.movers:
+        if (mover.u_px, mover.v_px) == (detection.u_px, detection.v_px):
+            return mover
+    return None
+
+
 def target_height_px(detection: Detection) -> float | None:
     """The height of the target's box: the mover at the detection's pixel (None: no such
     mover, or one without a box)."""
-    for mover in detection.movers:
-        if (mover.u_px, mover.v_px) == (detection.u_px, detection.v_px):
-            return mover.box_height_px if mover.box_height_px > 0 else None
-    return None
+    mover = target_mover(detection)
+    return mover.box_height_px if mover is not None and mover.box_height_px > 0 else None
 
 
 class ZoomControl:

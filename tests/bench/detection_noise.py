@@ -31,6 +31,7 @@ from gazed.config import Rig
 from gazed.estimation.observation import ground_measurement
 from gazed.eval.loop import observed
 from gazed.eval.private_rig import private_rig
+from gazed.gaze.zoom import target_mover
 from gazed.geometry.ground import GroundGeometry, MeasurementNoise
 from gazed.geometry.zoom import ZoomLens
 from gazed.messages import Detection, SimTruth
@@ -91,14 +92,6 @@ def main() -> None:
     over_box(scored, geometry, ZoomLens.from_section(rig.camera), rig)
 
 
-def target_box(detection: Detection) -> tuple[float, float] | None:
-    """The target's box (width, height): the mover at the detection's pixel."""
-    for mover in detection.movers:
-        if (mover.u_px, mover.v_px) == (detection.u_px, detection.v_px):
-            return mover.box_width_px, mover.box_height_px
-    return None
-
-
 def over_box(
     scored: list[tuple[Detection, SimTruth]], geometry: GroundGeometry, lens: ZoomLens, rig: Rig
 ) -> None:
@@ -106,10 +99,10 @@ def over_box(
     fractions, slow = [], []
     period_s = rig.camera.frame_period_s
     for detection, t in scored:
-        head = detection.head
-        box = target_box(detection)
-        if not detection.found or head is None or box is None:
+        head, mover = detection.head, target_mover(detection)
+        if not detection.found or head is None or mover is None:
             continue
+        box = mover.box_width_px, mover.box_height_px
         camera = lens.at_pose(head)
         try:
             seen = geometry.with_camera(camera).pixel_from_ground(
