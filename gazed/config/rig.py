@@ -67,6 +67,12 @@ class Rig(Section):
         return self.wide.source_in(folder)
 
     @property
+    def pose_noise_rad(self) -> float:
+        """The std of the head pose a frame is registered through: `[head] angle_noise_deg`,
+        none for a digital head (its view is rendered at the pose it reports)."""
+        return 0.0 if self.servo.protocol == "digital" else self.head.angle_noise_rad
+
+    @property
     def serves_view(self) -> bool:
         """The file has a `[view]`: `gazed run` serves the live view."""
         return "view" in self.model_fields_set

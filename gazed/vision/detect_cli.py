@@ -93,7 +93,8 @@ def _run(args: argparse.Namespace, rig: Rig | None, capture: cv2.VideoCapture) -
     camera, kinematics, vision = _setup(args, rig, width, height)
     history = _odometry(args.odometry) if args.odometry else None
     detector = args.detector or (vision.detector if rig is not None else "flow")
-    pipeline = VisionPipeline(camera, kinematics, vision, detector)
+    pose_noise_rad = rig.pose_noise_rad if rig is not None else 0.0
+    pipeline = VisionPipeline(camera, kinematics, vision, detector, pose_noise_rad=pose_noise_rad)
     writer = None
     if args.annotate:
         writer = cv2.VideoWriter(

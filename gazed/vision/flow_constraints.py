@@ -20,6 +20,7 @@ estimate that explains the most constraints.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -52,6 +53,7 @@ class Fovea:
         return (self.x0, self.y0, self.side, self.side)
 
 
+@functools.lru_cache(maxsize=4)
 def window_offsets_px(side: int) -> np.ndarray:
     """Each pixel's (column, row) offset from a window's origin, (side, side, 2) float64: the
     same for every placement of a window of that side."""
@@ -59,6 +61,7 @@ def window_offsets_px(side: int) -> np.ndarray:
     offsets = np.empty((side, side, 2))
     offsets[..., 0] = r[None, :]
     offsets[..., 1] = r[:, None]
+    offsets.flags.writeable = False  # shared by every window of that side
     return offsets
 
 
@@ -86,6 +89,9 @@ class FlowWindow:
     ) -> None:
         assert pair.previous is not None
         self.fovea = fovea
+        self.background = (0.0, 0.0)  # b: the background's own displacement (`register`)
+        self._track = track
+        self._source = pair.previous
         self.sigma_px = sigma_px
         self.margin = math.ceil(3.0 * sigma_px) + 1
         m, n = self.margin, fovea.side
@@ -121,13 +127,28 @@ class FlowWindow:
         )
         nx, ny = self.normal
         self.ego_normal = nx * relative[..., 0] + ny * relative[..., 1]
-        # starting hypotheses for the target's own displacement d (px per frame, (k, 2)): still
-        # in the world, still in the image (pursued by the head), moving as in the last frame
+        self._start()
+
+    def register(self, background: Sequence[float]) -> None:
+        """Take the background's own displacement b (the head poses' error, which moves the
+        whole small window alike) into the ego-rotation: the shift becomes s + b and each
+        pixel's w moves by b with it, so v̂·(s - w) stands, and a displacement d is then one
+        against the background as imaged."""
+        s0, s1 = self.shift[0] - self.background[0], self.shift[1] - self.background[1]
+        self.background = (float(background[0]), float(background[1]))
+        self.shift = (s0 + self.background[0], s1 + self.background[1])
+        self._start()
+
+    def _start(self) -> None:
+        """The starting hypotheses for the target's own displacement d (px per frame, (k, 2)):
+        still in the world, still in the image (pursued by the head), moving as in the last
+        frame; and the part of the previous frame they reach."""
+        su, sv = self.shift
         starts = [(0.0, 0.0), (-su, -sv)]
-        if track is not None:
-            starts.append(track.tolist())
+        if self._track is not None:
+            starts.append(self._track.tolist())
         self.hypotheses = np.array(starts)
-        self._previous_region(pair.previous, starts)
+        self._previous_region(self._source, starts)
 
     def _previous_region(self, previous: np.ndarray, starts: Sequence[Sequence[float]]) -> None:
         """Smooth the part of the previous frame that the windows shifted by s + d cover, d

@@ -46,6 +46,7 @@ focal length (a zoom lens's, at the frame's zoom).
 
 from __future__ import annotations
 
+import functools
 import math
 
 import cv2
@@ -74,7 +75,20 @@ CONVERGED_PX = 0.02  # stop refining when d changes by less than this (px per fr
 REFINE_RANGE_PX = 1.0  # constraints this far from a hypothesis pull it once it is chosen
 VELOCITY_POINTS = 6  # the other movers' centroids their velocities are fitted to
 EGO_ERROR = 0.05  # the fraction of the head's turn between frames the odometry can be off by
+SURROUND = 3  # the background is registered on a window this many times the fovea's side
+LATTICE_STEP = 4  # ... on every this-many-th pixel of each axis
+BACKGROUND_MIN_CONSTRAINTS = 50  # ... when it gives at least this many constraints
+BACKGROUND_SCORE = 0.5  # ... and its displacement explains at least this share of them
 _CLOSING_KERNEL = np.ones((3, 3), np.uint8)
+
+
+@functools.lru_cache(maxsize=4)
+def _lattice(side: int) -> np.ndarray:
+    """(side, side) bool: every LATTICE_STEP-th pixel of each axis."""
+    lattice = np.zeros((side, side), bool)
+    lattice[::LATTICE_STEP, ::LATTICE_STEP] = True
+    lattice.flags.writeable = False  # shared by every window of that side
+    return lattice
 
 
 def _side_px(focal_px: float, fovea_rad: float) -> int:
@@ -94,8 +108,10 @@ class NormalFlowDetector:
         noise_px: float,
         min_gradient: float,
         min_area_px: int,
+        pose_noise_rad: float = 0.0,
     ) -> None:
         self.camera = camera
+        self.pose_noise_rad = pose_noise_rad
         self.fovea_rad = fovea_rad
         self.side = self._fovea_side_px(camera.focal_px)
         self.noise_px = noise_px
@@ -103,10 +119,12 @@ class NormalFlowDetector:
         self.min_area_px = min_area_px
         self._offsets_px = window_offsets_px(self.side)
         self._track: tuple[float, float, np.ndarray] | None = None  # u, v, d (px/frame)
+        self._box_px: tuple[float, float] | None = None  # the target box's width, height
         self._tracks = RegionTracks(VELOCITY_POINTS)
 
     def reset(self) -> None:
         self._track = None
+        self._box_px = None
         self._tracks.reset()
 
     def detect(self, pair: FramePair) -> DetectorOutput:
@@ -114,11 +132,12 @@ class NormalFlowDetector:
             self.reset()
             return DetectorOutput.nothing()
         self._size_fovea(pair.step.K)
-        fovea = self._place(pair.step, pair.gray.shape)
+        centre, fovea = self._place(pair.step, pair.gray.shape)
         track = self._track[2] if self._track is not None else None
         window = FlowWindow(
             pair, fovea, self._offsets_px, self.min_gradient, track, SMOOTHING_SIGMA_PX
         )
+        self._register(pair, window, centre)
         # seed 000 §2: background where the ego-compensated normal flow is within the noise
         v_ind = window.independent_flow()
         moving = window.valid & (np.abs(v_ind) > self.noise_px)
@@ -157,6 +176,7 @@ class NormalFlowDetector:
         box = trimmed(fovea.x0, fovea.y0, target)
         assert box is not None  # the target holds pixels: its area is at least min_area_px
         own = MoverRegion(u, v, du, dv, box.box_at(1), area, fit.score)
+        self._box_px = own.box[2], own.box[3]
         return DetectorOutput(
             found=True,
             u_px=u,
@@ -212,6 +232,52 @@ class NormalFlowDetector:
         explained[region & window.valid] = fit.inliers
         return explained
 
+    def _register(self, pair: FramePair, window: FlowWindow, centre: tuple[float, float]) -> None:
+        """Register the window on its background: the head poses the ego-rotation is taken from
+        are each off by their noise, and a small rotation error moves the whole surround alike.
+        The displacement b that explains most of the constraints of a window `SURROUND` times
+        the fovea's side about it (away from the predicted target, on a lattice, at the coarse
+        scale whose linear range spans a misregistration of a few pixels) is the background's
+        own, and the fovea takes it into its shift (`FlowWindow.register`). Only a fit that
+        explains most of its constraints, and within the still limit plus three standard
+        deviations of the poses' misregistration (√2 σ f, σ the head's pose noise), is taken:
+        otherwise the window stays as the odometry places it."""
+        h, w = pair.gray.shape[:2]
+        side = min(SURROUND * window.fovea.side, w - 2 * MARGIN_PX, h - 2 * MARGIN_PX)
+        x0 = min(max(round(centre[0] - (side - 1) / 2.0), MARGIN_PX), w - MARGIN_PX - side)
+        y0 = min(max(round(centre[1] - (side - 1) / 2.0), MARGIN_PX), h - MARGIN_PX - side)
+        scale = COARSE_SIGMA_PX / SMOOTHING_SIGMA_PX
+        surround = FlowWindow(
+            pair,
+            Fovea(x0, y0, side),
+            window_offsets_px(side),
+            self.min_gradient / scale,
+            None,
+            COARSE_SIGMA_PX,
+        )
+        pixels = surround.valid & _lattice(side)
+        if self._track is not None and self._box_px is not None:
+            bw, bh = self._box_px  # the target's box grown by half its size on every side
+            left, top = round(centre[0] - bw) - x0, round(centre[1] - bh) - y0
+            pixels[
+                max(0, top) : max(0, top + round(2 * bh)),
+                max(0, left) : max(0, left + round(2 * bw)),
+            ] = False
+        if np.count_nonzero(pixels) < BACKGROUND_MIN_CONSTRAINTS:
+            return
+        constraints = surround.constraints(pixels)
+        fit = constraints.fit(np.zeros((1, 2)), LINEAR_RANGE_PX * scale, self.noise_px * scale)
+        for _ in range(REFINE_ITERATIONS):
+            refined = constraints.fit(fit.d[None], REFINE_RANGE_PX * scale, self.noise_px * scale)
+            moved = math.hypot(*(refined.d - fit.d))
+            fit = refined
+            if moved < CONVERGED_PX:
+                break
+        misregistration_px = math.sqrt(2.0) * self.pose_noise_rad * float(pair.step.K[0, 0])
+        bound_px = self._still_px(pair.step, window.fovea) + 3.0 * misregistration_px
+        if fit.score >= BACKGROUND_SCORE and math.hypot(*fit.d) <= bound_px:
+            window.register(fit.d)
+
     def _still_px(self, step: HeadStep, fovea: Fovea) -> float:
         """The largest displacement (px per frame) of a region that still counts as keeping its
         place in the world: the noise, plus the error of the ego-rotation displacement it was
@@ -234,8 +300,9 @@ class NormalFlowDetector:
             self.side = side
             self._offsets_px = window_offsets_px(side)
 
-    def _place(self, step: HeadStep, shape: tuple[int, ...]) -> Fovea:
-        """Centre the fovea on the predicted target, or on the frame's principal point."""
+    def _place(self, step: HeadStep, shape: tuple[int, ...]) -> tuple[tuple[float, float], Fovea]:
+        """Centre the fovea on the predicted target, or on the frame's principal point: that
+        centre, and the fovea (kept inside the image)."""
         if self._track is not None:
             u, v, d = self._track
             u, v = step.transport(u, v)
@@ -247,7 +314,7 @@ class NormalFlowDetector:
         y0 = round(cv - (self.side - 1) / 2.0)
         x0 = min(max(x0, MARGIN_PX), w - MARGIN_PX - self.side)
         y0 = min(max(y0, MARGIN_PX), h - MARGIN_PX - self.side)
-        return Fovea(x0, y0, self.side)
+        return (cu, cv), Fovea(x0, y0, self.side)
 
     def _regions(self, mask: np.ndarray) -> np.ndarray | None:
         """Seed 000 §2: group foreground pixels into regions; their union, or None."""
@@ -282,6 +349,8 @@ class NormalFlowDetector:
                 track,
                 COARSE_SIGMA_PX,
             )
+            if window.background != (0.0, 0.0):
+                coarse.register(window.background)
             wide = coarse.constraints(region & coarse.valid)
             start = wide.fit(coarse.hypotheses, LINEAR_RANGE_PX * scale, self.noise_px * scale)
             for _ in range(REFINE_ITERATIONS):

@@ -38,11 +38,15 @@ from gazed.vision.pyramid_search import PyramidDetector
 from gazed.vision.undistort import Undistortion
 
 
-def make_detector(name: str, vision: VisionSection, camera: CameraModel) -> Detector:
-    """The detector `name` ('flow', 'pyramid', 'background') with the rig's settings."""
+def make_detector(
+    name: str, vision: VisionSection, camera: CameraModel, pose_noise_rad: float = 0.0
+) -> Detector:
+    """The detector `name` ('flow', 'pyramid', 'background') with the rig's settings
+    (`pose_noise_rad`: the std of the head pose, `Rig.pose_noise_rad`)."""
     if name == "flow":
         return NormalFlowDetector(
             camera,
+            pose_noise_rad=pose_noise_rad,
             fovea_rad=vision.fovea_rad,
             noise_px=vision.flow_noise_px,
             min_gradient=vision.flow_min_gradient,
@@ -100,11 +104,12 @@ class VisionPipeline:
         vision: VisionSection,
         detector: str | None = None,
         lens: ZoomLens | None = None,
+        pose_noise_rad: float = 0.0,
     ) -> None:
         self.camera = camera
         self.vision = vision
         self.ego = EgoMotion(camera, kinematics, lens)
-        self.detector = make_detector(detector or vision.detector, vision, camera)
+        self.detector = make_detector(detector or vision.detector, vision, camera, pose_noise_rad)
         self.candidates = (
             CandidateFinder(
                 level=vision.candidates_level,

@@ -79,7 +79,9 @@ class VisionStage:
         self.lens = ZoomLens.from_section(rig.camera)
         self.camera = self.lens.base
         kinematics = HeadKinematics.from_section(rig.head)
-        self.pipeline = VisionPipeline(self.camera, kinematics, vision, lens=self.lens)
+        self.pipeline = VisionPipeline(
+            self.camera, kinematics, vision, lens=self.lens, pose_noise_rad=rig.pose_noise_rad
+        )
         self.history = OdometryHistory(
             vision.odometry_history_ms * 1e-3, vision.odometry_max_gap_ms * 1e-3
         )
