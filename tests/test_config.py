@@ -288,3 +288,13 @@ def test_a_number_that_is_not_finite_is_refused_naming_its_key(value: str) -> No
 def test_zoom_control_without_a_zoom_lens_names_the_key() -> None:
     with pytest.raises(RigError, match=r"gaze\.zoom_control: needs a zoom lens"):
         parse_rig('[rig]\nname = "x"\n[gaze]\nzoom_control = true\n')
+
+
+def test_a_digital_head_has_no_pose_noise() -> None:
+    """The pose a frame is registered through: the head's reported angles, off by
+    `[head] angle_noise_deg`; a digital head's view is rendered at the pose it reports."""
+    digital = load_rig(REPO / "configs" / "pets.toml")
+    assert digital.servo.protocol == "digital"
+    assert digital.pose_noise_rad == 0.0
+    ptz = load_rig(REPO / "configs" / "sim-zoom.toml")
+    assert ptz.pose_noise_rad == pytest.approx(ptz.head.angle_noise_rad)
