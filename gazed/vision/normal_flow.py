@@ -34,6 +34,13 @@ can win that keeps its place in the world (|d| within the noise plus `EGO_ERROR`
 displacement). That is background: its pixels are dropped and the rest fitted again; a region
 with nothing else is not a target (a lone residual would otherwise be pursued as one).
 
+The two poses are each off by the head's pose noise σ (`pose_noise_rad`), and a small rotation
+error moves a small window alike: the background shifts by about √2 σ f, beyond the still limit
+at a long focal length, where a slow target could not be told from it. So the fovea is first
+registered on its surround (`_register`): the displacement that explains most of the
+background around the predicted target is taken into the window's shift, and the target's
+displacement is fitted against the background as imaged.
+
 Besides the target, the window's other regions that move against the background clear of the
 target (outside its box grown by half its size) are movers (`gazed.vision.movers`), each with
 the velocity of its recent centroids (`RegionTracks`); the target's own comes first, with the
@@ -241,7 +248,10 @@ class NormalFlowDetector:
         own, and the fovea takes it into its shift (`FlowWindow.register`). Only a fit that
         explains most of its constraints, and within the still limit plus three standard
         deviations of the poses' misregistration (√2 σ f, σ the head's pose noise), is taken:
-        otherwise the window stays as the odometry places it."""
+        otherwise the window stays as the odometry places it. A head with no pose noise (the
+        digital head, its view rendered at the pose it reports) has nothing to register."""
+        if self.pose_noise_rad == 0.0:
+            return
         h, w = pair.gray.shape[:2]
         side = min(SURROUND * window.fovea.side, w - 2 * MARGIN_PX, h - 2 * MARGIN_PX)
         x0 = min(max(round(centre[0] - (side - 1) / 2.0), MARGIN_PX), w - MARGIN_PX - side)

@@ -1,6 +1,7 @@
 """Milliseconds per frame of each detector at 320x240 and 640x480, on one core.
 
     python tests/bench/vision_speed.py [--frames N] [--gap-ms MS] [--detector NAME ...]
+                                       [--pose-noise-deg DEG]
 
 Synthetic sequences (gazed.vision.synthetic): for `flow` and `pyramid` the head pursues a
 textured target while turning at up to ~60°/s (ego-motion compensation on); for `background`
@@ -10,7 +11,9 @@ motion-energy pyramid) — with the candidates off, then with them on (they add 
 motion energy and its regions). OpenCV is limited to one thread. Prints median and p99 of the
 thread's CPU time and of the wall time. `--gap-ms 40` sleeps that long before each frame, as
 the live loop runs vision once per frame period at 25 Hz: the caches are then cold, and a frame
-costs more than back to back.
+costs more than back to back. The pipeline is told the head's pose noise `--pose-noise-deg`
+(`[head] angle_noise_deg`'s default): the flow detector then registers its fovea on the
+background around it; 0 times it without (the digital head's).
 """
 
 from __future__ import annotations
@@ -22,7 +25,7 @@ import time
 import cv2
 import numpy as np
 
-from gazed.config import VisionSection
+from gazed.config import HeadSection, VisionSection
 from gazed.geometry.camera import CameraModel
 from gazed.geometry.kinematics import HeadKinematics
 from gazed.vision.pipeline import VisionPipeline
@@ -67,12 +70,17 @@ def one_pass(
     candidates: bool,
     times: dict,
     gap_s: float = 0.0,
+    pose_noise_rad: float = 0.0,
 ) -> None:
     """One pass over a sequence with a fresh pipeline: per-frame CPU time of this thread and
     wall time (ms) of a step — grey conversion + detector (+ motion energy for `pyramid`)
     (+ candidates if on)."""
     pipeline = VisionPipeline(
-        camera, HeadKinematics(), VisionSection(candidates=candidates), detector
+        camera,
+        HeadKinematics(),
+        VisionSection(candidates=candidates),
+        detector,
+        pose_noise_rad=pose_noise_rad,
     )
     for i, (image, truth) in enumerate(sequence):
         if gap_s:
@@ -103,6 +111,12 @@ def main() -> None:
         choices=DETECTORS,
         help="time only this detector (repeat for several; default all)",
     )
+    parser.add_argument(
+        "--pose-noise-deg",
+        type=float,
+        default=HeadSection().angle_noise_deg,
+        help="the head pose's std the pipeline is told (0: no registration)",
+    )
     args = parser.parse_args()
     detectors = args.detector or list(DETECTORS)
     cv2.setNumThreads(1)
@@ -121,10 +135,19 @@ def main() -> None:
         for config in configs:
             detector, width, height, candidates = config
             camera, sequence = sequences[(detector, width, height)]
-            one_pass(camera, sequence, detector, candidates, times[config], args.gap_ms / 1e3)
+            one_pass(
+                camera,
+                sequence,
+                detector,
+                candidates,
+                times[config],
+                args.gap_ms / 1e3,
+                math.radians(args.pose_noise_deg),
+            )
     gap = f", {args.gap_ms:g} ms asleep before each" if args.gap_ms else ""
     print(
-        f"vision speed, one core, {rounds * (SEQUENCE - 15)} timed frames each{gap}; ms per frame,"
+        f"vision speed, one core, {rounds * (SEQUENCE - 15)} timed frames each{gap}, pose noise"
+        f" {args.pose_noise_deg:g}°; ms per frame,"
     )
     print("median / p99. cpu: this thread's CPU time (what one core spends); wall: elapsed,")
     print("including any wait for the CPU on a shared machine")
