@@ -60,7 +60,8 @@ class HeadSection(Section):
         gt=0,
         le=10,
         description="Std of the joint angles the head reports (encoder resolution, backlash); "
-        "propagated to the ground-plane measurement's covariance.",
+        "propagated to the ground-plane measurement's covariance, and the misregistration the "
+        "flow detector registers its fovea within.",
     )
     angle_rate_noise_deg_s: float = Field(
         0.5,
