@@ -21,6 +21,7 @@ from gazed.vision.ego_motion import HeadStep
 from gazed.vision.movers import MoverRegion
 
 PointKind = Literal["centroid", "ground-contact"]
+BASELINE_FRAMES = 3  # `FramePair.older`: the frame this many intervals back
 
 
 @dataclass(frozen=True)
@@ -31,7 +32,9 @@ class FramePair:
     gap or reset). `step`: the head's rotation from the previous capture to this one; an
     identity step when compensation is off (no odometry, or switched off in the rig).
     `energy`: the motion-energy pyramid of this pair, level 0 first, int16 in
-    `motion_energy.UNITS_PER_GREY` per grey level, when the pipeline computed it.
+    `motion_energy.UNITS_PER_GREY` per grey level, when the pipeline computed it. `older`: the
+    same frame against the one `BASELINE_FRAMES` back, where the head's odometry reaches it
+    (a target too slow to show against the previous frame moves several frames' worth).
     """
 
     gray: np.ndarray
@@ -40,6 +43,7 @@ class FramePair:
     step: HeadStep
     compensated: bool
     energy: list[np.ndarray] | None = None
+    older: FramePair | None = None
 
 
 @dataclass(frozen=True)

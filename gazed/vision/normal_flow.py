@@ -141,6 +141,29 @@ class NormalFlowDetector:
         self._size_fovea(pair.step.K)
         centre, fovea = self._place(pair.step, pair.gray.shape)
         track = self._track[2] if self._track is not None else None
+        found = self._find(pair, fovea, centre, track)
+        if found is None and pair.older is not None and self.pose_noise_rad:
+            # nothing moves against the registered background: a target slower than the
+            # noise moves several frames' worth against the older frame
+            ratio = pair.older.step.dt_s / pair.step.dt_s
+            older_track = track * ratio if track is not None else None
+            found = self._find(pair.older, fovea, centre, older_track, per_frame=1.0 / ratio)
+        if found is None:
+            self.reset()
+            return DetectorOutput.nothing(fovea.rect)
+        return found
+
+    def _find(
+        self,
+        pair: FramePair,
+        fovea: Fovea,
+        centre: tuple[float, float],
+        track: np.ndarray | None,
+        per_frame: float = 1.0,
+    ) -> DetectorOutput | None:
+        """The target in `fovea` against `pair`'s earlier frame (None: nothing moves there
+        against the background). `per_frame`: the share of the pair's displacement that one
+        frame interval makes (below 1 for `FramePair.older`); the track keeps a frame's."""
         window = FlowWindow(
             pair, fovea, self._offsets_px, self.min_gradient, track, SMOOTHING_SIGMA_PX
         )
@@ -150,8 +173,7 @@ class NormalFlowDetector:
         moving = window.valid & (np.abs(v_ind) > self.noise_px)
         region = self._regions(moving)
         if region is None:
-            self.reset()
-            return DetectorOutput.nothing(fovea.rect)
+            return None
         fit = self._fit_velocity(pair, window, region, track)
         still_px = self._still_px(pair.step, fovea)
         if math.hypot(*fit.d) <= still_px:
@@ -161,13 +183,11 @@ class NormalFlowDetector:
             if region is not None:
                 fit = self._fit_velocity(pair, window, region, track)
             if region is None or math.hypot(*fit.d) <= still_px:
-                self.reset()
-                return DetectorOutput.nothing(fovea.rect)
+                return None
         # the target: moving against the background, and explained by the fitted velocity
         target = self._regions(moving & self._explained(region, window, fit))
         if target is None:
-            self.reset()
-            return DetectorOutput.nothing(fovea.rect)
+            return None
         # its centroid from the image moments: area m00, (m10, m01) / m00
         moments = cv2.moments(target.view(np.uint8), binaryImage=True)
         area = moments["m00"]
@@ -177,13 +197,18 @@ class NormalFlowDetector:
             # next frame, with no trust in the velocity
             self._track = (u, v, np.zeros(2))
             return DetectorOutput.nothing(fovea.rect)
-        self._track = (u, v, fit.d)
+        self._track = (u, v, fit.d * per_frame)
         dt = pair.step.dt_s
         du, dv = float(fit.d[0] / dt), float(fit.d[1] / dt)
         box = trimmed(fovea.x0, fovea.y0, target)
         assert box is not None  # the target holds pixels: its area is at least min_area_px
         own = MoverRegion(u, v, du, dv, box.box_at(1), area, fit.score)
         self._box_px = own.box[2], own.box[3]
+        if per_frame != 1.0:  # the other movers' tracks step frame by frame
+            self._tracks.reset()
+            movers: tuple[MoverRegion, ...] = (own,)
+        else:
+            movers = self._movers(pair, fovea, moving & ~target, own)
         return DetectorOutput(
             found=True,
             u_px=u,
@@ -193,7 +218,7 @@ class NormalFlowDetector:
             area_px=area,
             confidence=fit.score,
             window=fovea.rect,
-            movers=self._movers(pair, fovea, moving & ~target, own),
+            movers=movers,
         )
 
     def _movers(
@@ -266,6 +291,10 @@ class NormalFlowDetector:
             COARSE_SIGMA_PX,
         )
         pixels = surround.valid & _lattice(side)
+        fovea = window.fovea  # where the target is looked for: the ring about it is background
+        pixels[
+            fovea.y0 - y0 : fovea.y0 - y0 + fovea.side, fovea.x0 - x0 : fovea.x0 - x0 + fovea.side
+        ] = False
         if self._track is not None and self._box_px is not None:
             bw, bh = self._box_px  # the target's box grown by half its size on every side
             left, top = round(centre[0] - bw) - x0, round(centre[1] - bh) - y0
@@ -276,9 +305,17 @@ class NormalFlowDetector:
         if np.count_nonzero(pixels) < BACKGROUND_MIN_CONSTRAINTS:
             return
         constraints = surround.constraints(pixels)
-        fit = constraints.fit(np.zeros((1, 2)), LINEAR_RANGE_PX * scale, self.noise_px * scale)
+        wide = constraints.fit(np.zeros((1, 2)), LINEAR_RANGE_PX * scale, self.noise_px * scale)
         for _ in range(REFINE_ITERATIONS):
-            refined = constraints.fit(fit.d[None], REFINE_RANGE_PX * scale, self.noise_px * scale)
+            wide = constraints.fit(wide.d[None], REFINE_RANGE_PX * scale, self.noise_px * scale)
+        # the background is the displacement most constraints share, not the weighted mean: a
+        # strongly textured target in the surround pulls the least squares (weighted by |∇E|²)
+        # towards itself; so from no displacement and from the wide fit, each refined on the
+        # constraints within the pixel noise of it, the one that explains the most
+        noise = self.noise_px
+        fit = constraints.fit(np.array([(0.0, 0.0), tuple(wide.d)]), noise, noise)
+        for _ in range(REFINE_ITERATIONS):
+            refined = constraints.fit(fit.d[None], noise, noise)
             moved = math.hypot(*(refined.d - fit.d))
             fit = refined
             if moved < CONVERGED_PX:

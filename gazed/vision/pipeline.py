@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
@@ -29,7 +30,7 @@ from gazed.messages import HeadPose
 from gazed.vision.appearance import colour_histogram
 from gazed.vision.background import BackgroundDetector
 from gazed.vision.candidates import CandidateFinder, MotionRegion
-from gazed.vision.detector import Detector, DetectorOutput, FramePair
+from gazed.vision.detector import BASELINE_FRAMES, Detector, DetectorOutput, FramePair
 from gazed.vision.ego_motion import EgoMotion
 from gazed.vision.motion_energy import MotionEnergy
 from gazed.vision.movers import MoverRegion
@@ -122,11 +123,15 @@ class VisionPipeline:
         )
         self.undistortion = Undistortion(camera) if camera.has_distortion else None
         self._energy = MotionEnergy(vision.pyramid_levels)
-        self._previous: tuple[np.ndarray, int, HeadPose | None] | None = None
+        # the last frames (grey, capture ns, head pose), the newest last: the previous one, and
+        # the one BASELINE_FRAMES back for `FramePair.older`
+        self._history: deque[tuple[np.ndarray, int, HeadPose | None]] = deque(
+            maxlen=BASELINE_FRAMES
+        )
         self.restarts = 0
 
     def reset(self) -> None:
-        self._previous = None
+        self._history.clear()
         self._energy.reset()
         self.detector.reset()
         if self.candidates is not None:
@@ -150,14 +155,15 @@ class VisionPipeline:
         if self.undistortion is not None:
             gray = self.undistortion.frame(gray)
         undistort_s = time.perf_counter() - started
-        previous = self._previous
+        previous = self._history[-1] if self._history else None
         if previous is not None:
             dt_s = (t_capture_ns - previous[1]) * 1e-9
             if not 0.0 < dt_s <= self.vision.frame_gap_max_ms * 1e-3:
                 self.reset()
                 self.restarts += 1
                 previous = None
-        self._previous = (gray, t_capture_ns, head)
+        oldest = self._history[0] if len(self._history) == BASELINE_FRAMES else None
+        self._history.append((gray, t_capture_ns, head))
         if previous is None:  # nothing to compare with: no interval, no rotation
             dt_s = 0.0
             prev_gray, prev_head = None, None
@@ -179,7 +185,14 @@ class VisionPipeline:
         else:
             self._energy.reset()  # skipped frames break the chain of differences
         energy_s = time.perf_counter() - started
-        pair = FramePair(gray, t_capture_ns * 1e-9, prev_gray, step, compensated, energy)
+        older = None
+        if compensated and oldest is not None and oldest[2] is not None:
+            assert head is not None
+            older_step = self.ego.step(oldest[2], head, (t_capture_ns - oldest[1]) * 1e-9)
+            older = FramePair(gray, t_capture_ns * 1e-9, oldest[0], older_step, True)
+        pair = FramePair(
+            gray, t_capture_ns * 1e-9, prev_gray, step, compensated, energy, older=older
+        )
         started = time.perf_counter()
         output = self.detector.detect(pair)
         if self.undistortion is not None:
