@@ -37,9 +37,11 @@ with nothing else is not a target (a lone residual would otherwise be pursued as
 The two poses are each off by the head's pose noise σ (`pose_noise_rad`), and a small rotation
 error moves a small window alike: the background shifts by about √2 σ f, beyond the still limit
 at a long focal length, where a slow target could not be told from it. So the fovea is first
-registered on its surround (`_register`): the displacement that explains most of the
-background around the predicted target is taken into the window's shift, and the target's
-displacement is fitted against the background as imaged.
+registered on its surround (`_register`): the displacement most of the ring around it shares is
+taken into the window's shift, and the target's displacement is fitted against the background
+as imaged. Registered, a target slower than the noise shows nothing against the previous
+frame; a fovea that shows nothing is looked at again against the frame `BASELINE_FRAMES` back
+(`FramePair.older`), where such a target has moved several frames' worth.
 
 Besides the target, the window's other regions that move against the background clear of the
 target (outside its box grown by half its size) are movers (`gazed.vision.movers`), each with
@@ -267,10 +269,11 @@ class NormalFlowDetector:
     def _register(self, pair: FramePair, window: FlowWindow, centre: tuple[float, float]) -> None:
         """Register the window on its background: the head poses the ego-rotation is taken from
         are each off by their noise, and a small rotation error moves the whole surround alike.
-        The displacement b that explains most of the constraints of a window `SURROUND` times
-        the fovea's side about it (away from the predicted target, on a lattice, at the coarse
-        scale whose linear range spans a misregistration of a few pixels) is the background's
-        own, and the fovea takes it into its shift (`FlowWindow.register`). Only a fit that
+        The displacement b that most of the constraints of the ring between the fovea and a
+        window `SURROUND` times its side share (away from the predicted target, on a lattice, at
+        the coarse scale whose linear range spans a misregistration of a few pixels) is the
+        background's own, and the fovea takes it into its shift (`FlowWindow.register`). Only a
+        fit that
         explains most of its constraints, and within the still limit plus three standard
         deviations of the poses' misregistration (√2 σ f, σ the head's pose noise), is taken:
         otherwise the window stays as the odometry places it. A head with no pose noise (the
