@@ -273,10 +273,9 @@ class NormalFlowDetector:
         window `SURROUND` times its side share (away from the predicted target, on a lattice, at
         the coarse scale whose linear range spans a misregistration of a few pixels) is the
         background's own, and the fovea takes it into its shift (`FlowWindow.register`). Only a
-        fit that
-        explains most of its constraints, and within the still limit plus three standard
-        deviations of the poses' misregistration (√2 σ f, σ the head's pose noise), is taken:
-        otherwise the window stays as the odometry places it. A head with no pose noise (the
+        fit that explains most of its constraints, and within the still limit plus three
+        standard deviations of the poses' misregistration (√2 σ f, σ the head's pose noise), is
+        taken: otherwise the window stays as the odometry places it. A head with no pose noise (the
         digital head, its view rendered at the pose it reports) has nothing to register."""
         if self.pose_noise_rad == 0.0:
             return
