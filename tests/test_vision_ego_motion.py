@@ -88,6 +88,20 @@ def test_step_displacement_matches_the_warp_at_60_deg_per_s() -> None:
         np.testing.assert_allclose([du, dv], np.array([u, v]) - origin, atol=0.1)
 
 
+def test_a_reduced_step_is_the_step_of_the_reduced_camera() -> None:
+    """Frames reduced twice are seen by a camera of half the resolution (half the focal length,
+    the principal point at the reduced pixel centres): the full step reduced is that camera's."""
+    one = HeadPose(pan_rad=0.30, tilt_rad=0.10)
+    two = HeadPose(pan_rad=0.30 + math.radians(2.4), tilt_rad=0.10 - math.radians(1.2))
+    reduced = EgoMotion(CAMERA, HeadKinematics()).step(one, two, 0.04).reduced(2)
+    half = EgoMotion(CameraModel.from_fov(320, 240, math.radians(60)), HeadKinematics())
+    expected = half.step(one, two, 0.04)
+    np.testing.assert_allclose(reduced.K, expected.K, atol=1e-9)
+    for u, v in PIXELS:
+        u, v = u / 2.0, v / 2.0
+        np.testing.assert_allclose(reduced.transport(u, v), expected.transport(u, v), atol=1e-9)
+
+
 def test_still_step_is_the_identity() -> None:
     step = EgoMotion(CAMERA, HeadKinematics()).still_step(0.04)
     assert step.transport(100.0, 50.0) == (100.0, 50.0)

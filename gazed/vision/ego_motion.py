@@ -186,6 +186,16 @@ class HeadStep:
         moved -= offsets_px if k == 1.0 else k * offsets_px
         return moved
 
+    def reduced(self, factor: int) -> HeadStep:
+        """The same step on both frames reduced `factor` times, each reduced pixel the mean of a
+        factor x factor block: full-resolution pixel x is reduced pixel A x = (x - (factor - 1)
+        / 2) / factor, so H becomes A H A⁻¹ and K becomes A K."""
+        offset = (factor - 1) / 2.0
+        A = np.array([[1.0, 0.0, -offset], [0.0, 1.0, -offset], [0.0, 0.0, factor]]) / factor
+        A_inverse = np.array([[factor, 0.0, offset], [0.0, factor, offset], [0.0, 0.0, 1.0]])
+        H = A @ self.H @ A_inverse
+        return HeadStep(H, self.omega, self.dt_s, A @ self.K, self.zoom_rate_s)
+
     @cached_property
     def H_inverse(self) -> np.ndarray:
         """Current pixels -> previous ones."""

@@ -57,17 +57,19 @@ from __future__ import annotations
 
 import functools
 import math
+from collections import deque
 
 import cv2
 import numpy as np
 
 from gazed.geometry.camera import CameraModel
-from gazed.vision.detector import DetectorOutput, FramePair
+from gazed.vision.detector import BASELINE_FRAMES, DetectorOutput, FramePair
 from gazed.vision.ego_motion import HeadStep
 from gazed.vision.flow_constraints import (
     COARSE_SIGMA_PX,
     LINEAR_RANGE_PX,
     SMOOTHING_SIGMA_PX,
+    FlowConstraints,
     FlowFit,
     FlowWindow,
     Fovea,
@@ -86,16 +88,17 @@ VELOCITY_POINTS = 6  # the other movers' centroids their velocities are fitted t
 EGO_ERROR = 0.05  # the fraction of the head's turn between frames the odometry can be off by
 SURROUND = 3  # the background is registered on a window this many times the fovea's side
 LATTICE_STEP = 4  # ... on every this-many-th pixel of each axis
+REDUCTION = 2  # ... of the frames reduced this many times (the coarse scale loses nothing)
 BACKGROUND_MIN_CONSTRAINTS = 50  # ... when it gives at least this many constraints
 BACKGROUND_SCORE = 0.5  # ... and its displacement explains at least this share of them
 _CLOSING_KERNEL = np.ones((3, 3), np.uint8)
 
 
 @functools.lru_cache(maxsize=4)
-def _lattice(side: int) -> np.ndarray:
-    """(side, side) bool: every LATTICE_STEP-th pixel of each axis."""
+def _lattice(side: int, step: int) -> np.ndarray:
+    """(side, side) bool: every `step`-th pixel of each axis."""
     lattice = np.zeros((side, side), bool)
-    lattice[::LATTICE_STEP, ::LATTICE_STEP] = True
+    lattice[::step, ::step] = True
     lattice.flags.writeable = False  # shared by every window of that side
     return lattice
 
@@ -130,6 +133,8 @@ class NormalFlowDetector:
         self._track: tuple[float, float, np.ndarray] | None = None  # u, v, d (px/frame)
         self._box_px: tuple[float, float] | None = None  # the target box's width, height
         self._tracks = RegionTracks(VELOCITY_POINTS)
+        # the frames reduced for the surround (`_reduced`), the newest last
+        self._reductions: deque[tuple[np.ndarray, np.ndarray]] = deque(maxlen=BASELINE_FRAMES + 1)
 
     def reset(self) -> None:
         self._track = None
@@ -276,56 +281,77 @@ class NormalFlowDetector:
         fit that explains most of its constraints, and within the still limit plus three
         standard deviations of the poses' misregistration (√2 σ f, σ the head's pose noise), is
         taken: otherwise the window stays as the odometry places it. A head with no pose noise (the
-        digital head, its view rendered at the pose it reports) has nothing to register."""
+        digital head, its view rendered at the pose it reports) has nothing to register.
+
+        The surround is seen on the frames reduced `REDUCTION` times: smoothed at the coarse
+        scale, a full-resolution image holds nothing at the reduced one's Nyquist frequency, so
+        the constraints are the same at a fraction of the cost."""
         if self.pose_noise_rad == 0.0:
             return
-        h, w = pair.gray.shape[:2]
-        side = min(SURROUND * window.fovea.side, w - 2 * MARGIN_PX, h - 2 * MARGIN_PX)
-        x0 = min(max(round(centre[0] - (side - 1) / 2.0), MARGIN_PX), w - MARGIN_PX - side)
-        y0 = min(max(round(centre[1] - (side - 1) / 2.0), MARGIN_PX), h - MARGIN_PX - side)
-        scale = COARSE_SIGMA_PX / SMOOTHING_SIGMA_PX
+        r = REDUCTION
+        reduced = FramePair(
+            self._reduced(pair.gray),
+            pair.t_s,
+            self._reduced(pair.previous),
+            pair.step.reduced(r),
+            True,
+        )
+        h, w = reduced.gray.shape[:2]
+        margin = MARGIN_PX // r
+        side = min(SURROUND * window.fovea.side // r, w - 2 * margin, h - 2 * margin)
+        cu, cv = ((c - (r - 1) / 2.0) / r for c in centre)  # the reduced pixel of the centre
+        x0 = min(max(round(cu - (side - 1) / 2.0), margin), w - margin - side)
+        y0 = min(max(round(cv - (side - 1) / 2.0), margin), h - margin - side)
+        scale = COARSE_SIGMA_PX / SMOOTHING_SIGMA_PX  # the coarse scale's, in full pixels
         surround = FlowWindow(
-            pair,
+            reduced,
             Fovea(x0, y0, side),
             window_offsets_px(side),
-            self.min_gradient / scale,
+            self.min_gradient * r / scale,  # a reduced pixel's gradient is r full pixels'
             None,
-            COARSE_SIGMA_PX,
+            COARSE_SIGMA_PX / r,
         )
-        pixels = surround.valid & _lattice(side)
+        pixels = surround.valid & _lattice(side, LATTICE_STEP // r)
+
+        def clear(left: float, top: float, right: float, bottom: float) -> None:
+            """Leave out the full-resolution box (left, top)-(right, bottom), reduced."""
+            pixels[
+                max(0, math.floor(top / r) - y0) : max(0, math.ceil(bottom / r) - y0),
+                max(0, math.floor(left / r) - x0) : max(0, math.ceil(right / r) - x0),
+            ] = False
+
         fovea = window.fovea  # where the target is looked for: the ring about it is background
-        pixels[
-            fovea.y0 - y0 : fovea.y0 - y0 + fovea.side, fovea.x0 - x0 : fovea.x0 - x0 + fovea.side
-        ] = False
+        clear(fovea.x0, fovea.y0, fovea.x0 + fovea.side, fovea.y0 + fovea.side)
         if self._track is not None and self._box_px is not None:
             bw, bh = self._box_px  # the target's box grown by half its size on every side
-            left, top = round(centre[0] - bw) - x0, round(centre[1] - bh) - y0
-            pixels[
-                max(0, top) : max(0, top + round(2 * bh)),
-                max(0, left) : max(0, left + round(2 * bw)),
-            ] = False
+            clear(centre[0] - bw, centre[1] - bh, centre[0] + bw, centre[1] + bh)
         if np.count_nonzero(pixels) < BACKGROUND_MIN_CONSTRAINTS:
             return
         constraints = surround.constraints(pixels)
-        wide = constraints.fit(np.zeros((1, 2)), LINEAR_RANGE_PX * scale, self.noise_px * scale)
-        for _ in range(REFINE_ITERATIONS):
-            wide = constraints.fit(wide.d[None], REFINE_RANGE_PX * scale, self.noise_px * scale)
+        noise = self.noise_px / r
+        wide = constraints.fit(np.zeros((1, 2)), LINEAR_RANGE_PX * scale / r, noise * scale)
+        wide = _refined(constraints, wide, REFINE_RANGE_PX * scale / r, noise * scale)
         # the background is the displacement most constraints share, not the weighted mean: a
         # strongly textured target in the surround pulls the least squares (weighted by |∇E|²)
         # towards itself; so from no displacement and from the wide fit, each refined on the
         # constraints within the pixel noise of it, the one that explains the most
-        noise = self.noise_px
         fit = constraints.fit(np.array([(0.0, 0.0), tuple(wide.d)]), noise, noise)
-        for _ in range(REFINE_ITERATIONS):
-            refined = constraints.fit(fit.d[None], noise, noise)
-            moved = math.hypot(*(refined.d - fit.d))
-            fit = refined
-            if moved < CONVERGED_PX:
-                break
+        fit = _refined(constraints, fit, noise, noise)
+        background = fit.d * r
         misregistration_px = math.sqrt(2.0) * self.pose_noise_rad * float(pair.step.K[0, 0])
         bound_px = self._still_px(pair.step, window.fovea) + 3.0 * misregistration_px
-        if fit.score >= BACKGROUND_SCORE and math.hypot(*fit.d) <= bound_px:
-            window.register(fit.d)
+        if fit.score >= BACKGROUND_SCORE and math.hypot(*background) <= bound_px:
+            window.register(background)
+
+    def _reduced(self, image: np.ndarray) -> np.ndarray:
+        """`image` reduced `REDUCTION` times (block means), kept for the frames that follow."""
+        for source, reduced in self._reductions:
+            if source is image:
+                return reduced
+        h, w = image.shape[:2]
+        reduced = cv2.resize(image, (w // REDUCTION, h // REDUCTION), interpolation=cv2.INTER_AREA)
+        self._reductions.append((image, reduced))
+        return reduced
 
     def _still_px(self, step: HeadStep, fovea: Fovea) -> float:
         """The largest displacement (px per frame) of a region that still counts as keeping its
@@ -402,15 +428,22 @@ class NormalFlowDetector:
                 coarse.register(window.background)
             wide = coarse.constraints(region & coarse.valid)
             start = wide.fit(coarse.hypotheses, LINEAR_RANGE_PX * scale, self.noise_px * scale)
-            for _ in range(REFINE_ITERATIONS):
-                start = wide.fit(start.d[None], REFINE_RANGE_PX * scale, self.noise_px * scale)
+            start = _refined(wide, start, REFINE_RANGE_PX * scale, self.noise_px * scale)
             candidate = constraints.fit(start.d[None], LINEAR_RANGE_PX, self.noise_px)
             if candidate.score > best.score:
                 best = candidate
-        for _ in range(REFINE_ITERATIONS):
-            refined = constraints.fit(best.d[None], REFINE_RANGE_PX, self.noise_px)
-            moved = math.hypot(*(refined.d - best.d))
-            best = refined
-            if moved < CONVERGED_PX:
-                break
-        return best
+        return _refined(constraints, best, REFINE_RANGE_PX, self.noise_px)
+
+
+def _refined(
+    constraints: FlowConstraints, fit: FlowFit, tolerance_px: float, noise_px: float
+) -> FlowFit:
+    """`fit` refined on the constraints within `tolerance_px` of it, step by step, until it
+    moves by less than `CONVERGED_PX` (or for at most `REFINE_ITERATIONS` steps)."""
+    for _ in range(REFINE_ITERATIONS):
+        refined = constraints.fit(fit.d[None], tolerance_px, noise_px)
+        moved = math.hypot(*(refined.d - fit.d))
+        fit = refined
+        if moved < CONVERGED_PX:
+            break
+    return fit
