@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import pytest
 from pydantic import ValidationError
 
@@ -114,6 +116,33 @@ def test_a_target_taller_than_the_deadband_is_zoomed_out_at_once() -> None:
     assert run(zc, "pursuit", 0.6, zoom_now=0.475) == pytest.approx(0.275)
     zc.sightings.found = seen(0.9, 0.5 * H, zoom=0.5)  # the frames still lag the zoom
     assert run(zc, "pursuit", 1.0, zoom_now=0.275) == pytest.approx(0.19444, abs=1e-4)
+
+
+def test_a_nearing_target_is_sized_for_the_instant_the_demand_acts() -> None:
+    """A target nearing the camera grows as it comes: its height doubles in 1.4 s here, and the
+    zoom is sized for when the demand acts (the tick, 0.2 s after the last sighting, plus the
+    actuation latency), not for the sightings' middle, 0.58 s earlier."""
+    zc = control(zoom_target_height=0.25, zoom_out_rate_s=100.0, zoom_deadband=0.02)
+    growth_s = 0.5  # d ln h / dt
+    for k in range(15):  # a full window of sightings at zoom 0.5 (f = 2750), 25 Hz
+        t_s = 0.04 * k
+        zc.on_detection(seen(t_s, 0.25 * H * math.exp(growth_s * t_s), zoom=0.5))
+    zc.sightings.found = None
+    assert run(zc, "pursuit", 0.75, zoom_now=0.5) == 0.5  # the first tick: no time to move
+    zoom = zc.apply(demand(), "pursuit", odometry(0.5), round(0.76 * S), 0.76, actuation_s=0.1)
+    assert zoom is not None
+    # at 0.86 s the target is 0.25 exp(0.43) of the frame at f = 2750: the setpoint's focal
+    # length is 2750 exp(-0.43), zoom (2750 exp(-0.43) - 500) / 4500
+    assert zoom.zoom == pytest.approx((2750.0 * math.exp(-0.43) - 500.0) / 4500.0, abs=1e-6)
+
+
+def test_a_few_merged_boxes_do_not_move_the_zoom_even_the_newest() -> None:
+    zc = control(zoom_target_height=0.25, zoom_deadband=0.05)
+    for k in range(15):  # the last three boxes merged with an edge behind the target
+        zc.on_detection(seen(0.04 * k, (0.6 if k >= 12 else 0.25) * H, zoom=0.5))
+    zc.sightings.found = None
+    assert run(zc, "pursuit", 0.65, zoom_now=0.5) == 0.5
+    assert run(zc, "pursuit", 0.7, zoom_now=0.5) == 0.5  # 0.05 s at 0.5 /s would show
 
 
 def test_the_box_margin_is_taken_off_the_detected_box() -> None:

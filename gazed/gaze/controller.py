@@ -218,7 +218,9 @@ class GazeController:
             demand = self.shaper.shape(demand, dt_s)
             if demand is None:  # a non-finite number reached the demand: hold instead
                 demand = self._hold(wall_ns)
-        demand = self.zoom.apply(demand, self.state, self.odometry, wall_ns, mono_s)
+        demand = self.zoom.apply(
+            demand, self.state, self.odometry, wall_ns, mono_s, self.pursuit.actuation_s
+        )
         transitions, self.pending = tuple(self.pending), []
         trace, self.finished_trace = self.finished_trace, None
         return Decision(demand, transitions, trace)

@@ -109,6 +109,11 @@ class Pursuit:
             return None
         return Aim.of_prediction(p)
 
+    @property
+    def actuation_s(self) -> float:
+        """How long after it is sent a demand acts: the latest prediction's actuation latency."""
+        return self.prediction.actuation_latency_s if self.prediction is not None else 0.0
+
     def demand(self, wall_ns: int, found: Detection | None, correction: bool) -> GazeDemand | None:
         """Position and rates for the instant the demand acts (now + actuation latency), from
         the prediction or else the detection `found`; with `correction`, plus the feedback
@@ -119,8 +124,7 @@ class Pursuit:
             if found is None:
                 return None
             aim, source = detection_aim(self.lens, self.kinematics, found), found
-        actuation_s = self.prediction.actuation_latency_s if self.prediction is not None else 0.0
-        pan, tilt = aim.at(wall_ns + round(actuation_s * 1e9))
+        pan, tilt = aim.at(wall_ns + round(self.actuation_s * 1e9))
         if correction:
             pan_c, tilt_c = self.feedback.correction
             pan, tilt = pan + self.gain * pan_c, tilt + self.gain * tilt_c

@@ -5,11 +5,16 @@ pursues. The target's height is that of its box in the frame, the mover at the d
 pixel (`Detection.movers`, `Mover.box_height_px`) less `zoom_box_margin_px` (the detector's
 box reaches past the body by its smoothing), as a fraction h of the frame's height. Divided
 by the lens's focal length at the frame's own zoom (the pose it was captured at), f_capture,
-it is the target's size a = h / f_capture, which the zoom does not change; the median of the
-last `SIZE_SAMPLES` sizes (a box the detector merged for a few frames with an edge behind the
-target does not move the zoom) gives the focal length that shows the target at the setpoint
-h*, h* / a: a goal that does not depend on how far the zoom has moved since the frames were
-taken, so the loop's latency does not make it overshoot.
+it is the target's size a = h / f_capture, which the zoom does not change. The size the zoom
+acts on is that of the last `SIZE_SAMPLES` sightings taken to the instant the demand acts (now
+plus the actuation latency): a target nearing the camera grows as it comes, ln a along a line
+over a fraction of a second, and the frames are a visual latency old. So ln a's Theil-Sen line
+through the sightings (the median of the pairwise slopes, and the median intercept: a box the
+detector merged for a few frames with an edge behind the target moves it no more than it moves
+a median) is taken to that instant; with fewer sightings, their median. It gives the focal
+length that shows the target at the setpoint h*, h* / a: a goal that does not depend on how far
+the zoom has moved since the frames were taken, so the loop's latency does not make it
+overshoot.
 
 The frame must also hold the target: its centre at least `zoom_out_edge` of the frame's size
 from the edge, and its independent image velocity at most `zoom_out_speed` frame heights per
@@ -39,6 +44,8 @@ import statistics
 from collections import deque
 from dataclasses import dataclass
 
+import numpy as np
+
 from gazed.config import GazeSection
 from gazed.gaze.sightings import Sightings
 from gazed.geometry.zoom import ZoomLens
@@ -46,7 +53,7 @@ from gazed.messages import Detection, GazeDemand, GazeStateName, Mover, Odometry
 
 LEAVE_ALONE: tuple[GazeStateName, ...] = ("trace", "hold")  # states that never move the zoom
 TICK_MAX_S = 0.5  # a longer gap between ticks ramps the zoom by this much time at most
-SIZE_SAMPLES = 15  # the target's size is the median of this many sightings' (about 0.6 s)
+SIZE_SAMPLES = 15  # the target's size is the line through this many sightings' (about 0.6 s)
 
 
 @dataclass(frozen=True)
@@ -87,7 +94,8 @@ class ZoomControl:
         self.stale_ns = round(gaze.lost_after_ms * 1e6)
         self.steady_ns = round(gaze.zoom_in_steady_ms * 1e6)
         self.seen: ZoomSighting | None = None
-        self.sizes: deque[float] = deque(maxlen=SIZE_SAMPLES)  # h / f_capture (1/px)
+        # each sighting's capture time and ln a, a = h / f_capture (1/px)
+        self.sizes: deque[tuple[int, float]] = deque(maxlen=SIZE_SAMPLES)
         self.unsteady_ns: int | None = None  # the last time the target was not steady
         self.demanded: float | None = None
         self.last_s: float | None = None
@@ -113,7 +121,7 @@ class ZoomControl:
         height_px = target_height_px(detection)
         if height_px is not None:
             height = max(height_px - self.gaze.zoom_box_margin_px, 1.0) / h
-            self.sizes.append(height / focal_px)
+            self.sizes.append((detection.t_capture_ns, math.log(height / focal_px)))
         if room < 1.0:
             self.unsteady_ns = detection.t_capture_ns
 
@@ -124,16 +132,23 @@ class ZoomControl:
         odometry: Odometry | None,
         wall_ns: int,
         mono_s: float,
+        actuation_s: float = 0.0,
     ) -> GazeDemand | None:
         """The demand with the zoom to go to (unchanged when off, or in a state that leaves
-        the zoom alone, or before the zoom's position is known; no demand, none)."""
-        zoom = self.zoom(state, odometry, wall_ns, mono_s)
+        the zoom alone, or before the zoom's position is known; no demand, none).
+        `actuation_s`: how long after `wall_ns` the demand acts."""
+        zoom = self.zoom(state, odometry, wall_ns, mono_s, actuation_s)
         if zoom is None or demand is None:
             return demand
         return demand.model_copy(update={"zoom": zoom})
 
     def zoom(
-        self, state: GazeStateName, odometry: Odometry | None, wall_ns: int, mono_s: float
+        self,
+        state: GazeStateName,
+        odometry: Odometry | None,
+        wall_ns: int,
+        mono_s: float,
+        actuation_s: float = 0.0,
     ) -> float | None:
         """The zoom demand for this tick (None: leave the zoom)."""
         dt_s = 0.0 if self.last_s is None else min(max(mono_s - self.last_s, 0.0), TICK_MAX_S)
@@ -149,7 +164,7 @@ class ZoomControl:
             if odometry is None or odometry.zoom is None:
                 return None
             self.demanded = odometry.zoom
-        goal, rate_s = self._goal(state, wall_ns)
+        goal, rate_s = self._goal(state, wall_ns, wall_ns + round(actuation_s * 1e9))
         now = self.demanded
         if goal is not None:
             goal = min(max(goal, self.gaze.zoom_min), self.gaze.zoom_max)
@@ -158,8 +173,11 @@ class ZoomControl:
         self.demanded = now
         return now
 
-    def _goal(self, state: GazeStateName, wall_ns: int) -> tuple[float | None, float]:
-        """Where the zoom should go and how fast (None: stay)."""
+    def _goal(
+        self, state: GazeStateName, wall_ns: int, effect_ns: int
+    ) -> tuple[float | None, float]:
+        """Where the zoom should go and how fast (None: stay), for a demand that acts at
+        `effect_ns`."""
         gaze = self.gaze
         widest = (gaze.zoom_min, gaze.zoom_out_rate_s)
         if state != "pursuit":
@@ -169,7 +187,7 @@ class ZoomControl:
             return None, 0.0
         goal_px = seen.focal_px * seen.room  # the longest focal length the frame allows
         # and the setpoint's; with no size yet, only out
-        size_px = gaze.zoom_target_height / statistics.median(self.sizes) if self.sizes else 0.0
+        size_px = gaze.zoom_target_height / self.size(effect_ns) if self.sizes else 0.0
         goal_px = min(goal_px, size_px or seen.focal_px)
         ratio = seen.focal_px / goal_px  # the height it has now, of the goal's
         if abs(ratio - 1.0) <= gaze.zoom_deadband:
@@ -179,6 +197,18 @@ class ZoomControl:
             return goal, gaze.zoom_out_rate_s
         steady = self.unsteady_ns is None or seen.t_capture_ns - self.unsteady_ns >= self.steady_ns
         return (goal, gaze.zoom_in_rate_s) if steady else (None, 0.0)
+
+    def size(self, t_ns: int) -> float:
+        """The target's size a = h / f (1/px) at `t_ns`, from the sightings': ln a's Theil-Sen
+        line through a full window of them taken to that instant, or the median of fewer."""
+        times_ns, logs = zip(*self.sizes, strict=True)
+        if len(logs) < SIZE_SAMPLES:
+            return math.exp(statistics.median(logs))
+        t_s = (np.array(times_ns) - t_ns) * 1e-9  # before the instant: negative
+        y = np.array(logs)
+        i, j = np.triu_indices(len(y), 1)
+        slope = float(np.median((y[j] - y[i]) / (t_s[j] - t_s[i])))  # sightings: newer each
+        return math.exp(float(np.median(y - slope * t_s)))
 
 
 def _room(allowed: float, now: float) -> float:
