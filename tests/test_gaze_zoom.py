@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 from pydantic import ValidationError
 
@@ -143,6 +144,25 @@ def test_a_few_merged_boxes_do_not_move_the_zoom_even_the_newest() -> None:
     zc.sightings.found = None
     assert run(zc, "pursuit", 0.65, zoom_now=0.5) == 0.5
     assert run(zc, "pursuit", 0.7, zoom_now=0.5) == 0.5  # 0.05 s at 0.5 /s would show
+
+
+@pytest.mark.parametrize("scatter", [0.0, 1.0], ids=["steady boxes", "a standing target's"])
+def test_the_zoom_goes_in_only_on_a_size_known_within_the_deadband(scatter: float) -> None:
+    """A motion detector's boxes of a person standing still are what still moves of them, a
+    hand or a shoulder, from frame to frame: their sizes scatter by factors, and the zoom does
+    not go in on them; the same boxes of a walker, all alike, take it in."""
+    zc = control(zoom_target_height=0.25, zoom_in_steady_ms=0.0, zoom_deadband=0.05)
+    rng = np.random.default_rng(5)
+    for k in range(30):  # a tenth of the frame on average at zoom 0.5: the setpoint is far in
+        t_s = 0.04 * k
+        height_px = 0.1 * H * math.exp(scatter * rng.standard_normal())
+        zc.sightings.found = seen(t_s, height_px, zoom=0.5)
+        zoom = run(zc, "pursuit", t_s, zoom_now=0.5)
+    error = zc.size_error(round(1.16 * S))
+    if scatter == 0.0:
+        assert error == pytest.approx(0.0) and zoom > 0.5
+    else:
+        assert error > 0.05 and zoom == 0.5
 
 
 def test_the_box_margin_is_taken_off_the_detected_box() -> None:

@@ -30,8 +30,11 @@ Each tick, the zoom demand moves towards a goal, at most `zoom_in_rate_s` or `zo
   a target is reacquired (search, saccade, lost) with the widest view first;
 - in pursuit, with the focal length of the latest frame longer than the goal's by more than
   the deadband: out, to the goal; shorter: in, to it, but only once the target has been
-  steady (its room at least 1) for `zoom_in_steady_ms`, and never on a detection older than
-  `lost_after_ms`;
+  steady (its room at least 1) for `zoom_in_steady_ms`, and only on a size known to within
+  the deadband (`size_error`: the sightings' scatter about their line, as a standard error).
+  A motion detector's boxes of a person standing still are what still moves of them, a hand
+  or a shoulder, and scatter by factors from frame to frame: the zoom does not go in on them;
+  never on a detection older than `lost_after_ms`;
 - otherwise the demand stays.
 
 Off (`zoom_control = false`, or a fixed lens) every demand goes out unchanged: no zoom.
@@ -40,7 +43,6 @@ Off (`zoom_control = false`, or a fixed lens) every demand goes out unchanged: n
 from __future__ import annotations
 
 import math
-import statistics
 from collections import deque
 from dataclasses import dataclass
 
@@ -196,19 +198,35 @@ class ZoomControl:
         if ratio > 1.0:
             return goal, gaze.zoom_out_rate_s
         steady = self.unsteady_ns is None or seen.t_capture_ns - self.unsteady_ns >= self.steady_ns
-        return (goal, gaze.zoom_in_rate_s) if steady else (None, 0.0)
+        known = self.size_error(effect_ns) <= gaze.zoom_deadband  # sizes: the goal is past f
+        return (goal, gaze.zoom_in_rate_s) if steady and known else (None, 0.0)
 
     def size(self, t_ns: int) -> float:
         """The target's size a = h / f (1/px) at `t_ns`, from the sightings': ln a's Theil-Sen
         line through a full window of them taken to that instant, or the median of fewer."""
+        return math.exp(self._line(t_ns)[0])
+
+    def size_error(self, t_ns: int) -> float:
+        """The standard error of ln `size(t_ns)`: the sightings' scatter about the line (or the
+        median), 1.4826 times their median absolute deviation for a standard deviation, times
+        a median's 1.2533 / sqrt(n)."""
+        residuals = self._line(t_ns)[1]
+        sigma = 1.4826 * float(np.median(np.abs(residuals)))
+        return 1.2533 * sigma / math.sqrt(len(residuals))
+
+    def _line(self, t_ns: int) -> tuple[float, np.ndarray]:
+        """ln a at `t_ns` (`size`) and the sightings' residuals about it."""
         times_ns, logs = zip(*self.sizes, strict=True)
-        if len(logs) < SIZE_SAMPLES:
-            return math.exp(statistics.median(logs))
         t_s = (np.array(times_ns) - t_ns) * 1e-9  # before the instant: negative
         y = np.array(logs)
+        if len(y) < SIZE_SAMPLES:
+            middle = float(np.median(y))
+            return middle, y - middle
         i, j = np.triu_indices(len(y), 1)
         slope = float(np.median((y[j] - y[i]) / (t_s[j] - t_s[i])))  # sightings: newer each
-        return math.exp(float(np.median(y - slope * t_s)))
+        residuals = y - slope * t_s
+        at = float(np.median(residuals))
+        return at, residuals - at
 
 
 def _room(allowed: float, now: float) -> float:
