@@ -30,11 +30,11 @@ Each tick, the zoom demand moves towards a goal, at most `zoom_in_rate_s` or `zo
   a target is reacquired (search, saccade, lost) with the widest view first;
 - in pursuit, with the focal length of the latest frame longer than the goal's by more than
   the deadband: out, to the goal; shorter: in, to it, but only once the target has been
-  steady (its room at least 1) for `zoom_in_steady_ms`, and only on a size known to within
-  the deadband (`size_error`: the sightings' scatter about their line, as a standard error).
-  A motion detector's boxes of a person standing still are what still moves of them, a hand
-  or a shoulder, and scatter by factors from frame to frame: the zoom does not go in on them;
-  never on a detection older than `lost_after_ms`;
+  steady (its room at least 1) for `zoom_in_steady_ms`, only on a size known to within the
+  deadband (`size_error`: the sightings' scatter about their line, as a standard error), and
+  never on a detection older than `lost_after_ms`. A motion detector's boxes of a person
+  standing still are what still moves of them, a hand or a shoulder, and scatter by factors
+  from frame to frame: the zoom does not go in on them;
 - otherwise the demand stays.
 
 Off (`zoom_control = false`, or a fixed lens) every demand goes out unchanged: no zoom.
@@ -198,7 +198,8 @@ class ZoomControl:
         if ratio > 1.0:
             return goal, gaze.zoom_out_rate_s
         steady = self.unsteady_ns is None or seen.t_capture_ns - self.unsteady_ns >= self.steady_ns
-        known = self.size_error(effect_ns) <= gaze.zoom_deadband  # sizes: the goal is past f
+        # a goal past the latest frame's focal length comes from the sizes: are they known?
+        known = self.size_error(effect_ns) <= gaze.zoom_deadband
         return (goal, gaze.zoom_in_rate_s) if steady and known else (None, 0.0)
 
     def size(self, t_ns: int) -> float:
