@@ -158,7 +158,7 @@ def test_the_zoom_goes_in_only_on_a_size_known_within_the_deadband(scatter: floa
         height_px = 0.1 * H * math.exp(scatter * rng.standard_normal())
         zc.sightings.found = seen(t_s, height_px, zoom=0.5)
         zoom = run(zc, "pursuit", t_s, zoom_now=0.5)
-    error = zc.size_error(round(1.16 * S))
+    error = zc.size(round(1.16 * S))[1]
     if scatter == 0.0:
         assert error == pytest.approx(0.0) and zoom > 0.5
     else:

@@ -31,7 +31,7 @@ Each tick, the zoom demand moves towards a goal, at most `zoom_in_rate_s` or `zo
 - in pursuit, with the focal length of the latest frame longer than the goal's by more than
   the deadband: out, to the goal; shorter: in, to it, but only once the target has been
   steady (its room at least 1) for `zoom_in_steady_ms`, only on a size known to within the
-  deadband (`size_error`: the sightings' scatter about their line, as a standard error), and
+  deadband (`size`'s error: the sightings' scatter about their line, as a standard error), and
   never on a detection older than `lost_after_ms`. A motion detector's boxes of a person
   standing still are what still moves of them, a hand or a shoulder, and scatter by factors
   from frame to frame: the zoom does not go in on them;
@@ -189,7 +189,10 @@ class ZoomControl:
             return None, 0.0
         goal_px = seen.focal_px * seen.room  # the longest focal length the frame allows
         # and the setpoint's; with no size yet, only out
-        size_px = gaze.zoom_target_height / self.size(effect_ns) if self.sizes else 0.0
+        size_px, size_error = 0.0, math.inf
+        if self.sizes:
+            size, size_error = self.size(effect_ns)
+            size_px = gaze.zoom_target_height / size
         goal_px = min(goal_px, size_px or seen.focal_px)
         ratio = seen.focal_px / goal_px  # the height it has now, of the goal's
         if abs(ratio - 1.0) <= gaze.zoom_deadband:
@@ -199,35 +202,27 @@ class ZoomControl:
             return goal, gaze.zoom_out_rate_s
         steady = self.unsteady_ns is None or seen.t_capture_ns - self.unsteady_ns >= self.steady_ns
         # a goal past the latest frame's focal length comes from the sizes: are they known?
-        known = self.size_error(effect_ns) <= gaze.zoom_deadband
+        known = size_error <= gaze.zoom_deadband
         return (goal, gaze.zoom_in_rate_s) if steady and known else (None, 0.0)
 
-    def size(self, t_ns: int) -> float:
+    def size(self, t_ns: int) -> tuple[float, float]:
         """The target's size a = h / f (1/px) at `t_ns`, from the sightings': ln a's Theil-Sen
-        line through a full window of them taken to that instant, or the median of fewer."""
-        return math.exp(self._line(t_ns)[0])
-
-    def size_error(self, t_ns: int) -> float:
-        """The standard error of ln `size(t_ns)`: the sightings' scatter about the line (or the
-        median), 1.4826 times their median absolute deviation for a standard deviation, times
-        a median's 1.2533 / sqrt(n)."""
-        residuals = self._line(t_ns)[1]
-        sigma = 1.4826 * float(np.median(np.abs(residuals)))
-        return 1.2533 * sigma / math.sqrt(len(residuals))
-
-    def _line(self, t_ns: int) -> tuple[float, np.ndarray]:
-        """ln a at `t_ns` (`size`) and the sightings' residuals about it."""
+        line through a full window of them taken to that instant, or the median of fewer; and
+        the standard error of ln a, from the sightings' scatter about the line (or the median):
+        1.4826 times their median absolute deviation for a standard deviation, times a
+        median's 1.2533 / sqrt(n)."""
         times_ns, logs = zip(*self.sizes, strict=True)
         t_s = (np.array(times_ns) - t_ns) * 1e-9  # before the instant: negative
         y = np.array(logs)
         if len(y) < SIZE_SAMPLES:
-            middle = float(np.median(y))
-            return middle, y - middle
-        i, j = np.triu_indices(len(y), 1)
-        slope = float(np.median((y[j] - y[i]) / (t_s[j] - t_s[i])))  # sightings: newer each
-        residuals = y - slope * t_s
-        at = float(np.median(residuals))
-        return at, residuals - at
+            intercepts = y
+        else:
+            i, j = np.triu_indices(len(y), 1)
+            slope = float(np.median((y[j] - y[i]) / (t_s[j] - t_s[i])))  # sightings: newer each
+            intercepts = y - slope * t_s
+        at = float(np.median(intercepts))
+        sigma = 1.4826 * float(np.median(np.abs(intercepts - at)))
+        return math.exp(at), 1.2533 * sigma / math.sqrt(len(y))
 
 
 def _room(allowed: float, now: float) -> float:
