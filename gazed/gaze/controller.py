@@ -109,7 +109,9 @@ class GazeController:
         )
         self.tracer = LineTracer(gaze, lens, kinematics, limits_rad)
         self.choice = TargetChoice(rig, lens, kinematics)
-        self.zoom = ZoomControl(gaze, lens, self.sightings)
+        self.zoom = ZoomControl(
+            gaze, lens, self.sightings, self.pursuit, rig.calibration.camera_xyz_m
+        )
         self.operator = OperatorControl(self)  # park, search, hold, resume
         # the state machine
         self.state: GazeStateName = "park"

@@ -109,6 +109,21 @@ class Pursuit:
             return None
         return Aim.of_prediction(p)
 
+    def ground_at(self, t_ns: int) -> tuple[float, float] | None:
+        """The target's ground position at `t_ns`: the newest prediction made for an instant
+        no later than it (else the oldest kept), on along its ground velocity. None without a
+        prediction within `PREDICTION_FRESH_S` of the instant, or one without a ground
+        position."""
+        kept = self.feedback.predictions
+        if not kept:
+            return None
+        p = next((p for p in reversed(kept) if p.t_effect_ns <= t_ns), kept[0])
+        dt_s = (t_ns - p.t_effect_ns) * 1e-9
+        if p.ground_xy_m is None or abs(dt_s) > PREDICTION_FRESH_S:
+            return None
+        vx, vy = p.ground_velocity_m_s or (0.0, 0.0)
+        return p.ground_xy_m[0] + vx * dt_s, p.ground_xy_m[1] + vy * dt_s
+
     @property
     def actuation_s(self) -> float:
         """How long after it is sent a demand acts: the latest prediction's actuation latency."""

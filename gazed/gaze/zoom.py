@@ -49,7 +49,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from gazed.config import GazeSection
+from gazed.gaze.pursuit import Pursuit
 from gazed.gaze.sightings import Sightings
+from gazed.gaze.target_height import TargetHeight
 from gazed.geometry.zoom import ZoomLens
 from gazed.messages import Detection, GazeDemand, GazeStateName, Mover, Odometry
 
@@ -87,10 +89,20 @@ def target_height_px(detection: Detection) -> float | None:
 class ZoomControl:
     """`apply` sets the zoom of each demand, from the detections `sightings` takes."""
 
-    def __init__(self, gaze: GazeSection, lens: ZoomLens, sightings: Sightings) -> None:
+    def __init__(
+        self,
+        gaze: GazeSection,
+        lens: ZoomLens,
+        sightings: Sightings,
+        pursuit: Pursuit | None = None,
+        camera_xyz_m: tuple[float, float, float] | None = None,
+    ) -> None:
         self.gaze = gaze
         self.lens = lens
         self.sightings = sightings
+        self.pursuit = pursuit  # the chosen track's predictions: its ground position
+        # the target's height, where the rig places the camera over the ground
+        self.height = TargetHeight(camera_xyz_m) if camera_xyz_m is not None else None
         self.enabled = gaze.zoom_control and lens.zooms_lens
         self.width_px, self.height_px = lens.base.width_px, lens.base.height_px
         self.stale_ns = round(gaze.lost_after_ms * 1e6)
@@ -122,8 +134,12 @@ class ZoomControl:
         self.seen = ZoomSighting(detection.t_capture_ns, focal_px, room)
         height_px = target_height_px(detection)
         if height_px is not None:
-            height = max(height_px - self.gaze.zoom_box_margin_px, 1.0) / h
-            self.sizes.append((detection.t_capture_ns, math.log(height / focal_px)))
+            body_px = max(height_px - self.gaze.zoom_box_margin_px, 1.0)
+            self.sizes.append((detection.t_capture_ns, math.log(body_px / h / focal_px)))
+            ground = self._ground_at(detection.t_capture_ns)
+            if self.height is not None and ground is not None:
+                angle_rad = 2.0 * math.atan(body_px / (2.0 * focal_px))
+                self.height.learn(self._track_id(), ground, angle_rad)
         if room < 1.0:
             self.unsteady_ns = detection.t_capture_ns
 
@@ -206,9 +222,29 @@ class ZoomControl:
         return (goal, gaze.zoom_in_rate_s) if steady and known else (None, 0.0)
 
     def size(self, t_ns: int) -> tuple[float, float]:
-        """The target's size a = h / f (1/px) at `t_ns`, from the sightings': ln a's Theil-Sen
-        line through a full window of them taken to that instant, or the median of fewer; and
-        the standard error of ln a, from the sightings' scatter about the line (or the median):
+        """The target's size a = h / f (1/px) at `t_ns`, and the standard error of ln a: the
+        boxes' (`box_size`), or where the rig places the camera over the ground and the chosen
+        track has a ground position then, the larger of that and the size at its distance: the
+        angular height α of the track's height learnt so far (`TargetHeight`) at its position,
+        a = 2 tan(α / 2) / the frame's height. Each errs small in its own way, the boxes while
+        the person stands, the height while most of what it learnt from was such boxes; and
+        too large a size only shows the target smaller, too small a one zooms it out of the
+        frame."""
+        by_boxes = self.box_size(t_ns)
+        ground = self._ground_at(t_ns)
+        height = self.height
+        if height is None or ground is None or height.track_id != self._track_id():
+            return by_boxes
+        angle_rad, error = height.angle_rad(ground)
+        if not math.isfinite(angle_rad):
+            return by_boxes
+        by_distance = (2.0 * math.tan(angle_rad / 2.0) / self.height_px, error)
+        return max(by_boxes, by_distance)
+
+    def box_size(self, t_ns: int) -> tuple[float, float]:
+        """The target's size a at `t_ns` from the sightings' boxes: ln a's Theil-Sen line
+        through a full window of them taken to that instant, or the median of fewer; and the
+        standard error of ln a, from the sightings' scatter about the line (or the median):
         1.4826 times their median absolute deviation for a standard deviation, times a
         median's 1.2533 / sqrt(n)."""
         times_ns, logs = zip(*self.sizes, strict=True)
@@ -223,6 +259,13 @@ class ZoomControl:
         at = float(np.median(intercepts))
         sigma = 1.4826 * float(np.median(np.abs(intercepts - at)))
         return math.exp(at), 1.2533 * sigma / math.sqrt(len(y))
+
+    def _ground_at(self, t_ns: int) -> tuple[float, float] | None:
+        return self.pursuit.ground_at(t_ns) if self.pursuit is not None else None
+
+    def _track_id(self) -> int | None:
+        prediction = self.pursuit.prediction if self.pursuit is not None else None
+        return prediction.track_id if prediction is not None else None
 
 
 def _room(allowed: float, now: float) -> float:

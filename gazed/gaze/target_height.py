@@ -1,0 +1,90 @@
+"""The target's body height, learnt from its boxes and its ground distance, and the size it has
+at a distance: the zoom's size where the rig has ground geometry (`ZoomControl.size`).
+
+A box measures how tall the target looks, which changes with its distance; how tall it is does
+not. With the camera's centre at height z above the ground (`[calibration] camera_xyz_m`) and
+the target's feet at ground distance d from below it, a body of height H spans the angle
+α = atan(z / d) − atan((z − H) / d) from the camera, and a box that spans α says
+H = z − d · tan(atan(z / d) − α). Each sighting of a track says one H, at the track's ground
+position at the sighting's capture; the track's height is ln H's median over its sightings,
+known to that median's standard error (1.4826 · MAD · 1.2533 / √n).
+
+A motion detector's box of a person standing still is what still moves of them, often the same
+hand or shoulder frame after frame, and a box merged with an edge behind them is too tall; on
+a person's boxes alone, a few consistent ones of either kind are a size. Over a track's life
+they are a minority of its sightings (the detector sees a person by their walking), and the
+median stands on the rest. The size the zoom acts on is that body's angular height at the
+track's predicted ground position for the instant the demand acts: it follows the person's
+distance, and the boxes only teach it the person's height.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+
+import numpy as np
+
+HEIGHT_SAMPLES = 500  # a track's latest sightings that its height is the median of
+
+
+def angular_height_rad(camera_z_m: float, distance_m: float, height_m: float) -> float:
+    """The angle a body of `height_m`, standing `distance_m` along the ground from below a
+    camera `camera_z_m` up, spans from the camera."""
+    return math.atan2(camera_z_m, distance_m) - math.atan2(camera_z_m - height_m, distance_m)
+
+
+def body_height_m(camera_z_m: float, distance_m: float, angle_rad: float) -> float | None:
+    """The height of a body standing `distance_m` along the ground from below a camera
+    `camera_z_m` up that spans `angle_rad` from it (None: no body spans it: its head would be
+    past the zenith)."""
+    head_rad = math.atan2(camera_z_m, distance_m) - angle_rad  # below the horizontal
+    if head_rad <= -math.pi / 2:
+        return None
+    return camera_z_m - distance_m * math.tan(head_rad)
+
+
+class TargetHeight:
+    """`learn` one sighting of a track at a time; `angle_rad` is the track's angular height at
+    a ground position, from its height so far."""
+
+    def __init__(self, camera_xyz_m: tuple[float, float, float]) -> None:
+        self.camera_xyz_m = camera_xyz_m
+        self.track_id: int | None = None
+        self.log_heights: deque[float] = deque(maxlen=HEIGHT_SAMPLES)
+
+    def distance_m(self, ground_xy_m: tuple[float, float]) -> float:
+        """How far along the ground `ground_xy_m` lies from below the camera."""
+        x, y, _ = self.camera_xyz_m
+        return math.hypot(ground_xy_m[0] - x, ground_xy_m[1] - y)
+
+    def learn(
+        self, track_id: int | None, ground_xy_m: tuple[float, float], angle_rad: float
+    ) -> None:
+        """A sighting of track `track_id` at `ground_xy_m` whose box spans `angle_rad`; a
+        sighting of another track than the last starts the height afresh."""
+        if track_id != self.track_id:
+            self.track_id = track_id
+            self.log_heights.clear()
+        height_m = body_height_m(self.camera_xyz_m[2], self.distance_m(ground_xy_m), angle_rad)
+        if height_m is not None and height_m > 0.0:
+            self.log_heights.append(math.log(height_m))
+
+    def height_m(self) -> tuple[float, float]:
+        """The track's height (m) and the standard error of its logarithm (no sighting: an
+        infinite error)."""
+        if not self.log_heights:
+            return math.nan, math.inf
+        logs = np.array(self.log_heights)
+        at = float(np.median(logs))
+        sigma = 1.4826 * float(np.median(np.abs(logs - at)))
+        return math.exp(at), 1.2533 * sigma / math.sqrt(len(logs))
+
+    def angle_rad(self, ground_xy_m: tuple[float, float]) -> tuple[float, float]:
+        """The track's angular height at `ground_xy_m`, and its logarithm's standard error
+        (that of the height's: the angle is about proportional to the height)."""
+        height_m, error = self.height_m()
+        if not math.isfinite(height_m):
+            return math.nan, math.inf
+        z = self.camera_xyz_m[2]
+        return angular_height_rad(z, self.distance_m(ground_xy_m), height_m), error
