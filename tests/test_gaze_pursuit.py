@@ -119,3 +119,20 @@ def test_a_detection_in_pursuit_updates_the_feedback() -> None:
     p.on_detection(detection(T0, CAMERA.K[0, 2] + 100.0))
     residual = math.atan(100.0 / F)
     assert p.feedback.correction == pytest.approx((0.25 * residual, 0.25 * 0.1))
+
+
+def test_the_ground_position_at_an_instant_walks_the_latest_prediction_before_it_on() -> None:
+    p = pursuit()
+    assert p.ground_at(T0) is None  # no prediction
+    p.on_prediction(prediction(T0, 0.0))  # no ground position (an image-cv track)
+    assert p.ground_at(T0) is None
+    for k, xy in enumerate([(1.0, 2.0), (1.1, 2.0)]):
+        walking = prediction(T0 + 100 * k * MS, 0.0).model_copy(
+            update={"ground_xy_m": xy, "ground_velocity_m_s": (1.0, -0.5)}
+        )
+        p.on_prediction(walking)
+    assert p.ground_at(T0 + 50 * MS) == pytest.approx((1.05, 1.975))  # the first, walked on
+    assert p.ground_at(T0 + 300 * MS) == pytest.approx((1.3, 1.9))  # the newest, walked on
+    assert p.ground_at(T0 + 700 * MS) is None  # past PREDICTION_FRESH_S from the newest
+    p.restart()
+    assert p.ground_at(T0 + 300 * MS) is None

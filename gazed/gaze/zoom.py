@@ -14,7 +14,11 @@ detector merged for a few frames with an edge behind the target moves it no more
 a median) is taken to that instant; with fewer sightings, their median. It gives the focal
 length that shows the target at the setpoint h*, h* / a: a goal that does not depend on how far
 the zoom has moved since the frames were taken, so the loop's latency does not make it
-overshoot.
+overshoot. Where the rig places the camera over the ground and the chosen track has a ground
+position, the size is the larger of that and the size at the track's predicted distance of the
+height its boxes teach (`gazed.gaze.target_height`): a standing person's boxes are what still
+moves of them, often alike and small frame after frame, and too small a size zooms the target
+out of the frame where too large a one only shows it smaller.
 
 The frame must also hold the target: its centre at least `zoom_out_edge` of the frame's size
 from the edge, and its independent image velocity at most `zoom_out_speed` frame heights per
@@ -31,10 +35,10 @@ Each tick, the zoom demand moves towards a goal, at most `zoom_in_rate_s` or `zo
 - in pursuit, with the focal length of the latest frame longer than the goal's by more than
   the deadband: out, to the goal; shorter: in, to it, but only once the target has been
   steady (its room at least 1) for `zoom_in_steady_ms`, only on a size known to within the
-  deadband (`size`'s error: the sightings' scatter about their line, as a standard error), and
-  never on a detection older than `lost_after_ms`. A motion detector's boxes of a person
-  standing still are what still moves of them, a hand or a shoulder, and scatter by factors
-  from frame to frame: the zoom does not go in on them;
+  deadband (`size`'s error: the sightings' scatter about their line, or the height's about its
+  median, as a standard error), and never on a detection older than `lost_after_ms`. A
+  motion detector's boxes of a person standing still are what still moves of them, a hand or
+  a shoulder, and scatter by factors from frame to frame: the zoom does not go in on them;
 - otherwise the demand stays.
 
 Off (`zoom_control = false`, or a fixed lens) every demand goes out unchanged: no zoom.
