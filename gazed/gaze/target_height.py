@@ -11,11 +11,13 @@ known to that median's standard error (1.4826 · MAD · 1.2533 / √n).
 
 A motion detector's box of a person standing still is what still moves of them, often the same
 hand or shoulder frame after frame, and a box merged with an edge behind them is too tall; on
-a person's boxes alone, a few consistent ones of either kind are a size. Over a track's life
-they are a minority of its sightings (the detector sees a person by their walking), and the
-median stands on the rest. The size the zoom acts on is that body's angular height at the
-track's predicted ground position for the instant the demand acts: it follows the person's
-distance, and the boxes only teach it the person's height.
+a person's latest boxes alone, a few consistent ones of either kind are a size. Over a track's
+life they are mostly a minority of its sightings (the detector sees a person by their walking),
+and the median stands on the rest. The size at a distance is that body's angular height at the
+track's ground position then: it follows the person's distance, and the boxes only teach it the
+person's height. Where the person stood from the moment they were first seen, the height too is
+learnt from what still moved of them, until they walk; `ZoomControl` takes the larger of this
+size and the boxes'.
 """
 
 from __future__ import annotations

@@ -106,7 +106,7 @@ class ZoomControl:
         self.sightings = sightings
         self.pursuit = pursuit  # the chosen track's predictions: its ground position
         # the target's height, where the rig places the camera over the ground
-        self.height = TargetHeight(camera_xyz_m) if camera_xyz_m is not None else None
+        self.target_height = TargetHeight(camera_xyz_m) if camera_xyz_m is not None else None
         self.enabled = gaze.zoom_control and lens.zooms_lens
         self.width_px, self.height_px = lens.base.width_px, lens.base.height_px
         self.stale_ns = round(gaze.lost_after_ms * 1e6)
@@ -141,9 +141,9 @@ class ZoomControl:
             body_px = max(height_px - self.gaze.zoom_box_margin_px, 1.0)
             self.sizes.append((detection.t_capture_ns, math.log(body_px / h / focal_px)))
             ground = self._ground_at(detection.t_capture_ns)
-            if self.height is not None and ground is not None:
+            if self.target_height is not None and ground is not None:
                 angle_rad = 2.0 * math.atan(body_px / (2.0 * focal_px))
-                self.height.learn(self._track_id(), ground, angle_rad)
+                self.target_height.learn(self._track_id(), ground, angle_rad)
         if room < 1.0:
             self.unsteady_ns = detection.t_capture_ns
 
@@ -236,14 +236,14 @@ class ZoomControl:
         frame."""
         by_boxes = self.box_size(t_ns)
         ground = self._ground_at(t_ns)
-        height = self.height
+        height = self.target_height
         if height is None or ground is None or height.track_id != self._track_id():
             return by_boxes
         angle_rad, error = height.angle_rad(ground)
         if not math.isfinite(angle_rad):
             return by_boxes
         by_distance = (2.0 * math.tan(angle_rad / 2.0) / self.height_px, error)
-        return max(by_boxes, by_distance)
+        return by_distance if by_distance[0] > by_boxes[0] else by_boxes
 
     def box_size(self, t_ns: int) -> tuple[float, float]:
         """The target's size a at `t_ns` from the sightings' boxes: ln a's Theil-Sen line
