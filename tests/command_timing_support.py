@@ -27,16 +27,22 @@ def rate_hz(call: Callable[[int], object], count: int) -> float:
     return count / (time.perf_counter() - started)
 
 
-def command_to_reading_ms(head: Head, send: Callable[[int], object], count: int) -> list[float]:
+def command_to_reading_ms(
+    head: Head, send: Callable[[int], object], count: int, wait_s: float = 2.0
+) -> tuple[list[float], int]:
     """For each of `count` commands `send(i)`: from sending it to the first reading that differs
-    from the last before it; the head is stopped after each."""
-    times = []
+    from the last before it; the head is stopped after each. Also how many commands no reading
+    showed within `wait_s` (they are left out of the times)."""
+    times, unseen = [], 0
     for i in range(count):
         before = head.query_position().pan_rad
         started = time.perf_counter()
         send(i)
         while abs(head.query_position().pan_rad - before) < 1e-9:
-            pass
-        times.append((time.perf_counter() - started) * 1e3)
+            if time.perf_counter() - started > wait_s:
+                unseen += 1
+                break
+        else:
+            times.append((time.perf_counter() - started) * 1e3)
         head.stop()
-    return times
+    return times, unseen

@@ -52,11 +52,12 @@ def main() -> None:
             continuous = command_to_reading_ms(head, lambda i: head.set_speed(0.5, 0.0, 0.5), 50)
     for name, value in figures.items():
         print(f"{name:32s} {value:8.0f}")
-    for name, values in (
+    for name, (values, unseen) in (
         ("AbsoluteMove -> GetStatus", absolute),
         ("ContinuousMove -> GetStatus", continuous),
     ):
         print(f"{name + ' median ms':32s} {statistics.median(values):8.2f}")
+        print(f"{name + ' not seen in 2 s':32s} {unseen:8d} of 50")
 
 
 if __name__ == "__main__":

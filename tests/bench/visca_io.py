@@ -3,7 +3,8 @@ VISCA over TCP (PTZOptics' `socket://`, through the tests' TCP-to-pty bridge) an
 (a pty at `--baud`; the TCP camera's pty is paced as a network, not a line): the command rate
 each sustains (absolute moves, Pan-tiltDrives and position inquiries back to back, each answered
 before the next is sent) and the time from a command to the first position inquiry that shows
-the head moving.
+the head moving (with how many commands no inquiry showed within 2 s: a lost command is
+counted, not waited for).
 
     python tests/bench/visca_io.py [--count 300] [--latency-ms 0] [--baud 9600]
 
@@ -84,8 +85,9 @@ def measure(rig: Rig, count: int) -> dict[str, float]:
         drive = command_to_reading_ms(
             driver, lambda i: driver.set_velocity(rate * (-1) ** i, 0.0), 50
         )
-    figures["absolute move -> reading median ms"] = statistics.median(absolute)
-    figures["Pan-tiltDrive -> reading median ms"] = statistics.median(drive)
+    for name, (times, unseen) in (("absolute move", absolute), ("Pan-tiltDrive", drive)):
+        figures[f"{name} -> reading median ms"] = statistics.median(times)
+        figures[f"{name}s no reading showed in 2 s"] = unseen
     return figures
 
 
