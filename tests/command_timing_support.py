@@ -32,7 +32,11 @@ def command_to_reading_ms(
 ) -> tuple[list[float], int]:
     """For each of `count` commands `send(i)`: from sending it to the first reading that differs
     from the last before it; the head is stopped after each. Also how many commands no reading
-    showed within `wait_s` (they are left out of the times)."""
+    showed within `wait_s` (they are left out of the times).
+
+    The head is stopped as soon as it moves, so it stays between the targets of moves that
+    alternate between two far apart; a move to where it already rests (within the device's
+    step) shows no change, and is what `wait_s` counts."""
     times, unseen = [], 0
     for i in range(count):
         before = head.query_position().pan_rad

@@ -47,7 +47,7 @@ def main() -> None:
             }
             head.stop()
             absolute = command_to_reading_ms(
-                head, lambda i: head.set_position(math.radians(5.0 * (1 + i % 2)), 0.0), 50
+                head, lambda i: head.set_position(math.radians(10.0 * (i % 2)), 0.0), 50
             )
             continuous = command_to_reading_ms(head, lambda i: head.set_speed(0.5, 0.0, 0.5), 50)
     for name, value in figures.items():

@@ -80,7 +80,7 @@ def measure(rig: Rig, count: int) -> dict[str, float]:
         }
         driver.stop()
         absolute = command_to_reading_ms(
-            driver, lambda i: driver.set_position(math.radians(5.0 * (1 + i % 2)), 0.0), 50
+            driver, lambda i: driver.set_position(math.radians(10.0 * (i % 2)), 0.0), 50
         )
         drive = command_to_reading_ms(
             driver, lambda i: driver.set_velocity(rate * (-1) ** i, 0.0), 50
