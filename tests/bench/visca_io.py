@@ -3,8 +3,8 @@ VISCA over TCP (PTZOptics' `socket://`, through the tests' TCP-to-pty bridge) an
 (a pty at `--baud`; the TCP camera's pty is paced as a network, not a line): the command rate
 each sustains (absolute moves, Pan-tiltDrives and position inquiries back to back, each answered
 before the next is sent) and the time from a command to the first position inquiry that shows
-the head moving (with how many commands no inquiry showed within 2 s: a lost command is
-counted, not waited for).
+the head moving (with how many commands no inquiry showed within 2 s, counted rather than
+waited for: a move to where the head already rests shows no change).
 
     python tests/bench/visca_io.py [--count 300] [--latency-ms 0] [--baud 9600]
 
