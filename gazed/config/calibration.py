@@ -23,7 +23,7 @@ class CalibrationSection(Section):
     camera_xyz_m: tuple[float, float, float] | None = Field(
         None,
         description="Camera rotation centre on the ground plane (X, Y) and its height Z, "
-        "for height correction.",
+        "for height correction and the zoom's size at a target's distance.",
     )
     target_height_m: float = Field(
         0.0,
