@@ -9,6 +9,7 @@ import pytest
 from test_gaze_zoom import H, S, lens, run, seen
 
 from gazed.config import GazeSection
+from gazed.gaze.median_error import median_and_error
 from gazed.gaze.pursuit import Pursuit
 from gazed.gaze.sightings import Sightings
 from gazed.gaze.target_height import (
@@ -128,3 +129,12 @@ def test_a_person_who_stops_is_sized_by_their_distance_not_by_what_still_moves(
 
 def standing_rad() -> float:
     return spanned_rad(CAMERA_XYZ_M, (CAMERA_XYZ_M[0], CAMERA_XYZ_M[1] + 12.0))
+
+
+def test_the_median_error_is_a_medians_standard_error_on_a_normal_sample() -> None:
+    rng = np.random.default_rng(4)
+    sigma, n = 0.3, 4000
+    at, error = median_and_error(1.5 + sigma * rng.standard_normal(n))
+    assert at == pytest.approx(1.5, abs=3 * error)
+    assert error == pytest.approx(1.2533 * sigma / math.sqrt(n), rel=0.05)
+    assert median_and_error(np.array([2.0, 2.0, 2.0, 40.0])) == (2.0, 0.0)  # one wild value

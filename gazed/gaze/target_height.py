@@ -27,6 +27,8 @@ from collections import deque
 
 import numpy as np
 
+from gazed.gaze.median_error import median_and_error
+
 HEIGHT_SAMPLES = 500  # a track's latest sightings that its height is the median of
 
 
@@ -69,7 +71,7 @@ class TargetHeight:
             self.track_id = track_id
             self.log_heights.clear()
         height_m = body_height_m(self.camera_xyz_m[2], self.distance_m(ground_xy_m), angle_rad)
-        if height_m is not None and height_m > 0.0:
+        if height_m is not None:  # a box spans some angle: the body some height
             self.log_heights.append(math.log(height_m))
 
     def height_m(self) -> tuple[float, float]:
@@ -77,10 +79,8 @@ class TargetHeight:
         infinite error)."""
         if not self.log_heights:
             return math.nan, math.inf
-        logs = np.array(self.log_heights)
-        at = float(np.median(logs))
-        sigma = 1.4826 * float(np.median(np.abs(logs - at)))
-        return math.exp(at), 1.2533 * sigma / math.sqrt(len(logs))
+        at, error = median_and_error(np.array(self.log_heights))
+        return math.exp(at), error
 
     def angle_rad(self, ground_xy_m: tuple[float, float]) -> tuple[float, float]:
         """The track's angular height at `ground_xy_m`, and its logarithm's standard error

@@ -53,6 +53,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from gazed.config import GazeSection
+from gazed.gaze.median_error import median_and_error
 from gazed.gaze.pursuit import Pursuit
 from gazed.gaze.sightings import Sightings
 from gazed.gaze.target_height import TargetHeight
@@ -248,9 +249,8 @@ class ZoomControl:
     def box_size(self, t_ns: int) -> tuple[float, float]:
         """The target's size a at `t_ns` from the sightings' boxes: ln a's Theil-Sen line
         through a full window of them taken to that instant, or the median of fewer; and the
-        standard error of ln a, from the sightings' scatter about the line (or the median):
-        1.4826 times their median absolute deviation for a standard deviation, times a
-        median's 1.2533 / sqrt(n)."""
+        standard error of ln a, from the sightings' scatter about the line (or the median,
+        `median_and_error`)."""
         times_ns, logs = zip(*self.sizes, strict=True)
         t_s = (np.array(times_ns) - t_ns) * 1e-9  # before the instant: negative
         y = np.array(logs)
@@ -260,9 +260,8 @@ class ZoomControl:
             i, j = np.triu_indices(len(y), 1)
             slope = float(np.median((y[j] - y[i]) / (t_s[j] - t_s[i])))  # sightings: newer each
             intercepts = y - slope * t_s
-        at = float(np.median(intercepts))
-        sigma = 1.4826 * float(np.median(np.abs(intercepts - at)))
-        return math.exp(at), 1.2533 * sigma / math.sqrt(len(y))
+        at, error = median_and_error(intercepts)
+        return math.exp(at), error
 
     def _ground_at(self, t_ns: int) -> tuple[float, float] | None:
         return self.pursuit.ground_at(t_ns) if self.pursuit is not None else None
