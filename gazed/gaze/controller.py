@@ -119,6 +119,7 @@ class GazeController:
         self.entered_ns = 0
         self.pending: list[GazeState] = []  # this tick's transitions
         self.finished_trace: TraceResult | None = None
+        self.lost_region_rad: float | None = None  # lost: the search region's radius
         self.odometry: Odometry | None = None
         self.last_tick_s = mono_s
         self.own_counts = dict.fromkeys(
@@ -221,7 +222,13 @@ class GazeController:
             if demand is None:  # a non-finite number reached the demand: hold instead
                 demand = self._hold(wall_ns)
         demand = self.zoom.apply(
-            demand, self.state, self.odometry, wall_ns, mono_s, self.pursuit.actuation_s
+            demand,
+            self.state,
+            self.odometry,
+            wall_ns,
+            mono_s,
+            self.pursuit.actuation_s,
+            self.lost_region_rad if self.state == "lost" else None,
         )
         transitions, self.pending = tuple(self.pending), []
         trace, self.finished_trace = self.finished_trace, None
@@ -239,6 +246,7 @@ class GazeController:
         self.move.settling.restart()
         self.sightings.restart_run()
         self.lost_search.reset()
+        self.lost_region_rad = None
         self.pid.restart()
         self.own_counts["transitions"] += 1
 
@@ -354,6 +362,7 @@ class GazeController:
             return self._hold(wall_ns)
         prediction = self.pursuit.prediction
         region_rad = self.lost_search.radius_rad(prediction, lost_s)
+        self.lost_region_rad = region_rad  # the zoom's view holds it
         if region_rad > self.lost_search.max_radius_rad:
             # the prediction says too little (a track too young for a velocity, or coasted too
             # long): the whole frame's motion, watched from a still head, says more

@@ -30,8 +30,16 @@ widest, and the height is held again as soon as it is steady.
 
 Each tick, the zoom demand moves towards a goal, at most `zoom_in_rate_s` or `zoom_out_rate_s`
 (of the zoom range per second) from the last demand, within `zoom_min`..`zoom_max`:
-- in any state but pursuit (and line tracing, which leaves the zoom alone), to the widest:
-  a target is reacquired (search, saccade, lost) with the widest view first;
+- in any state but pursuit and lost (and line tracing, which leaves the zoom alone), to the
+  widest: a target is reacquired (search, saccade) with the widest view first;
+- lost, out to the longest focal length whose frame holds the lost search's region (the
+  controller's `region_rad`, the circle the target can be in around the prediction) with its
+  centre at least `zoom_out_edge` from the frame's edge, as pursuit's room holds the target:
+  the view widens as the region grows, never in. A motion detector loses a person who stops
+  walking, and the region around a track that has stopped stays small, so the view that
+  showed them still shows them when they walk on; a target that vanished at speed has a
+  region that grows fast, and the view widens with it. Without a region (no prediction to
+  coast on), to the widest;
 - in pursuit, with the focal length of the latest frame longer than the goal's by more than
   the deadband: out, to the goal; shorter: in, to it, but only once the target has been
   steady (its room at least 1) for `zoom_in_steady_ms`, only on a size known to within the
@@ -156,11 +164,13 @@ class ZoomControl:
         wall_ns: int,
         mono_s: float,
         actuation_s: float = 0.0,
+        region_rad: float | None = None,
     ) -> GazeDemand | None:
         """The demand with the zoom to go to (unchanged when off, or in a state that leaves
         the zoom alone, or before the zoom's position is known; no demand, none).
-        `actuation_s`: how long after `wall_ns` the demand acts."""
-        zoom = self.zoom(state, odometry, wall_ns, mono_s, actuation_s)
+        `actuation_s`: how long after `wall_ns` the demand acts; `region_rad`: lost, the
+        radius of the search region around the prediction the frame is to hold."""
+        zoom = self.zoom(state, odometry, wall_ns, mono_s, actuation_s, region_rad)
         if zoom is None or demand is None:
             return demand
         return demand.model_copy(update={"zoom": zoom})
@@ -172,6 +182,7 @@ class ZoomControl:
         wall_ns: int,
         mono_s: float,
         actuation_s: float = 0.0,
+        region_rad: float | None = None,
     ) -> float | None:
         """The zoom demand for this tick (None: leave the zoom)."""
         dt_s = 0.0 if self.last_s is None else min(max(mono_s - self.last_s, 0.0), TICK_MAX_S)
@@ -187,7 +198,7 @@ class ZoomControl:
             if odometry is None or odometry.zoom is None:
                 return None
             self.demanded = odometry.zoom
-        goal, rate_s = self._goal(state, wall_ns, wall_ns + round(actuation_s * 1e9))
+        goal, rate_s = self._goal(state, wall_ns, wall_ns + round(actuation_s * 1e9), region_rad)
         now = self.demanded
         if goal is not None:
             goal = min(max(goal, self.gaze.zoom_min), self.gaze.zoom_max)
@@ -197,12 +208,14 @@ class ZoomControl:
         return now
 
     def _goal(
-        self, state: GazeStateName, wall_ns: int, effect_ns: int
+        self, state: GazeStateName, wall_ns: int, effect_ns: int, region_rad: float | None
     ) -> tuple[float | None, float]:
         """Where the zoom should go and how fast (None: stay), for a demand that acts at
         `effect_ns`."""
         gaze = self.gaze
         widest = (gaze.zoom_min, gaze.zoom_out_rate_s)
+        if state == "lost" and region_rad is not None:
+            return self._holding(region_rad), gaze.zoom_out_rate_s
         if state != "pursuit":
             return widest
         seen = self.seen
@@ -225,6 +238,16 @@ class ZoomControl:
         # a goal past the latest frame's focal length comes from the sizes: are they known?
         known = size_error <= gaze.zoom_deadband
         return (goal, gaze.zoom_in_rate_s) if steady and known else (None, 0.0)
+
+    def _holding(self, region_rad: float) -> float | None:
+        """The zoom whose frame holds a circle of `region_rad` about its centre inside the edge
+        margin, where the demand is longer; None where it already does."""
+        assert self.demanded is not None
+        inside_px = (0.5 - self.gaze.zoom_out_edge) * min(self.width_px, self.height_px)
+        goal_px = inside_px / math.tan(min(region_rad, 0.5 * math.pi - 1e-6))
+        if goal_px >= self.lens.focal_px(self.demanded):
+            return None
+        return self.lens.zoom_for_focal(goal_px)
 
     def size(self, t_ns: int) -> tuple[float, float]:
         """The target's size a = h / f (1/px) at `t_ns`, and the standard error of ln a: the
