@@ -517,3 +517,57 @@ def test_a_saccade_lands_without_pursuing_a_prediction_that_leaves_the_fovea() -
     demand = c.tick(clock.wall_ns, clock.mono_s).demand
     assert demand.kind == "pursuit"
     assert math.degrees(demand.pan_rad) == pytest.approx(goal_deg + 1.0, abs=0.1)
+
+
+def test_lost_the_zoom_widens_with_the_search_region_and_search_goes_to_the_widest() -> None:
+    """A zoom lens f = 500 + 4500 z held at 0.8 (f = 4100: the frame's 0.35 x 480 px inside its
+    edge margin hold 2.35°). Lost, the search region grows at 2°/s from the prediction; the
+    zoom stays while the frame holds it, then goes out at zoom_out_rate_s to the longest f
+    that holds it; back in search, to the widest."""
+    clock = Clock()
+    zoomed = RIG.model_copy(
+        update={
+            "camera": RIG.camera.model_copy(
+                update={"zoom_focal_px": ((0.0, 500.0), (1.0, 5000.0))}
+            ),
+            "gaze": RIG.gaze.model_copy(
+                update={
+                    "zoom_control": True,
+                    "zoom_out_rate_s": 0.2,
+                    "zoom_out_edge": 0.15,
+                    "lost_search_growth_deg_s": 2.0,
+                    "lost_search_max_deg": 40.0,
+                    "search_after_ms": 3000,
+                }
+            ),
+        }
+    )
+    c = in_search(clock, zoomed)
+    c.on_odometry(odometry(clock, 0.0, 0.0).model_copy(update={"zoom": 0.8}))
+    run_up(c, clock, 330.0, 245.0)
+    c.on_detection(detection(clock, 330.0, 245.0))
+    assert c.tick(clock.wall_ns, clock.mono_s).transition.state == "pursuit"
+    zooms: list[float] = []
+    lost_at = None
+    for k in range(200):  # 20 ms ticks, predictions coasting, no detection
+        clock.advance(0.02)
+        c.on_prediction(prediction(clock, 5.0, -2.0))
+        decision = c.tick(clock.wall_ns, clock.mono_s)
+        if decision.transition is not None and decision.transition.state == "lost":
+            lost_at = k
+        if lost_at is not None:
+            zooms.append(decision.demand.zoom)
+        if c.state == "search":
+            break
+    assert lost_at is not None and c.state == "search"
+    held_deg = math.degrees(math.atan(168.0 / 4100.0))
+    # the region is 2°/s times the time lost, ticked every 20 ms from the entry into lost
+    widen_at = math.ceil(held_deg / (2.0 * 0.02))
+    assert all(z == pytest.approx(0.8) for z in zooms[:widen_at])
+    assert zooms[widen_at] < 0.8
+    for k in range(widen_at + 1, len(zooms) - 1):
+        region_rad = math.radians(2.0 * 0.02 * k)
+        holds = (168.0 / math.tan(region_rad) - 500.0) / 4500.0
+        assert zooms[k] == pytest.approx(max(holds, zooms[k - 1] - 0.2 * 0.02), abs=1e-9)
+    assert zooms[-2] > 0.24  # at 3 s a 6° region needs zoom 0.24 only: far from the widest
+    assert zooms[-1] == pytest.approx(zooms[-2] - 0.2 * 0.02)  # search: out to the widest

@@ -260,3 +260,30 @@ def test_zoom_control_needs_a_zoom_lens_and_a_range() -> None:
         gaze={"zoom_control": True},
     )
     assert rig.gaze.zoom_control
+
+
+def test_lost_the_view_widens_only_as_far_as_the_search_region_needs() -> None:
+    """Lost, the frame holds the search region around its centre inside the edge margin: a
+    frame 480 px high with a 0.15 margin holds a circle of atan(168 / f); the zoom goes out
+    to the longest f that holds the region, as the region grows, and never in."""
+    zc = control(zoom_out_rate_s=0.5, zoom_out_edge=0.15)
+
+    def lost(t_s: float, region_deg: float, zoom_now: float) -> float | None:
+        out = zc.apply(
+            demand(), "lost", odometry(zoom_now), round(t_s * S), t_s, 0.0, math.radians(region_deg)
+        )
+        assert out is not None
+        return out.zoom
+
+    # zoom 0.9, f = 4550: the frame holds 2.11°; a region of 1° fits, and the view stays
+    assert lost(0.0, 1.0, 0.9) == 0.9
+    assert lost(0.5, 2.0, 0.9) == 0.9
+    # a region of 4° needs f <= 168 / tan 4°, zoom (f - 500) / 4500, reached at 0.5 per second
+    goal = (168.0 / math.tan(math.radians(4.0)) - 500.0) / 4500.0
+    assert lost(1.0, 4.0, 0.9) == pytest.approx(0.65)
+    assert lost(1.5, 4.0, 0.65) == pytest.approx(goal)
+    assert lost(2.0, 4.0, goal) == pytest.approx(goal)
+    # the region never narrows the view while lost
+    assert lost(2.5, 1.0, goal) == pytest.approx(goal)
+    # without a region (no prediction to coast on), the widest, as when reacquiring
+    assert run(zc, "lost", 3.0, zoom_now=goal) == pytest.approx(goal - 0.25)

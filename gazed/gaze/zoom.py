@@ -244,10 +244,10 @@ class ZoomControl:
         margin, where the demand is longer; None where it already does."""
         assert self.demanded is not None
         inside_px = (0.5 - self.gaze.zoom_out_edge) * min(self.width_px, self.height_px)
-        goal_px = inside_px / math.tan(min(region_rad, 0.5 * math.pi - 1e-6))
-        if goal_px >= self.lens.focal_px(self.demanded):
+        reach = math.tan(min(region_rad, 0.5 * math.pi - 1e-6))  # px per px of focal length
+        if self.lens.focal_px(self.demanded) * reach <= inside_px:
             return None
-        return self.lens.zoom_for_focal(goal_px)
+        return self.lens.zoom_for_focal(inside_px / reach)
 
     def size(self, t_ns: int) -> tuple[float, float]:
         """The target's size a = h / f (1/px) at `t_ns`, and the standard error of ln a: the
