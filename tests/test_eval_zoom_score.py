@@ -66,6 +66,7 @@ def test_the_height_is_the_targets_at_the_true_zoom_and_losses_while_zooming_cou
     assert scores["height_fraction"]["p5"] == pytest.approx(0.15, rel=0.01)
     assert scores["height_fraction"]["p95"] == pytest.approx(0.195, rel=0.01)
     assert (scores["losses"], scores["losses_while_zooming"]) == (2, 1)
+    assert scores["loss_times_s"] == [[1.64, True], [3.96, False]]
     assert scoring.score(frames, states, None)["height_within_fraction"] == 0.0
     assert not math.isnan(scores["height_fraction"]["p50"])
 

@@ -6,7 +6,8 @@
   frame's height (a head panned far from its base's axis sees the body rolled, and its box is
   taller than the body); from acquisition on, the share of frames within ±`TOLERANCE` of
   `zoom_target_height`, and the median and the 5th and 95th percentiles of the fraction;
-- losses: entries into `lost` from pursuit after acquisition, and those while the zoom moved
+- losses: entries into `lost` from pursuit after acquisition (`loss_times_s`: each one's time
+  from the first frame, and whether it came while the zoom moved), and those while the zoom moved
   (by more than `MOVING_ZOOM` over the `MOVING_WINDOW_S` before the gaze left the target: the
   first of the frames with the target outside the fovea that run up to the loss, or the loss
   itself where the target was still in the fovea; `lost` is declared later, while the gaze
@@ -94,13 +95,11 @@ class ZoomScoring:
             and s.previous == "pursuit"
             and s.t_capture_ns >= truth[start].t_capture_ns
         ]
-        zooming = 0
+        while_zooming = []
         for t_ns in losses:
-            if in_fovea is not None:
-                t_ns = _left_ns(times_ns, in_fovea, t_ns)
-            window = (times_ns >= t_ns - MOVING_WINDOW_S * 1e9) & (times_ns <= t_ns)
-            if window.any() and np.ptp(zooms[window]) > MOVING_ZOOM:
-                zooming += 1
+            left_ns = _left_ns(times_ns, in_fovea, t_ns) if in_fovea is not None else t_ns
+            window = (times_ns >= left_ns - MOVING_WINDOW_S * 1e9) & (times_ns <= left_ns)
+            while_zooming.append(bool(window.any() and np.ptp(zooms[window]) > MOVING_ZOOM))
         return {
             "setpoint": self.setpoint,
             "height_within_fraction": round(float(np.mean(held)), 4),
@@ -110,7 +109,11 @@ class ZoomScoring:
                 "p95": round(float(p95), 4),
             },
             "losses": len(losses),
-            "losses_while_zooming": zooming,
+            "losses_while_zooming": sum(while_zooming),
+            "loss_times_s": [
+                [round(float(t_ns - times_ns[0]) / 1e9, 2), zooming]
+                for t_ns, zooming in zip(losses, while_zooming, strict=True)
+            ],
         }
 
 

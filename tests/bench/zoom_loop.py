@@ -4,6 +4,7 @@ height's percentiles, the losses after acquisition and those while the zoom move
 error RMS and fovea fraction, and where the frames not held go.
 
     python tests/bench/zoom_loop.py [--seeds 1-10] [--seconds 25] [--rig configs/sim-zoom.toml]
+                                    [--fixed-lens]
 
 Each run is one `gazed eval loop` on the zoom rig (the real processes, one after the other): the
 oval with seed 1, then `random` with each seed. The target: the height held in 90 % of the
@@ -18,21 +19,29 @@ gaze last demanded (the head not following), `small` too small otherwise (the ro
 zoom, or the size the gaze holds is off), `big` too tall. Each is a fraction of the frames after
 acquisition. `box` and `bad`: in pursuit, the median of the target track's box height (less
 `zoom_box_margin_px`) over its true height, and the share of boxes more than 20 % off it.
+
+A loss while the zoom moved need not come from the zoom: a motion detector loses a walker who
+stops, and the zoom moves as they slow. With `--fixed-lens`, each random seed with a loss while
+zooming runs again with the zoom control off (the lens stays at the widest), and each such loss
+is matched against the fixed lens's losses within `MOVING_WINDOW_S` of the same scenario time:
+the walker is lost there without any zoom too.
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
+import tempfile
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+import tomlkit
 
 import gazed.eval.loop as loop
 from gazed.config import load_rig
 from gazed.eval.loop_metrics import LoopRecord
-from gazed.eval.zoom_score import TOLERANCE, zoom_scoring
+from gazed.eval.zoom_score import MOVING_WINDOW_S, TOLERANCE, zoom_scoring
 from gazed.messages import SimTruth
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -58,6 +67,26 @@ def run(rig: Path, scenario: str, seed: int, seconds: float) -> tuple[dict[str, 
     finally:
         loop.score = score
     return result, records[0]
+
+
+def fixed_lens_losses_s(rig: Path, seed: int, seconds: float) -> list[float]:
+    """The times (from the first frame) of the losses after acquisition in a `random` run of
+    the rig with its zoom control off."""
+    document = tomlkit.parse(rig.read_text())
+    document["gaze"]["zoom_control"] = False
+    with tempfile.TemporaryDirectory(prefix="gazed-fixed-") as directory:
+        fixed = Path(directory) / rig.name
+        fixed.write_text(tomlkit.dumps(document))
+        result, record = run(fixed, "random", seed, seconds)
+    if result["acquired_after_s"] is None:
+        return []
+    first_ns = min(t.t_capture_ns for t in record.truth)
+    times_s = [
+        (s.t_capture_ns - first_ns) / 1e9
+        for s in record.states
+        if s.state == "lost" and s.previous == "pursuit"
+    ]
+    return sorted(t for t in times_s if t >= result["acquired_after_s"])
 
 
 def classes(rig_path: Path, record: LoopRecord) -> dict[str, float]:
@@ -130,6 +159,11 @@ def main() -> None:
     parser.add_argument("--seeds", type=seeds, default=seeds("1-10"), help="random's seeds")
     parser.add_argument("--seconds", type=float, default=25.0)
     parser.add_argument("--rig", type=Path, default=ROOT / "configs" / "sim-zoom.toml")
+    parser.add_argument(
+        "--fixed-lens",
+        action="store_true",
+        help="rerun each seed with a loss while zooming with the zoom off, and match the losses",
+    )
     args = parser.parse_args()
     print(
         f"{'scenario':>9} {'seed':>4} {'held':>6} {'p5':>6} {'p50':>6} {'p95':>6}"
@@ -138,6 +172,7 @@ def main() -> None:
     )
     runs = [("oval", 1)] + [("random", seed) for seed in args.seeds]
     held_all, zooming_losses, unacquired = [], 0, 0
+    while_zooming_s: dict[int, list[float]] = {}  # per random seed
     for scenario, seed in runs:
         result, record = run(args.rig, scenario, seed, args.seconds)
         zoom = result["zoom"]
@@ -147,6 +182,9 @@ def main() -> None:
         zooming_losses += zoom["losses_while_zooming"] or 0
         unacquired += zoom["losses"] is None  # the target never held in the fovea
         where = classes(args.rig, record)
+        if scenario == "random":
+            times = [float(t) for t, zooming in zoom.get("loss_times_s", []) if zooming]
+            while_zooming_s[seed] = times
         print(
             f"{scenario:>9} {seed:>4} {zoom['height_within_fraction']:>6}"
             f" {heights.get('p5')!s:>6} {heights.get('p50')!s:>6} {heights.get('p95')!s:>6}"
@@ -161,6 +199,22 @@ def main() -> None:
         f"{met} of {len(runs)} runs, lowest {min(held_all)}; losses while zooming {zooming_losses};"
         f" never acquired in {unacquired}"
     )
+    if args.fixed_lens:
+        fixed_too = 0
+        for seed, times in while_zooming_s.items():
+            if not times:
+                continue
+            fixed = fixed_lens_losses_s(args.rig, seed, args.seconds)
+            matched = [t for t in times if any(abs(t - f) <= MOVING_WINDOW_S for f in fixed)]
+            fixed_too += len(matched)
+            print(
+                f"random {seed}: losses while zooming at {times} s; with the zoom off, losses"
+                f" at {[round(f, 2) for f in fixed]} s; the same walker lost then: {len(matched)}"
+            )
+        print(
+            f"losses while zooming {zooming_losses}, of them with the zoom off too {fixed_too}"
+            f" (within {MOVING_WINDOW_S:g} s)"
+        )
 
 
 if __name__ == "__main__":
