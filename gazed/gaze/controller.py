@@ -34,6 +34,9 @@ change by at most the acceleration limit per tick (`demand`); its zoom is `zoom`
 from __future__ import annotations
 
 import math
+from functools import partial
+
+import numpy as np
 
 from gazed.config import Rig
 from gazed.gaze import FUTURE_TOLERANCE_NS
@@ -51,6 +54,8 @@ from gazed.gaze.sightings import Sightings
 from gazed.gaze.target_choice import ChoiceChange, TargetChoice
 from gazed.gaze.trace import LineTracer
 from gazed.gaze.zoom import ZoomControl
+from gazed.geometry.homography import GroundHomography
+from gazed.geometry.image_roll import image_roll_rad
 from gazed.geometry.kinematics import HeadKinematics
 from gazed.geometry.zoom import ZoomLens
 from gazed.messages import (
@@ -109,8 +114,14 @@ class GazeController:
         )
         self.tracer = LineTracer(gaze, lens, kinematics, limits_rad)
         self.choice = TargetChoice(rig, lens, kinematics)
+        homography = rig.calibration.homography
+        roll = (
+            partial(image_roll_rad, GroundHomography.from_matrix(np.array(homography)), kinematics)
+            if homography is not None
+            else None
+        )
         self.zoom = ZoomControl(
-            gaze, lens, self.sightings, self.pursuit, rig.calibration.camera_xyz_m
+            gaze, lens, self.sightings, self.pursuit, rig.calibration.camera_xyz_m, roll
         )
         self.operator = OperatorControl(self)  # park, search, hold, resume
         # the state machine

@@ -56,6 +56,7 @@ class TargetHeight:
         self.camera_xyz_m = camera_xyz_m
         self.track_id: int | None = None
         self.log_heights: deque[float] = deque(maxlen=HEIGHT_SAMPLES)
+        self.log_aspects: deque[float] = deque(maxlen=HEIGHT_SAMPLES)  # width over height
 
     def distance_m(self, ground_xy_m: tuple[float, float]) -> float:
         """How far along the ground `ground_xy_m` lies from below the camera."""
@@ -63,16 +64,28 @@ class TargetHeight:
         return math.hypot(ground_xy_m[0] - x, ground_xy_m[1] - y)
 
     def learn(
-        self, track_id: int | None, ground_xy_m: tuple[float, float], angle_rad: float
+        self,
+        track_id: int | None,
+        ground_xy_m: tuple[float, float],
+        angle_rad: float,
+        aspect: float | None = None,
     ) -> None:
-        """A sighting of track `track_id` at `ground_xy_m` whose box spans `angle_rad`; a
-        sighting of another track than the last starts the height afresh."""
+        """A sighting of track `track_id` at `ground_xy_m` whose upright body spans `angle_rad`
+        and is `aspect` as wide as tall (None: not known); a sighting of another track than the
+        last starts the height afresh."""
         if track_id != self.track_id:
             self.track_id = track_id
             self.log_heights.clear()
+            self.log_aspects.clear()
         height_m = body_height_m(self.camera_xyz_m[2], self.distance_m(ground_xy_m), angle_rad)
         if height_m is not None:  # a box spans some angle: the body some height
             self.log_heights.append(math.log(height_m))
+        if aspect is not None and aspect > 0:
+            self.log_aspects.append(math.log(aspect))
+
+    def aspect(self) -> float:
+        """The body's width over its height, the median of its sightings' (0: none known)."""
+        return math.exp(float(np.median(self.log_aspects))) if self.log_aspects else 0.0
 
     def height_m(self) -> tuple[float, float]:
         """The track's height (m) and the standard error of its logarithm (no sighting: an

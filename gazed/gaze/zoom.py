@@ -56,6 +56,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -65,6 +66,7 @@ from gazed.gaze.median_error import median_and_error
 from gazed.gaze.pursuit import Pursuit
 from gazed.gaze.sightings import Sightings
 from gazed.gaze.target_height import TargetHeight
+from gazed.geometry.image_roll import rolled_box, upright_body
 from gazed.geometry.zoom import ZoomLens
 from gazed.messages import Detection, GazeDemand, GazeStateName, Mover, Odometry
 
@@ -109,8 +111,10 @@ class ZoomControl:
         sightings: Sightings,
         pursuit: Pursuit | None = None,
         camera_xyz_m: tuple[float, float, float] | None = None,
+        roll: Callable[[float, float], float] | None = None,
     ) -> None:
         self.gaze = gaze
+        self.roll = roll  # the image's roll at a (pan, tilt): None, the image never rolls
         self.lens = lens
         self.sightings = sightings
         self.pursuit = pursuit  # the chosen track's predictions: its ground position
@@ -151,10 +155,29 @@ class ZoomControl:
             self.sizes.append((detection.t_capture_ns, math.log(body_px / h / focal_px)))
             ground = self._ground_at(detection.t_capture_ns)
             if self.target_height is not None and ground is not None:
-                angle_rad = 2.0 * math.atan(body_px / (2.0 * focal_px))
-                self.target_height.learn(self._track_id(), ground, angle_rad)
+                self._learn_height(detection, body_px, focal_px, ground)
         if room < 1.0:
             self.unsteady_ns = detection.t_capture_ns
+
+    def _learn_height(
+        self, detection: Detection, body_px: float, focal_px: float, ground: tuple[float, float]
+    ) -> None:
+        """Teach the target's height one sighting: its box, upright where the image rolls."""
+        assert self.target_height is not None and detection.head is not None
+        upright_px, aspect = body_px, None
+        mover = target_mover(detection)
+        if self.roll is not None and mover is not None and mover.box_width_px > 0:
+            width_px = max(mover.box_width_px - self.gaze.zoom_box_margin_px, 1.0)
+            roll = self.roll(detection.head.pan_rad, detection.head.tilt_rad)
+            try:
+                upright_px, upright_width_px = upright_body(body_px, width_px, roll)
+            except ValueError:
+                return  # rolled by 45°: the box does not tell the height
+            if upright_px <= 0 or upright_width_px <= 0:
+                return  # a box no upright body fills at this roll: the detector's, not a body
+            aspect = upright_width_px / upright_px
+        angle_rad = 2.0 * math.atan(upright_px / (2.0 * focal_px))
+        self.target_height.learn(self._track_id(), ground, angle_rad, aspect)
 
     def apply(
         self,
@@ -266,6 +289,10 @@ class ZoomControl:
         angle_rad, error = height.angle_rad(ground)
         if not math.isfinite(angle_rad):
             return by_boxes
+        prediction = self.pursuit.prediction if self.pursuit is not None else None
+        if self.roll is not None and prediction is not None:
+            roll = self.roll(prediction.pan_rad, prediction.tilt_rad)
+            angle_rad = rolled_box(angle_rad, height.aspect() * angle_rad, roll)[0]
         by_distance = (2.0 * math.tan(angle_rad / 2.0) / self.height_px, error)
         return by_distance if by_distance[0] > by_boxes[0] else by_boxes
 
