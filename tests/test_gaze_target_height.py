@@ -18,8 +18,9 @@ from gazed.gaze.target_height import (
     body_height_m,
 )
 from gazed.gaze.zoom import ZoomControl
+from gazed.geometry.image_roll import rolled_box
 from gazed.geometry.kinematics import HeadKinematics
-from gazed.messages import Prediction
+from gazed.messages import Detection, HeadPose, Mover, Prediction
 
 CAMERA_XYZ_M = (1.0, -2.0, 3.0)
 PERSON_M = 1.7
@@ -138,3 +139,59 @@ def test_the_median_error_is_a_medians_standard_error_on_a_normal_sample() -> No
     assert at == pytest.approx(1.5, abs=3 * error)
     assert error == pytest.approx(1.2533 * sigma / math.sqrt(n), rel=0.05)
     assert median_and_error(np.array([2.0, 2.0, 2.0, 40.0])) == (2.0, 0.0)  # one wild value
+
+
+@pytest.mark.parametrize("rolled", [True, False], ids=["rolled", "taken upright"])
+def test_a_body_seen_rolled_is_sized_rolled_where_it_stops(rolled: bool) -> None:
+    """A head whose image rolls as it pans (here the roll is the pan): a body as wide as tall
+    (the simulator's target) walks away with the head at pan 0, unrolled, then stands 12 m
+    away with the head panned 0.5 rad, where the box of the rolled body is taller than the
+    upright body's and the zoom shows it at the setpoint; standing, the boxes are a third of
+    it. With the roll, the size at the distance is the rolled box's, and the zoom stays;
+    taking the body upright, it is the upright body's, smaller, and the zoom goes in."""
+    zoom, f_px = 0.3, 500.0 + 4500.0 * 0.3
+    aspect, pan_standing = 1.0, 0.5  # rolled 0.5 rad, its box is 1.36 times its height
+    section = GazeSection(
+        zoom_control=True, zoom_in_steady_ms=0.0, zoom_deadband=0.05, zoom_box_margin_px=0.0
+    )
+    zoom_lens, kinematics = lens(), HeadKinematics()
+    pursuit = Pursuit(section, 0.05, zoom_lens, kinematics)
+
+    def box_px(y_m: float, pan_rad: float) -> tuple[float, float]:
+        height = 2.0 * f_px * math.tan(spanned_rad(CAMERA_XYZ_M, (CAMERA_XYZ_M[0], y_m)) / 2.0)
+        return rolled_box(height, aspect * height, pan_rad)
+
+    standing_box = box_px(CAMERA_XYZ_M[1] + 12.0, pan_standing)
+    zc = ZoomControl(
+        section.model_copy(update={"zoom_target_height": standing_box[0] / H}),
+        zoom_lens,
+        Sightings(section, 0.04, zoom_lens, kinematics),
+        pursuit,
+        CAMERA_XYZ_M,
+        (lambda pan_rad, tilt_rad: pan_rad) if rolled else None,
+    )
+
+    def sighting(t_s: float, box: tuple[float, float], pan_rad: float) -> Detection:
+        mover = Mover(u_px=320.0, v_px=240.0, box_width_px=box[1], box_height_px=box[0])
+        return seen(t_s, box[0], zoom=zoom).model_copy(
+            update={"movers": (mover,), "head": HeadPose(pan_rad=pan_rad, tilt_rad=0.0, zoom=zoom)}
+        )
+
+    for k in range(100):  # walking from 8 m to 12 m away at 1 m/s, 25 Hz, unrolled
+        t_s, y_m = 0.04 * k, CAMERA_XYZ_M[1] + 8.0 + 0.04 * k
+        pursuit.on_prediction(prediction(t_s, y_m, 1.0))
+        zc.on_detection(sighting(t_s, box_px(y_m, 0.0), 0.0))
+    y_m = CAMERA_XYZ_M[1] + 12.0
+    demanded = []
+    for k in range(100, 150):  # standing, the head panned: a third of the rolled box
+        t_s = 0.04 * k
+        pursuit.on_prediction(
+            prediction(t_s, y_m, 0.0).model_copy(update={"pan_rad": pan_standing})
+        )
+        third = (standing_box[0] / 3.0, standing_box[1] / 3.0)
+        zc.sightings.found = sighting(t_s, third, pan_standing)
+        demanded.append(run(zc, "pursuit", t_s, zoom_now=zoom))
+    if rolled:
+        assert demanded == [zoom] * len(demanded)
+    else:
+        assert demanded[-1] > zoom + 0.1  # on its way in, to 1.36 times the focal length

@@ -17,7 +17,9 @@ and the median stands on the rest. The size at a distance is that body's angular
 track's ground position then: it follows the person's distance, and the boxes only teach it the
 person's height. Where the person stood from the moment they were first seen, the height too is
 learnt from what still moved of them, until they walk; `ZoomControl` takes the larger of this
-size and the boxes'.
+size and the boxes'. Where the image rolls (a head whose pan axis is tilted), `ZoomControl`
+gives the angle of the upright body behind each box, and the body's aspect (width over height),
+whose median rolls the body back at the pose the size is for (`gazed.geometry.image_roll`).
 """
 
 from __future__ import annotations

@@ -18,7 +18,10 @@ overshoot. Where the rig places the camera over the ground and the chosen track 
 position, the size is the larger of that and the size at the track's predicted distance of the
 height its boxes teach (`gazed.gaze.target_height`): a standing person's boxes are what still
 moves of them, often alike and small frame after frame, and too small a size zooms the target
-out of the frame where too large a one only shows it smaller.
+out of the frame where too large a one only shows it smaller. Where the image rolls (a head
+whose pan axis is tilted from the vertical, `roll`), each box is taken back to its upright body
+at the sighting's pose to teach the height, and the body at the distance is rolled by the roll
+at the prediction's pose: the box of a rolled body takes in its width.
 
 The frame must also hold the target: its centre at least `zoom_out_edge` of the frame's size
 from the edge, and its independent image velocity at most `zoom_out_speed` frame heights per
