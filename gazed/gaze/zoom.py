@@ -293,9 +293,11 @@ class ZoomControl:
         if not math.isfinite(angle_rad):
             return by_boxes
         prediction = self.pursuit.prediction if self.pursuit is not None else None
-        if self.roll is not None and prediction is not None:
+        aspect = height.aspect()
+        if self.roll is not None and prediction is not None and aspect > 0:
+            # rolled back only where the height was learnt upright (boxes with a width)
             roll = self.roll(prediction.pan_rad, prediction.tilt_rad)
-            angle_rad = rolled_box(angle_rad, height.aspect() * angle_rad, roll)[0]
+            angle_rad = rolled_box(angle_rad, aspect * angle_rad, roll)[0]
         by_distance = (2.0 * math.tan(angle_rad / 2.0) / self.height_px, error)
         return by_distance if by_distance[0] > by_boxes[0] else by_boxes
 
