@@ -59,6 +59,10 @@ class TargetHeight:
         self.track_id: int | None = None
         self.log_heights: deque[float] = deque(maxlen=HEIGHT_SAMPLES)
         self.log_aspects: deque[float] = deque(maxlen=HEIGHT_SAMPLES)  # width over height
+        # the medians as they stand, taken again only after a sighting (None: not yet taken):
+        # the zoom asks for them every tick
+        self._height: tuple[float, float] | None = None
+        self._aspect: float | None = None
 
     def distance_m(self, ground_xy_m: tuple[float, float]) -> float:
         """How far along the ground `ground_xy_m` lies from below the camera."""
@@ -75,6 +79,7 @@ class TargetHeight:
         """A sighting of track `track_id` at `ground_xy_m` whose upright body spans `angle_rad`
         and is `aspect` as wide as tall (None: not known); a sighting of another track than the
         last starts the height afresh."""
+        self._height = self._aspect = None
         if track_id != self.track_id:
             self.track_id = track_id
             self.log_heights.clear()
@@ -87,15 +92,21 @@ class TargetHeight:
 
     def aspect(self) -> float:
         """The body's width over its height, the median of its sightings' (0: none known)."""
-        return math.exp(float(np.median(self.log_aspects))) if self.log_aspects else 0.0
+        if self._aspect is None:
+            logs = self.log_aspects
+            self._aspect = math.exp(float(np.median(logs))) if logs else 0.0
+        return self._aspect
 
     def height_m(self) -> tuple[float, float]:
         """The track's height (m) and the standard error of its logarithm (no sighting: an
         infinite error)."""
-        if not self.log_heights:
-            return math.nan, math.inf
-        at, error = median_and_error(np.array(self.log_heights))
-        return math.exp(at), error
+        if self._height is None:
+            if not self.log_heights:
+                self._height = (math.nan, math.inf)
+            else:
+                at, error = median_and_error(np.array(self.log_heights))
+                self._height = (math.exp(at), error)
+        return self._height
 
     def angle_rad(self, ground_xy_m: tuple[float, float]) -> tuple[float, float]:
         """The track's angular height at `ground_xy_m`, and its logarithm's standard error
