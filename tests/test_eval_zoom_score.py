@@ -19,13 +19,19 @@ CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 S = 1_000_000_000
 
 
-def truth(k: int, zoom: float, pose: CameraPose, xy_m: tuple[float, float] = (0.0, 2.0)):
+def truth(
+    k: int,
+    zoom: float,
+    pose: CameraPose,
+    xy_m: tuple[float, float] = (0.0, 2.0),
+    velocity_m_s: tuple[float, float] = (0.0, 0.0),
+):
     pan, tilt = (float(a) for a in pose.gaze_angles(np.array([*xy_m, 0.2])))
     return SimTruth(
         t_capture_ns=k * S // 25,
         seq=k,
         target_xy_m=xy_m,
-        target_velocity_m_s=(0.0, 0.0),
+        target_velocity_m_s=velocity_m_s,
         target_height_m=0.4,
         head=HeadPose(pan_rad=pan, tilt_rad=tilt, zoom=zoom),
     )
@@ -66,7 +72,7 @@ def test_the_height_is_the_targets_at_the_true_zoom_and_losses_while_zooming_cou
     assert scores["height_fraction"]["p5"] == pytest.approx(0.15, rel=0.01)
     assert scores["height_fraction"]["p95"] == pytest.approx(0.195, rel=0.01)
     assert (scores["losses"], scores["losses_while_zooming"]) == (2, 1)
-    assert scores["loss_times_s"] == [[1.64, True], [3.96, False]]
+    assert scores["loss_times_s"] == [[1.64, True, True], [3.96, False, True]]
     assert scoring.score(frames, states, None)["height_within_fraction"] == 0.0
     assert not math.isnan(scores["height_fraction"]["p50"])
 
@@ -87,3 +93,33 @@ def test_a_loss_counts_as_while_zooming_from_when_the_gaze_left_the_target() -> 
     # the target still in the fovea when `lost` comes: judged before `lost`, the zoom still
     assert scoring.score(frames, lost, 0, np.ones(100, bool))["losses_while_zooming"] == 0
     assert scoring.score(frames, lost, 0)["losses_while_zooming"] == 0
+
+
+def test_a_loss_while_zooming_of_a_target_that_stood_is_the_motion_detectors() -> None:
+    """`lost` comes `lost_after_ms` (600 ms: 15 frames) after the last detection: a target that
+    stood still for at least half of that gap is one a motion detector does not see whatever the
+    lens does; one that walked through it, or stood for less, counts against the zoom."""
+    rig = load_rig(CONFIGS / "sim-zoom.toml")
+    scoring = zoom_scoring(rig)
+    assert scoring is not None and scoring.lost_after_s == pytest.approx(0.6)
+    pose = CameraPose.from_rig(rig)
+    lost = [GazeState(t_capture_ns=90 * S // 25, state="lost", previous="pursuit")]
+
+    def scored(standing_frames: int) -> dict:
+        """The zoom moving throughout; the target standing for the gap's last frames."""
+        frames = [
+            truth(
+                k,
+                0.3 + 0.002 * k,
+                pose,
+                velocity_m_s=(0.0, 0.0 if k > 90 - standing_frames else 1.0),
+            )
+            for k in range(100)
+        ]
+        return scoring.score(frames, lost, 0)
+
+    for standing_frames, stood in [(0, False), (6, False), (9, True), (40, True)]:
+        scores = scored(standing_frames)
+        assert scores["losses_while_zooming"] == 1
+        assert scores["loss_times_s"] == [[3.6, True, stood]]
+        assert scores["losses_while_zooming_walking"] == (0 if stood else 1)

@@ -7,11 +7,15 @@
   taller than the body); from acquisition on, the share of frames within ±`TOLERANCE` of
   `zoom_target_height`, and the median and the 5th and 95th percentiles of the fraction;
 - losses: entries into `lost` from pursuit after acquisition (`loss_times_s`: each one's time
-  from the first frame, and whether it came while the zoom moved), and those while the zoom moved
-  (by more than `MOVING_ZOOM` over the `MOVING_WINDOW_S` before the gaze left the target: the
-  first of the frames with the target outside the fovea that run up to the loss, or the loss
-  itself where the target was still in the fovea; `lost` is declared later, while the gaze
-  follows something else and the zoom sizes it).
+  from the first frame, whether it came while the zoom moved, and whether the target stood),
+  and those while the zoom moved (by more than `MOVING_ZOOM` over the `MOVING_WINDOW_S` before
+  the gaze left the target: the first of the frames with the target outside the fovea that run
+  up to the loss, or the loss itself where the target was still in the fovea; `lost` is
+  declared later, while the gaze follows something else and the zoom sizes it);
+- of those, the ones of a target that walked (`losses_while_zooming_walking`). `lost` comes
+  `lost_after_ms` after the last detection of the target; where the target stood still (true
+  ground speed under `STANDING_M_S`) for at least half of that gap, a motion detector does not
+  see it whatever the lens does, and the loss is the detector's: it comes with a fixed lens too.
 """
 
 from __future__ import annotations
@@ -28,6 +32,7 @@ from gazed.messages import GazeState, SimTruth
 TOLERANCE = 0.2  # a height within this fraction of the setpoint counts as held
 MOVING_ZOOM = 0.01  # the zoom moved: by more than this (of its range) ...
 MOVING_WINDOW_S = 1.0  # ... over this long before a loss
+STANDING_M_S = 0.1  # a target slower than this stands still: a tenth of a walking pace
 
 
 def zoom_scoring(rig: Rig) -> ZoomScoring | None:
@@ -36,17 +41,25 @@ def zoom_scoring(rig: Rig) -> ZoomScoring | None:
         return None
     lens = ZoomLens.from_section(rig.camera)
     pose = CameraPose.from_rig(rig)
-    return ZoomScoring(lens, pose, rig.gaze.zoom_target_height, rig.sim.target_width_m)
+    return ZoomScoring(
+        lens,
+        pose,
+        rig.gaze.zoom_target_height,
+        rig.sim.target_width_m,
+        rig.gaze.lost_after_ms / 1000.0,
+    )
 
 
 @dataclass(frozen=True)
 class ZoomScoring:
-    """What the zoom of one rig is scored against: its lens, its setpoint, the true pose."""
+    """What the zoom of one rig is scored against: its lens, its setpoint, the true pose, the
+    target's width, and how long the gaze goes without a detection before it is lost."""
 
     lens: ZoomLens
     pose: CameraPose
     setpoint: float
     width_m: float
+    lost_after_s: float
 
     def heights(self, truth: list[SimTruth]) -> np.ndarray:
         """Per truth frame: the target's height in the frame, as a fraction of its height."""
@@ -82,7 +95,12 @@ class ZoomScoring:
         """The zoom's scores from truth frame `start` (acquisition) on (module docstring);
         `in_fovea`: per truth frame, the target within the fovea (None: losses at `lost`)."""
         if start is None:
-            return {"height_within_fraction": 0.0, "losses": None, "losses_while_zooming": None}
+            return {
+                "height_within_fraction": 0.0,
+                "losses": None,
+                "losses_while_zooming": None,
+                "losses_while_zooming_walking": None,
+            }
         heights = self.heights(truth[start:])
         held = np.abs(heights / self.setpoint - 1.0) <= TOLERANCE
         p5, p50, p95 = np.nanpercentile(heights, [5, 50, 95])
@@ -95,11 +113,14 @@ class ZoomScoring:
             and s.previous == "pursuit"
             and s.t_capture_ns >= truth[start].t_capture_ns
         ]
-        while_zooming = []
+        speeds = np.array([np.hypot(*t.target_velocity_m_s) for t in truth])
+        while_zooming, standing = [], []
         for t_ns in losses:
             left_ns = _left_ns(times_ns, in_fovea, t_ns) if in_fovea is not None else t_ns
             window = (times_ns >= left_ns - MOVING_WINDOW_S * 1e9) & (times_ns <= left_ns)
             while_zooming.append(bool(window.any() and np.ptp(zooms[window]) > MOVING_ZOOM))
+            gap = (times_ns >= t_ns - self.lost_after_s * 1e9) & (times_ns <= t_ns)
+            standing.append(bool(gap.any() and np.mean(speeds[gap] < STANDING_M_S) >= 0.5))
         return {
             "setpoint": self.setpoint,
             "height_within_fraction": round(float(np.mean(held)), 4),
@@ -110,9 +131,13 @@ class ZoomScoring:
             },
             "losses": len(losses),
             "losses_while_zooming": sum(while_zooming),
+            "losses_while_zooming_walking": sum(
+                zooming and not stood
+                for zooming, stood in zip(while_zooming, standing, strict=True)
+            ),
             "loss_times_s": [
-                [round(float(t_ns - times_ns[0]) / 1e9, 2), zooming]
-                for t_ns, zooming in zip(losses, while_zooming, strict=True)
+                [round(float(t_ns - times_ns[0]) / 1e9, 2), zooming, stood]
+                for t_ns, zooming, stood in zip(losses, while_zooming, standing, strict=True)
             ],
         }
 
