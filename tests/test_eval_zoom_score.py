@@ -69,6 +69,7 @@ def test_the_height_is_the_targets_at_the_true_zoom_and_losses_while_zooming_cou
     ]
     scores = scoring.score(frames, states, 0)
     assert scores["height_within_fraction"] == pytest.approx(0.4)
+    assert scores["frames"] == 100
     assert scores["height_fraction"]["p5"] == pytest.approx(0.15, rel=0.01)
     assert scores["height_fraction"]["p95"] == pytest.approx(0.195, rel=0.01)
     assert (scores["losses"], scores["losses_while_zooming"]) == (2, 1)

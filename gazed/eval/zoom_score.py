@@ -113,17 +113,16 @@ class ZoomScoring:
             and s.previous == "pursuit"
             and s.t_capture_ns >= truth[start].t_capture_ns
         ]
-        speeds = np.array([np.hypot(*t.target_velocity_m_s) for t in truth])
-        while_zooming, standing = [], []
+        while_zooming = []
         for t_ns in losses:
             left_ns = _left_ns(times_ns, in_fovea, t_ns) if in_fovea is not None else t_ns
             window = (times_ns >= left_ns - MOVING_WINDOW_S * 1e9) & (times_ns <= left_ns)
             while_zooming.append(bool(window.any() and np.ptp(zooms[window]) > MOVING_ZOOM))
-            gap = (times_ns >= t_ns - self.lost_after_s * 1e9) & (times_ns <= t_ns)
-            standing.append(bool(gap.any() and np.mean(speeds[gap] < STANDING_M_S) >= 0.5))
+        standing = [stood_before(truth, t_ns, self.lost_after_s) for t_ns in losses]
         return {
             "setpoint": self.setpoint,
             "height_within_fraction": round(float(np.mean(held)), 4),
+            "frames": len(held),
             "height_fraction": {
                 "p5": round(float(p5), 4),
                 "p50": round(float(p50), 4),
@@ -140,6 +139,18 @@ class ZoomScoring:
                 for t_ns, zooming, stood in zip(losses, while_zooming, standing, strict=True)
             ],
         }
+
+
+def stood_before(truth: list[SimTruth], lost_ns: int, lost_after_s: float) -> bool:
+    """Whether the target stood still (true ground speed under `STANDING_M_S`) in at least half
+    of the truth frames of the `lost_after_s` before a loss at `lost_ns`: the gap without a
+    detection that `lost` ends."""
+    speeds = [
+        float(np.hypot(*t.target_velocity_m_s))
+        for t in truth
+        if lost_ns - lost_after_s * 1e9 <= t.t_capture_ns <= lost_ns
+    ]
+    return bool(speeds) and np.mean(np.array(speeds) < STANDING_M_S) >= 0.5
 
 
 def _left_ns(times_ns: np.ndarray, in_fovea: np.ndarray, lost_ns: int) -> int:

@@ -45,7 +45,7 @@ import tomlkit
 import gazed.eval.loop as loop
 from gazed.config import load_rig
 from gazed.eval.loop_metrics import LoopRecord
-from gazed.eval.zoom_score import MOVING_WINDOW_S, TOLERANCE, zoom_scoring
+from gazed.eval.zoom_score import MOVING_WINDOW_S, TOLERANCE, stood_before, zoom_scoring
 from gazed.messages import SimTruth
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -73,9 +73,9 @@ def run(rig: Path, scenario: str, seed: int, seconds: float) -> tuple[dict[str, 
     return result, records[0]
 
 
-def fixed_lens_losses_s(rig: Path, seed: int, seconds: float) -> list[float]:
+def fixed_lens_losses_s(rig: Path, seed: int, seconds: float) -> list[tuple[float, bool]]:
     """The times (from the first frame) of the losses after acquisition in a `random` run of
-    the rig with its zoom control off."""
+    the rig with its zoom control off, each with whether its target stood (`stood_before`)."""
     document = tomlkit.parse(rig.read_text())
     document["gaze"]["zoom_control"] = False
     with tempfile.TemporaryDirectory(prefix="gazed-fixed-") as directory:
@@ -84,13 +84,15 @@ def fixed_lens_losses_s(rig: Path, seed: int, seconds: float) -> list[float]:
         result, record = run(fixed, "random", seed, seconds)
     if result["acquired_after_s"] is None:
         return []
-    first_ns = min(t.t_capture_ns for t in record.truth)
-    times_s = [
-        (s.t_capture_ns - first_ns) / 1e9
+    truth = sorted(record.truth, key=lambda t: t.t_capture_ns)
+    lost_after_s = load_rig(rig).gaze.lost_after_ms / 1000.0
+    first_ns = truth[0].t_capture_ns
+    losses = [
+        ((s.t_capture_ns - first_ns) / 1e9, stood_before(truth, s.t_capture_ns, lost_after_s))
         for s in record.states
         if s.state == "lost" and s.previous == "pursuit"
     ]
-    return sorted(t for t in times_s if t >= result["acquired_after_s"])
+    return sorted(loss for loss in losses if loss[0] >= result["acquired_after_s"])
 
 
 def classes(rig_path: Path, record: LoopRecord) -> dict[str, float]:
@@ -176,6 +178,7 @@ def main() -> None:
     )
     runs = [("oval", 1)] + [("random", seed) for seed in args.seeds]
     held_all, zooming_losses, walking_losses, unacquired = [], 0, 0, 0
+    random_held, random_frames = 0.0, 0  # the random runs' frames after acquisition, pooled
     while_zooming_s: dict[int, list[float]] = {}  # per random seed
     for scenario, seed in runs:
         result, record = run(args.rig, scenario, seed, args.seconds)
@@ -190,6 +193,9 @@ def main() -> None:
         if scenario == "random":
             times = [float(t) for t, zooming, _ in zoom.get("loss_times_s", []) if zooming]
             while_zooming_s[seed] = times
+            frames = zoom.get("frames", 0)
+            random_held += zoom["height_within_fraction"] * frames
+            random_frames += frames
         print(
             f"{scenario:>9} {seed:>4} {zoom['height_within_fraction']:>6}"
             f" {heights.get('p5')!s:>6} {heights.get('p50')!s:>6} {heights.get('p95')!s:>6}"
@@ -205,17 +211,23 @@ def main() -> None:
         f"{met} of {len(runs)} runs, lowest {min(held_all)}; losses while zooming {zooming_losses},"
         f" of a walking target {walking_losses}; never acquired in {unacquired}"
     )
+    if random_frames:
+        print(
+            f"random, all seeds' frames after acquisition pooled: held in"
+            f" {random_held / random_frames:.4f} of {random_frames}"
+        )
     if args.fixed_lens:
         fixed_too = 0
         for seed, times in while_zooming_s.items():
             if not times:
                 continue
             fixed = fixed_lens_losses_s(args.rig, seed, args.seconds)
-            matched = [t for t in times if any(abs(t - f) <= MOVING_WINDOW_S for f in fixed)]
+            matched = [t for t in times if any(abs(t - f) <= MOVING_WINDOW_S for f, _ in fixed)]
             fixed_too += len(matched)
+            shown = [f"{f:.2f}" + (" (stood)" if stood else "") for f, stood in fixed]
             print(
                 f"random {seed}: losses while zooming at {times} s; with the zoom off, losses"
-                f" at {[round(f, 2) for f in fixed]} s; the same walker lost then: {len(matched)}"
+                f" at {shown} s; the same walker lost then: {len(matched)}"
             )
         print(
             f"losses while zooming {zooming_losses}, of them with the zoom off too {fixed_too}"
