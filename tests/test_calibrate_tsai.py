@@ -39,7 +39,7 @@ def test_tsai_output_puts_the_truths_feet_on_their_ground_positions(
     geometry = GroundGeometry(
         wide_camera(rig.wide),
         HeadKinematics.from_section(rig.head),
-        GroundHomography.from_matrix(np.array(rig.calibration.homography)),
+        GroundHomography.from_section(rig.calibration),
     )
     errors_m = [
         np.hypot(*(geometry.ground_from_gaze(0.0, 0.0, u, v) - ground))

@@ -36,8 +36,6 @@ from __future__ import annotations
 import math
 from functools import partial
 
-import numpy as np
-
 from gazed.config import Rig
 from gazed.gaze import FUTURE_TOLERANCE_NS
 from gazed.gaze.aim import Aim, MoveLimits, angle_between
@@ -114,12 +112,8 @@ class GazeController:
         )
         self.tracer = LineTracer(gaze, lens, kinematics, limits_rad)
         self.choice = TargetChoice(rig, lens, kinematics)
-        homography = rig.calibration.homography
-        roll = (
-            partial(image_roll_rad, GroundHomography.from_matrix(np.array(homography)), kinematics)
-            if homography is not None
-            else None
-        )
+        homography = GroundHomography.from_section(rig.calibration)
+        roll = partial(image_roll_rad, homography, kinematics) if homography is not None else None
         self.zoom = ZoomControl(
             gaze, lens, self.sightings, self.pursuit, rig.calibration.camera_xyz_m, roll
         )

@@ -112,7 +112,8 @@ class GroundGeometry:
         """From [camera], [head] and [calibration]; raises MissingCalibrationError without a
         homography."""
         calibration = rig.calibration
-        if calibration.homography is None:
+        homography = GroundHomography.from_section(calibration)
+        if homography is None:
             raise MissingCalibrationError(
                 f"rig '{rig.name}': [calibration] homography is missing: calibrate with "
                 "`gazed calibrate points FILE --write RIG` (or `lines`)"
@@ -120,7 +121,7 @@ class GroundGeometry:
         return cls(
             CameraModel.from_section(rig.camera),
             HeadKinematics.from_section(rig.head),
-            GroundHomography.from_matrix(np.array(calibration.homography)),
+            homography,
             HeightCorrection.from_section(calibration),
         )
 

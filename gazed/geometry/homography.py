@@ -26,6 +26,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from gazed.config import CalibrationSection
+
 # The rest gaze must point at least this far below the horizon for M33 = 1 to be used.
 REST_DEPRESSION_MIN_RAD = math.radians(0.5)
 
@@ -62,6 +64,13 @@ class GroundHomography:
         if m[2, 2] >= math.sin(REST_DEPRESSION_MIN_RAD) * row_norm:
             return cls(m / m[2, 2])
         return cls(m / row_norm)
+
+    @classmethod
+    def from_section(cls, calibration: CalibrationSection) -> GroundHomography | None:
+        """The rig's `[calibration] homography`; None where it has none."""
+        if calibration.homography is None:
+            return None
+        return cls.from_matrix(np.array(calibration.homography))
 
     @property
     def rest_gaze_meets_ground(self) -> bool:

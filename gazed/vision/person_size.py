@@ -44,12 +44,11 @@ class PersonSize:
     def from_rig(cls, rig: Rig, camera: CameraModel) -> PersonSize | None:
         """From the rig's `[head]` and `[calibration]`; None where it has no homography or no
         camera position."""
-        calibration = rig.calibration
-        if calibration.homography is None or calibration.camera_xyz_m is None:
+        homography = GroundHomography.from_section(rig.calibration)
+        if homography is None or rig.calibration.camera_xyz_m is None:
             return None
-        homography = GroundHomography.from_matrix(np.array(calibration.homography))
         return cls(
-            camera, HeadKinematics.from_section(rig.head), homography, calibration.camera_xyz_m
+            camera, HeadKinematics.from_section(rig.head), homography, rig.calibration.camera_xyz_m
         )
 
     def at(self, u_px: float, v_px: float) -> tuple[float, float] | None:
