@@ -65,9 +65,9 @@ class GazeService:
         for odometry in self.odometry.take():
             c.on_odometry(odometry, now.wall_ns)
         for candidates in self.candidates.take():
-            c.on_candidates(candidates)
+            c.on_candidates(candidates, now.wall_ns)
         for detection in self.detections.take():
-            c.on_detection(detection)
+            c.on_detection(detection, now.wall_ns)
         for edge in self.edges.take():
             c.on_edge(edge)
         for command in self.commands.take():

@@ -380,6 +380,27 @@ def test_lost_with_no_prediction_to_coast_on_goes_back_to_search_at_once() -> No
     assert states == [("lost", "no detection for 300 ms"), ("search", "no prediction to coast on")]
 
 
+def test_a_camera_later_than_lost_after_ms_is_pursued_and_lost_after_its_frames_say() -> None:
+    """Each frame reaches the gaze 500 ms after its capture, longer than `lost_after_ms`
+    (300 ms): pursuit holds while the frames show the target, and goes lost only once 300 ms
+    of frames have not, not on the wall clock's age of every sighting."""
+    lag_s = 0.5
+    clock = Clock()
+    c = in_pursuit(clock)
+    states = []
+    for k in range(40):  # 25 frames show the target, then 15 do not
+        clock.advance(0.04)
+        frame = detection(clock, 330.0, 245.0, age_s=lag_s)
+        if k >= 25:
+            frame = frame.model_copy(update={"found": False})
+        c.on_detection(frame, clock.wall_ns)
+        decision = c.tick(clock.wall_ns, clock.mono_s)
+        states.extend((k, t.state) for t in decision.transitions)
+    # the eighth frame without it (k = 32) is 320 ms after frame 24, the last that showed it;
+    # with no prediction to coast on, lost goes back to search at once
+    assert states == [(32, "lost"), (32, "search")]
+
+
 def test_lone_detections_while_lost_do_not_resume_pursuit() -> None:
     """False detections while the head scans (one every 0.3 s) never make `reacquire_detections`
     in a row: the controller stays lost and goes back to search, where the whole frame is looked

@@ -91,6 +91,31 @@ def test_recent_means_since_the_state_began_and_within_lost_after_ms() -> None:
     assert s.found is None and s.recent(T0, since_ns=0) is None
 
 
+def test_a_sightings_age_is_counted_in_the_frames_vision_has_reported_on() -> None:
+    """Frames reach the gaze their pipeline's lag after capture (here 700 ms, past
+    `lost_after_ms`): a sighting is as old as the frames since it, not as the wall clock says;
+    while vision is silent its age still grows with the wall clock."""
+    s = sightings()
+    lag_ns = 700 * MS
+    s.arrived(T0, T0 + lag_ns)
+    s.take(seen(T0), count=True)
+    assert s.recent(T0 + lag_ns, since_ns=0) is not None  # just in: 0 ms old, not 700
+    assert s.age_ns(T0, T0 + lag_ns) == 0
+    for k in range(1, 8):  # frames without the target, 40 ms apart, each 700 ms late
+        s.arrived(T0 + k * 40 * MS, T0 + k * 40 * MS + lag_ns)
+    assert s.recent(T0 + 280 * MS + lag_ns, since_ns=0) is not None  # 280 ms of frames
+    s.arrived(T0 + 320 * MS, T0 + 320 * MS + lag_ns)
+    assert s.recent(T0 + 320 * MS + lag_ns, since_ns=0) is None  # 320 ms: lost_after_ms past
+    s.arrived(T0 + 200 * MS, T0 + 900 * MS)  # an older frame late: the lag stays the newest's
+    assert s.frame_lag_ns == lag_ns
+    # vision silent after a frame 100 ms after the sighting: the age runs on the wall clock
+    s = sightings()
+    s.take(seen(T0), count=True)
+    s.arrived(T0 + 100 * MS, T0 + 100 * MS + lag_ns)
+    assert s.recent(T0 + 300 * MS + lag_ns, since_ns=0) is not None
+    assert s.recent(T0 + 301 * MS + lag_ns, since_ns=0) is None
+
+
 def measured(s: Sightings, last_ns: int, scores: tuple[float, ...], du_px_s: float = 0.0) -> None:
     """A run of CANDIDATE_VELOCITY_FRAMES frames ending at `last_ns` whose best candidate has a
     measured velocity (the last `du_px_s`)."""

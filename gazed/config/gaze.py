@@ -58,7 +58,9 @@ class GazeSection(Section):
     lost_after_ms: float = Field(
         600.0,
         gt=0,
-        description="No detection for this long in pursuit -> lost (coast on prediction).",
+        description="No detection for this long in pursuit -> lost (coast on prediction). "
+        "Counted in the capture times of the frames vision has reported on, so the camera's "
+        "and vision's latency do not shorten it.",
     )
     saccade_tolerance_deg: float = Field(
         0.5,

@@ -169,7 +169,11 @@ class GazeController:
         """An operator's choice of target (`gazed select`)."""
         self._retarget(self.choice.on_select(select, self._head_rad()), wall_ns)
 
-    def on_detection(self, detection: Detection) -> None:
+    def on_detection(self, detection: Detection, wall_ns: int | None = None) -> None:
+        """Vision's report on one frame, found or not; `wall_ns`: when it came in (None: not
+        known, its lag not counted)."""
+        if wall_ns is not None:
+            self.sightings.arrived(detection.t_capture_ns, wall_ns)
         detection = focus(detection, self.pursuit.prediction, self.lens, self.kinematics)
         if not detection.found or detection.head is None:
             return
@@ -187,7 +191,9 @@ class GazeController:
                 self.pid.update(error_rad, error_px, detection.t_capture_ns)
         self.sightings.take(detection, count=self.state in TAKING_UP)
 
-    def on_candidates(self, candidates: Candidates) -> None:
+    def on_candidates(self, candidates: Candidates, wall_ns: int | None = None) -> None:
+        if wall_ns is not None:
+            self.sightings.arrived(candidates.t_capture_ns, wall_ns)
         self.sightings.on_candidates(candidates)
 
     def on_edge(self, edge: EdgeObservation) -> None:

@@ -5,6 +5,13 @@ row, from a head at rest, whose best candidate has a measured image velocity.
 A detection is taken up only after `reacquire_detections` in a row, so that a lone false
 detection draws no move. Candidates are searched only in frames taken from a head at rest: a
 turning head's compensation residue looks like motion too.
+
+How old a sighting is (`age_ns`) is counted in the frames vision has reported on, not on the
+wall clock: a frame reaches the gaze its pipeline's lag after its capture (the camera's delay,
+vision's work, the bus), so on the wall clock every sighting is that lag old on arrival, and
+`lost_after_ms` would run out after a shorter absence the longer the camera's latency (at once
+past it). The lag is that of the newest frame when it came in (`arrived`); while vision is
+silent the age still grows with the wall clock from there.
 """
 
 from __future__ import annotations
@@ -56,6 +63,21 @@ class Sightings:
         self.candidates: Candidates | None = None
         self.measured_in_a_row = 0
         self.turning_candidates = 0
+        self.newest_frame_ns: int | None = None  # the newest frame vision has reported on
+        self.frame_lag_ns = 0  # how long after its capture it came in
+
+    def arrived(self, t_capture_ns: int, wall_ns: int) -> None:
+        """Vision reported on a frame captured at `t_capture_ns`, found or not, at `wall_ns`:
+        the newest one sets the lag (one stamped in the future, none)."""
+        if self.newest_frame_ns is not None and t_capture_ns <= self.newest_frame_ns:
+            return
+        self.newest_frame_ns = t_capture_ns
+        self.frame_lag_ns = max(wall_ns - t_capture_ns, 0)
+
+    def age_ns(self, t_capture_ns: int, wall_ns: int) -> int:
+        """How long before the newest frame vision could have reported on by `wall_ns` a frame
+        captured at `t_capture_ns` was taken (module docstring)."""
+        return wall_ns - self.frame_lag_ns - t_capture_ns
 
     def take(self, detection: Detection, count: bool) -> None:
         """The newest detection; with `count`, it extends the run first."""
@@ -91,24 +113,24 @@ class Sightings:
         return detection_aim(self.lens, self.kinematics, detection)
 
     def recent(self, wall_ns: int, since_ns: int) -> Detection | None:
-        """The latest detection if it was captured since `since_ns`, at most `max_age_ms` ago
-        and not implausibly far in the future."""
+        """The latest detection if it was captured since `since_ns`, at most `max_age_ms` old
+        (`age_ns`) and not implausibly far in the future."""
         d = self.found
         if d is None or d.t_capture_ns < since_ns or d.t_capture_ns - wall_ns > FUTURE_TOLERANCE_NS:
             return None
-        if (wall_ns - d.t_capture_ns) / 1e6 > self.max_age_ms:
+        if self.age_ns(d.t_capture_ns, wall_ns) / 1e6 > self.max_age_ms:
             return None
         return d
 
     def best_candidate(self, wall_ns: int, since_ns: int) -> Aim | None:
         """The strongest motion candidate of the latest frame, if it was captured since
-        `since_ns`, at most `max_age_ms` ago, from a head at rest, scores at least
+        `since_ns`, at most `max_age_ms` old, from a head at rest, scores at least
         `candidate_min_score`, and ends a run of CANDIDATE_VELOCITY_FRAMES frames with a
         measured velocity."""
         c = self.candidates
         if c is None or c.head is None or not c.candidates or c.t_capture_ns < since_ns:
             return None
-        if (wall_ns - c.t_capture_ns) / 1e6 > self.max_age_ms:
+        if self.age_ns(c.t_capture_ns, wall_ns) / 1e6 > self.max_age_ms:
             return None
         if not at_rest(c.head):
             self.turning_candidates += 1

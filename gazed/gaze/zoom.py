@@ -245,7 +245,7 @@ class ZoomControl:
         if state != "pursuit":
             return widest
         seen = self.seen
-        if seen is None or wall_ns - seen.t_capture_ns > self.stale_ns:
+        if seen is None or self.sightings.age_ns(seen.t_capture_ns, wall_ns) > self.stale_ns:
             return None, 0.0
         goal_px = seen.focal_px * seen.room  # the longest focal length the frame allows
         # and the setpoint's; with no size yet, only out
