@@ -108,6 +108,8 @@ def test_a_sightings_age_is_counted_in_the_frames_vision_has_reported_on() -> No
     assert s.recent(T0 + 320 * MS + lag_ns, since_ns=0) is None  # 320 ms: lost_after_ms past
     s.arrived(T0 + 200 * MS, T0 + 900 * MS)  # an older frame late: the lag stays the newest's
     assert s.frame_lag_ns == lag_ns
+    s.arrived(T0 + 60_000 * MS, T0 + 400 * MS)  # stamped a minute ahead: a bad clock, ignored
+    assert (s.newest_frame_ns, s.frame_lag_ns) == (T0 + 320 * MS, lag_ns)
     # vision silent after a frame 100 ms after the sighting: the age runs on the wall clock
     s = sightings()
     s.take(seen(T0), count=True)

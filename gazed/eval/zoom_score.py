@@ -15,7 +15,8 @@
 - of those, the ones of a target that walked (`losses_while_zooming_walking`). `lost` comes
   `lost_after_ms` after the last detection of the target; where the target stood still (true
   ground speed under `STANDING_M_S`) for at least half of that gap, a motion detector does not
-  see it whatever the lens does, and the loss is the detector's: it comes with a fixed lens too.
+  see it whatever the lens does: a fixed lens loses such a target too, if not always as often
+  as a zoomed one, so the flag says what the loss was, not that the zoom had no part in it.
 """
 
 from __future__ import annotations

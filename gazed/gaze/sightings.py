@@ -68,7 +68,9 @@ class Sightings:
 
     def arrived(self, t_capture_ns: int, wall_ns: int) -> None:
         """Vision reported on a frame captured at `t_capture_ns`, found or not, at `wall_ns`:
-        the newest one sets the lag (one stamped in the future, none)."""
+        the newest one sets the lag (one stamped implausibly far in the future, none)."""
+        if t_capture_ns - wall_ns > FUTURE_TOLERANCE_NS:
+            return
         if self.newest_frame_ns is not None and t_capture_ns <= self.newest_frame_ns:
             return
         self.newest_frame_ns = t_capture_ns
