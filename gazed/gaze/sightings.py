@@ -81,6 +81,10 @@ class Sightings:
         captured at `t_capture_ns` was taken (module docstring)."""
         return wall_ns - self.frame_lag_ns - t_capture_ns
 
+    def fresh(self, t_capture_ns: int, wall_ns: int) -> bool:
+        """Whether a frame captured at `t_capture_ns` is at most `max_age_ms` old (`age_ns`)."""
+        return self.age_ns(t_capture_ns, wall_ns) / 1e6 <= self.max_age_ms
+
     def take(self, detection: Detection, count: bool) -> None:
         """The newest detection; with `count`, it extends the run first."""
         if count:
@@ -120,7 +124,7 @@ class Sightings:
         d = self.found
         if d is None or d.t_capture_ns < since_ns or d.t_capture_ns - wall_ns > FUTURE_TOLERANCE_NS:
             return None
-        if self.age_ns(d.t_capture_ns, wall_ns) / 1e6 > self.max_age_ms:
+        if not self.fresh(d.t_capture_ns, wall_ns):
             return None
         return d
 
@@ -132,7 +136,7 @@ class Sightings:
         c = self.candidates
         if c is None or c.head is None or not c.candidates or c.t_capture_ns < since_ns:
             return None
-        if self.age_ns(c.t_capture_ns, wall_ns) / 1e6 > self.max_age_ms:
+        if not self.fresh(c.t_capture_ns, wall_ns):
             return None
         if not at_rest(c.head):
             self.turning_candidates += 1

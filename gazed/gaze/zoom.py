@@ -125,7 +125,6 @@ class ZoomControl:
         self.target_height = TargetHeight(camera_xyz_m) if camera_xyz_m is not None else None
         self.enabled = gaze.zoom_control and lens.zooms_lens
         self.width_px, self.height_px = lens.base.width_px, lens.base.height_px
-        self.stale_ns = round(gaze.lost_after_ms * 1e6)
         self.steady_ns = round(gaze.zoom_in_steady_ms * 1e6)
         self.seen: ZoomSighting | None = None
         # each sighting's capture time and ln a, a = h / f_capture (1/px)
@@ -245,7 +244,7 @@ class ZoomControl:
         if state != "pursuit":
             return widest
         seen = self.seen
-        if seen is None or self.sightings.age_ns(seen.t_capture_ns, wall_ns) > self.stale_ns:
+        if seen is None or not self.sightings.fresh(seen.t_capture_ns, wall_ns):
             return None, 0.0
         goal_px = seen.focal_px * seen.room  # the longest focal length the frame allows
         # and the setpoint's; with no size yet, only out
