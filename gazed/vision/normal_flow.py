@@ -37,7 +37,7 @@ with nothing else is not a target (a lone residual would otherwise be pursued as
 The two poses are each off by the head's pose noise σ (`pose_noise_rad`), and a small rotation
 error moves a small window alike: the background shifts by about √2 σ f, beyond the still limit
 at a long focal length, where a slow target could not be told from it. So the fovea is first
-registered on its surround (`_register`): the displacement most of the ring around it shares is
+registered on its surround (`_background`): the displacement most of the ring around it shares is
 taken into the window's shift, and the target's displacement is fitted against the background
 as imaged. Registered, a target slower than the noise shows nothing against the previous
 frame; a fovea that shows nothing is looked at again against the frame `BASELINE_FRAMES` back
@@ -152,20 +152,24 @@ class NormalFlowDetector:
         self._still.step(pair.step)
         self._size_fovea(pair.step.K)
         centre, fovea = self._place(pair.step, pair.gray.shape)
-        held, still_px = self._match_still(pair, fovea, centre)
+        background = self._background(pair, fovea, centre)  # against the previous frame
+        held, still_px = self._match_still(pair, fovea, centre, background)
         moved = None if held is None else held.moved_px > still_px
         if moved is False and self._still.confirmed and self._still.age_frames >= BASELINE_FRAMES:
             # the target has stood where it stood over the longer baseline: what moves on it
             # is the poses' residue
             return self._held(held, fovea)
         track = self._track[2] if self._track is not None else None
-        found = self._find(pair, fovea, centre, track, moved)
+        found = self._find(pair, fovea, centre, track, moved, background)
         if found is None and pair.older is not None and self.pose_noise_rad:
             # nothing moves against the registered background: a target slower than the
             # noise moves several frames' worth against the older frame
             ratio = pair.older.step.dt_s / pair.step.dt_s
             older_track = track * ratio if track is not None else None
-            found = self._find(pair.older, fovea, centre, older_track, moved, per_frame=1.0 / ratio)
+            older = self._background(pair.older, fovea, centre)
+            found = self._find(
+                pair.older, fovea, centre, older_track, moved, older, per_frame=1.0 / ratio
+            )
         if found is None:
             if held is not None and self._still.confirmed:
                 return self._held(held, fovea)  # nothing moves there; it looks as it did
@@ -174,18 +178,26 @@ class NormalFlowDetector:
         return found
 
     def _match_still(
-        self, pair: FramePair, fovea: Fovea, centre: tuple[float, float]
+        self,
+        pair: FramePair,
+        fovea: Fovea,
+        centre: tuple[float, float],
+        previous: tuple[float, float] | None,
     ) -> tuple[Held | None, float]:
         """The target matched by its look where the detector last saw it move
         (`still_target`; None: no patch, or no match), and how far from there it may be and
         still count as standing: the noise, and the poses' error where the background could
-        not be registered."""
+        not be registered. `previous`: the background registered against the previous frame,
+        which a patch taken there shares."""
         reference = self._still.reference_pair(pair)
         if reference is None:
             return None, self.noise_px
         background, error_px = (0.0, 0.0), 0.0
         if self.pose_noise_rad:
-            registered = self._background(reference, fovea, centre)
+            if reference is pair:
+                registered = previous
+            else:
+                registered = self._background(reference, fovea, centre)
             if registered is None:
                 focal_px = float(pair.step.K[0, 0])
                 error_px = 3.0 * math.sqrt(2.0) * self.pose_noise_rad * focal_px
@@ -216,17 +228,20 @@ class NormalFlowDetector:
         centre: tuple[float, float],
         track: np.ndarray | None,
         moved: bool | None,
+        background: tuple[float, float] | None,
         per_frame: float = 1.0,
     ) -> DetectorOutput | None:
         """The target in `fovea` against `pair`'s earlier frame (None: nothing moves there
         against the background). `moved`: whether the target's patch matched this frame away
-        from where it stood (None: no patch, or no match; `still_target`). `per_frame`: the
+        from where it stood (None: no patch, or no match; `still_target`). `background`: the
+        pair's registration (`_background`; None: not registered). `per_frame`: the
         share of the pair's displacement that one frame interval makes (below 1 for
         `FramePair.older`); the track keeps a frame's."""
         window = FlowWindow(
             pair, fovea, self._offsets_px, self.min_gradient, track, SMOOTHING_SIGMA_PX
         )
-        self._register(pair, window, centre)
+        if background is not None:
+            window.register(background)
         # seed 000 §2: background where the ego-compensated normal flow is within the noise
         v_ind = window.independent_flow()
         moving = window.valid & (np.abs(v_ind) > self.noise_px)
@@ -324,12 +339,6 @@ class NormalFlowDetector:
         explained = np.zeros_like(region)
         explained[region & window.valid] = fit.inliers
         return explained
-
-    def _register(self, pair: FramePair, window: FlowWindow, centre: tuple[float, float]) -> None:
-        """Register the window on its background (`_background`)."""
-        background = self._background(pair, window.fovea, centre)
-        if background is not None:
-            window.register(background)
 
     def _background(
         self, pair: FramePair, fovea: Fovea, centre: tuple[float, float]

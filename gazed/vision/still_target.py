@@ -153,9 +153,12 @@ class StillTarget:
             self.age_frames += 1
 
     def reference_pair(self, pair: FramePair) -> FramePair | None:
-        """`pair`'s current frame against the patch's frame, by the head's steps since."""
+        """`pair`'s current frame against the patch's frame, by the head's steps since
+        (`pair` itself where the patch was taken in its previous frame)."""
         if self._frame is None or pair.t_s <= self._t_s:
             return None
+        if self._frame is pair.previous:
+            return pair
         dt_s = pair.t_s - self._t_s
         K = pair.step.K
         zoom_rate_s = math.log(float(K[0, 0]) / self._f_px) / dt_s
