@@ -1,11 +1,15 @@
 """A target that stops is held by its look where the flow detector last found it
 (`gazed.vision.still_target`); one that leaves is not.
 
-On synthetic frames (seeded) with the head pose off by N(0, 0.05°) on each axis: a textured
-target walks at 2 px per frame and stops while the head turns (and, through a zoom lens, while
-the lens zooms in): the motion detector alone sees nothing of it after it stops, the held
-target is found in every frame of its stand, within 2 px, with a velocity under a pixel per
-frame; a target that walks out of the frame is found in none after it went.
+With the head pose off by N(0, 0.05°) on each axis. On synthetic frames (seeded), a textured
+target walks at 2 px per frame and stops while the head turns: the motion detector alone sees
+nothing of it after it stops; the held target is found in every frame of its stand, within
+2 px, with a velocity under a tenth of a pixel per frame; a target that walks out of the frame
+is found in none after it went. On the simulator's own frames through configs/sim-zoom.toml's
+lens, a walker who stops while the lens zooms in by half is found in every frame of the stand
+within 3 px. (That a region found for a frame on the background is never held is
+tests/test_vision_detectors.py's quantised-pose test: pure rotation fires in at most 2 % of the
+frames.)
 """
 
 from __future__ import annotations
@@ -109,7 +113,7 @@ def test_a_target_that_stops_while_the_head_turns_is_held_where_it_stands() -> N
     rows = standing(run(scene, CAMERA))
     assert all(found for found, *_ in rows)
     assert max(error for _, error, _, _ in rows) <= 2.0
-    assert np.median([speed for _, _, speed, _ in rows]) <= 1.0
+    assert max(speed for _, _, speed, _ in rows) <= 0.1  # a twentieth of its walk
 
 
 def test_a_walker_that_stops_while_the_lens_zooms_in_is_held_at_its_new_scale() -> None:
