@@ -48,6 +48,11 @@ target (outside its box grown by half its size) are movers (`gazed.vision.movers
 the velocity of its recent centroids (`RegionTracks`); the target's own comes first, with the
 fitted velocity. The window is a fovea, not the frame: the movers are those it covers.
 
+A target that stops shows nothing but the poses' residue on its own texture; the detector keeps
+its look from the last frame it saw it move in and holds it where it stands (`still_target`):
+first, before the motion is looked at, where the look has stayed put over the longer baseline,
+and again where nothing moves in the fovea.
+
 The window follows the target: it is centred on the predicted position while the target is
 found, and returns to the principal point when it is lost. It spans the fovea at each frame's
 focal length (a zoom lens's, at the frame's zoom).
