@@ -212,18 +212,19 @@ class NormalFlowDetector:
 
     def _held(self, held: Held, fovea: Fovea) -> DetectorOutput:
         """The target held by its look (`still_target`): the fovea stays on it, still."""
-        self._track = (held.u_px, held.v_px, np.zeros(2))
+        own = held.mover
+        self._track = (own.u_px, own.v_px, np.zeros(2))
         self._tracks.reset()
         return DetectorOutput(
             found=True,
-            u_px=held.u_px,
-            v_px=held.v_px,
-            du_px_s=held.du_px_s,
-            dv_px_s=held.dv_px_s,
-            area_px=held.area_px,
-            confidence=held.correlation,
+            u_px=own.u_px,
+            v_px=own.v_px,
+            du_px_s=own.du_px_s,
+            dv_px_s=own.dv_px_s,
+            area_px=own.area_px,
+            confidence=own.confidence,
             window=fovea.rect,
-            movers=(held.mover(),),
+            movers=(own,),
         )
 
     def _find(

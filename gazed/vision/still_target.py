@@ -64,28 +64,11 @@ _GROW_KERNEL = np.ones((2 * GROW_PX + 1, 2 * GROW_PX + 1), np.uint8)
 
 @dataclass(frozen=True)
 class Held:
-    """The target matched in the newest frame: its point and velocity (pixels, px/s), its box,
-    its area, the correlation, and how far (px) it is from where it stood in the patch."""
+    """The target matched in the newest frame (its point, velocity, box and area; its
+    confidence the correlation), and how far (px) it is from where it stood in the patch."""
 
-    u_px: float
-    v_px: float
-    du_px_s: float
-    dv_px_s: float
-    box: tuple[float, float, float, float]
-    area_px: float
-    correlation: float
+    mover: MoverRegion
     moved_px: float
-
-    def mover(self) -> MoverRegion:
-        return MoverRegion(
-            self.u_px,
-            self.v_px,
-            self.du_px_s,
-            self.dv_px_s,
-            self.box,
-            self.area_px,
-            self.correlation,
-        )
 
 
 class StillTarget:
@@ -207,14 +190,10 @@ class StillTarget:
         left, top, right, bottom = self._box
         left, top = apply_homography(H, left + shift_x, top + shift_y)
         right, bottom = apply_homography(H, right + shift_x, bottom + shift_y)
+        box = (left, top, right - left, bottom - top)
+        area_px = self._area_px * scale * scale
         return Held(
-            u,
-            v,
-            du,
-            dv,
-            (left, top, right - left, bottom - top),
-            self._area_px * scale * scale,
-            float(best),
+            MoverRegion(u, v, du, dv, box, area_px, float(best)),
             scale * math.hypot(shift_x, shift_y),
         )
 
