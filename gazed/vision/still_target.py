@@ -91,10 +91,6 @@ class StillTarget:
         # the target's recent places in the patch's frame: (t_s, x shift, y shift), oldest first
         self._shifts: deque[tuple[float, float, float]] = deque(maxlen=VELOCITY_POINTS)
 
-    @property
-    def active(self) -> bool:
-        return self._frame is not None
-
     def reset(self) -> None:
         self._frame = None
 
