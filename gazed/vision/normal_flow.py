@@ -285,7 +285,7 @@ class NormalFlowDetector:
         own = MoverRegion(u, v, du, dv, box.box_at(1), area, fit.score)
         self._box_px = own.box[2], own.box[3]
         if moved is not False:  # a look that stays put keeps its patch, which ages
-            self._still.remember(pair, box, (u, v), confirmed=moved is True)
+            self._still.remember(pair, box, (u, v), moved=moved is True)
         if per_frame != 1.0:  # the other movers' tracks step frame by frame
             self._tracks.reset()
             movers: tuple[MoverRegion, ...] = (own,)

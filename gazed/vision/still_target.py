@@ -15,11 +15,12 @@ frame by the registered homography.
 
 A patch is held only once its look has been seen to move. Each frame the motion detector finds
 the target in, the patch is matched first: where it matched away from where it stood (beyond the
-still limit), the target moves, and the new patch is `confirmed`; where it did not match, the
-look has changed, and the new patch starts unconfirmed; where it matched where it stood, the
-patch is kept, and it ages. A region the motion detector finds for a frame on the background
-(the poses' residue on a strong edge) stands still in the world: its look never moves, and it is
-never held.
+still limit), the target moves; where it did not match, the look has changed, and the count
+starts again; where it matched where it stood, the patch is kept, and it ages. A patch is
+`confirmed` once its look has moved in `BASELINE_FRAMES` frames in a row. A region the motion
+detector finds for a frame on the background (the poses' residue on a strong edge) stands still
+in the world: its look never moves, and it is never held; one frame whose head pose was off
+(odometry late at a start) does not make the background a target either.
 
 The patch is the target's pixels that moved with it, grown by `GROW_PX` (its outline), not its
 box, so that the ground behind a target that left cannot pass for it. It is matched by
@@ -50,7 +51,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from gazed.vision.detector import FramePair
+from gazed.vision.detector import BASELINE_FRAMES, FramePair
 from gazed.vision.ego_motion import HeadStep, apply_homography
 from gazed.vision.movers import Blob, MoverRegion
 
@@ -86,7 +87,7 @@ class StillTarget:
         self._t_s = 0.0
         self._H = np.eye(3)  # the patch's frame's pixels -> the newest frame's
         self._f_px = 1.0  # the patch's frame's focal length
-        self.confirmed = False  # its look was seen to move: a target, not a fleeting residue
+        self.moves = 0  # the frames in a row its look was seen to move, up to this patch
         self.age_frames = 0  # the frames since the patch's
         # the target's recent places in the patch's frame: (t_s, x shift, y shift), oldest first
         self._shifts: deque[tuple[float, float, float]] = deque(maxlen=VELOCITY_POINTS)
@@ -94,11 +95,17 @@ class StillTarget:
     def reset(self) -> None:
         self._frame = None
 
+    @property
+    def confirmed(self) -> bool:
+        """Its look was seen to move in `BASELINE_FRAMES` frames in a row: a target, not a
+        fleeting residue nor a frame whose head pose was off."""
+        return self.moves >= BASELINE_FRAMES
+
     def remember(
-        self, pair: FramePair, blob: Blob, point: tuple[float, float], *, confirmed: bool
+        self, pair: FramePair, blob: Blob, point: tuple[float, float], *, moved: bool
     ) -> None:
         """The target seen moving at `point` in `pair`'s current frame, its pixels `blob`;
-        `confirmed`: the patch before this one matched away from where it stood."""
+        `moved`: the patch before this one matched away from where it stood."""
         gray = pair.gray
         h, w = gray.shape[:2]
         x0, y0 = max(0, blob.x - GROW_PX), max(0, blob.y - GROW_PX)
@@ -110,7 +117,6 @@ class StillTarget:
         mask = np.zeros((y1 - y0, x1 - x0), np.uint8)
         top, left = blob.y - y0, blob.x - x0
         mask[top : top + blob.height, left : left + blob.width] = blob.mask
-        self._frame = gray
         self._mask = cv2.dilate(mask, _GROW_KERNEL)
         self._patch = gray[y0:y1, x0:x1].astype(np.float32)
         self._origin = (x0, y0)
@@ -120,7 +126,8 @@ class StillTarget:
         self._t_s = pair.t_s
         self._H = np.eye(3)
         self._f_px = float(pair.step.K[0, 0])
-        self.confirmed = confirmed
+        self.moves = self.moves + 1 if moved and self._frame is not None else int(moved)
+        self._frame = gray
         self.age_frames = 0
         self._shifts.clear()
         self._shifts.append((pair.t_s, 0.0, 0.0))
