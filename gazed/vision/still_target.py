@@ -45,7 +45,6 @@ first), so the estimator sees a target that stopped rather than none.
 from __future__ import annotations
 
 import math
-from collections import deque
 from dataclasses import dataclass
 
 import cv2
@@ -54,6 +53,7 @@ import numpy as np
 from gazed.vision.detector import BASELINE_FRAMES, FramePair
 from gazed.vision.ego_motion import HeadStep, apply_homography
 from gazed.vision.movers import Blob, MoverRegion
+from gazed.vision.position_history import PositionHistory
 
 MIN_CORRELATION = 0.8  # S / (S + N) ≥ 0.8: the views agree with a signal-to-noise ratio of 4
 SWAY_FRACTION = 0.25  # the search reaches this share of the target's larger side further
@@ -89,8 +89,8 @@ class StillTarget:
         self._f_px = 1.0  # the patch's frame's focal length
         self.moves = 0  # the frames in a row its look was seen to move, up to this patch
         self.age_frames = 0  # the frames since the patch's
-        # the target's recent places in the patch's frame: (t_s, x shift, y shift), oldest first
-        self._shifts: deque[tuple[float, float, float]] = deque(maxlen=VELOCITY_POINTS)
+        # the target's recent places in the patch's frame, as shifts from where it stood
+        self._shifts = PositionHistory(VELOCITY_POINTS)
 
     def reset(self) -> None:
         self._frame = None
@@ -130,7 +130,7 @@ class StillTarget:
         self._frame = gray
         self.age_frames = 0
         self._shifts.clear()
-        self._shifts.append((pair.t_s, 0.0, 0.0))
+        self._shifts.add(pair.t_s, 0.0, 0.0)
 
     def step(self, step: HeadStep) -> None:
         """The head's step to the newest frame."""
@@ -187,8 +187,8 @@ class StillTarget:
             return None
         shift_x = mx - radius + _peak_offset(scores[my, max(mx - 1, 0) : mx + 2])
         shift_y = my - radius + _peak_offset(scores[max(my - 1, 0) : my + 2, mx])
-        self._shifts.append((pair.t_s, shift_x, shift_y))
-        du, dv = (scale * rate for rate in _slope(np.array(self._shifts)))
+        self._shifts.add(pair.t_s, shift_x, shift_y)
+        du, dv = (scale * rate for rate in self._shifts.velocity() or (0.0, 0.0))
         u, v = apply_homography(H, self._point[0] + shift_x, self._point[1] + shift_y)
         left, top, right, bottom = self._box
         left, top = apply_homography(H, left + shift_x, top + shift_y)
@@ -218,12 +218,3 @@ def _peak_offset(scores: np.ndarray) -> float:
     left, peak, right = (float(x) for x in scores)
     curvature = left - 2.0 * peak + right
     return 0.0 if curvature >= 0.0 else 0.5 * (left - right) / curvature
-
-
-def _slope(points: np.ndarray) -> tuple[float, float]:
-    """The least-squares rates of the x and y columns of (t, x, y) rows against t."""
-    t = points[:, 0] - points[:, 0].mean()
-    spread = float(t @ t)
-    if spread == 0.0:
-        return 0.0, 0.0
-    return float(t @ points[:, 1]) / spread, float(t @ points[:, 2]) / spread
