@@ -37,7 +37,7 @@ with nothing else is not a target (a lone residual would otherwise be pursued as
 The two poses are each off by the head's pose noise σ (`pose_noise_rad`), and a small rotation
 error moves a small window alike: the background shifts by about √2 σ f, beyond the still limit
 at a long focal length, where a slow target could not be told from it. So the fovea is first
-registered on its surround (`_register`): the displacement most of the ring around it shares is
+registered on its surround (`_background`): the displacement most of the ring around it shares is
 taken into the window's shift, and the target's displacement is fitted against the background
 as imaged. Registered, a target slower than the noise shows nothing against the previous
 frame; a fovea that shows nothing is looked at again against the frame `BASELINE_FRAMES` back
@@ -47,6 +47,11 @@ Besides the target, the window's other regions that move against the background 
 target (outside its box grown by half its size) are movers (`gazed.vision.movers`), each with
 the velocity of its recent centroids (`RegionTracks`); the target's own comes first, with the
 fitted velocity. The window is a fovea, not the frame: the movers are those it covers.
+
+A target that stops shows nothing but the poses' residue on its own texture; the detector keeps
+its look from the last frame it saw it move in and holds it where it stands (`still_target`):
+first, before the motion is looked at, where the look has stayed put over the longer baseline,
+and again where nothing moves in the fovea.
 
 The window follows the target: it is centred on the predicted position while the target is
 found, and returns to the principal point when it is lost. It spans the fovea at each frame's
@@ -77,6 +82,7 @@ from gazed.vision.flow_constraints import (
 )
 from gazed.vision.movers import MoverRegion, blobs, trimmed
 from gazed.vision.region_tracks import RegionTracks
+from gazed.vision.still_target import Held, StillTarget
 
 MARGIN_PX = 6  # the window keeps this far from the image border
 ACQUIRED_SCORE = 0.3  # a fit explaining less of the region than this tries the coarse scale
@@ -133,32 +139,93 @@ class NormalFlowDetector:
         self._track: tuple[float, float, np.ndarray] | None = None  # u, v, d (px/frame)
         self._box_px: tuple[float, float] | None = None  # the target box's width, height
         self._tracks = RegionTracks(VELOCITY_POINTS)
+        self._still = StillTarget()
         # the frames reduced for the surround (`_reduced`), the newest last
-        self._reductions: deque[tuple[np.ndarray, np.ndarray]] = deque(maxlen=BASELINE_FRAMES + 1)
+        # (and the still target's patch's frame)
+        self._reductions: deque[tuple[np.ndarray, np.ndarray]] = deque(maxlen=BASELINE_FRAMES + 2)
 
     def reset(self) -> None:
         self._track = None
         self._box_px = None
         self._tracks.reset()
+        self._still.reset()
 
     def detect(self, pair: FramePair) -> DetectorOutput:
         if pair.previous is None:
             self.reset()
             return DetectorOutput.nothing()
+        self._still.step(pair.step)
         self._size_fovea(pair.step.K)
         centre, fovea = self._place(pair.step, pair.gray.shape)
+        background = self._background(pair, fovea, centre)  # against the previous frame
+        held, still_px = self._match_still(pair, fovea, centre, background)
+        moved = None if held is None else held.moved_px > still_px
+        if moved is False and self._still.confirmed and self._still.age_frames >= BASELINE_FRAMES:
+            # the target has stood where it stood over the longer baseline: what moves on it
+            # is the poses' residue
+            return self._held(held, fovea)
         track = self._track[2] if self._track is not None else None
-        found = self._find(pair, fovea, centre, track)
+        found = self._find(pair, fovea, centre, track, moved, background)
         if found is None and pair.older is not None and self.pose_noise_rad:
             # nothing moves against the registered background: a target slower than the
             # noise moves several frames' worth against the older frame
             ratio = pair.older.step.dt_s / pair.step.dt_s
             older_track = track * ratio if track is not None else None
-            found = self._find(pair.older, fovea, centre, older_track, per_frame=1.0 / ratio)
+            older = self._background(pair.older, fovea, centre)
+            found = self._find(
+                pair.older, fovea, centre, older_track, moved, older, per_frame=1.0 / ratio
+            )
         if found is None:
+            if held is not None and self._still.confirmed:
+                return self._held(held, fovea)  # nothing moves there; it looks as it did
             self.reset()
             return DetectorOutput.nothing(fovea.rect)
         return found
+
+    def _match_still(
+        self,
+        pair: FramePair,
+        fovea: Fovea,
+        centre: tuple[float, float],
+        previous: tuple[float, float] | None,
+    ) -> tuple[Held | None, float]:
+        """The target matched by its look where the detector last saw it move
+        (`still_target`; None: no patch, or no match), and how far from there it may be and
+        still count as standing: the noise, and the poses' error where the background could
+        not be registered. `previous`: the background registered against the previous frame,
+        which a patch taken there shares."""
+        reference = self._still.reference_pair(pair)
+        if reference is None:
+            return None, self.noise_px
+        background, error_px = (0.0, 0.0), 0.0
+        if self.pose_noise_rad:
+            if reference is pair:
+                registered = previous
+            else:
+                registered = self._background(reference, fovea, centre)
+            if registered is None:
+                focal_px = float(pair.step.K[0, 0])
+                error_px = 3.0 * math.sqrt(2.0) * self.pose_noise_rad * focal_px
+            else:
+                background = registered
+        return self._still.match(reference, background, error_px), self.noise_px + error_px
+
+    def _held(self, held: Held, fovea: Fovea) -> DetectorOutput:
+        """The target held by its look (`still_target`): the fovea stays on it, still."""
+        own = held.mover
+        self._track = (own.u_px, own.v_px, np.zeros(2))
+        self._tracks.reset()
+        return DetectorOutput(
+            found=True,
+            u_px=own.u_px,
+            v_px=own.v_px,
+            du_px_s=own.du_px_s,
+            dv_px_s=own.dv_px_s,
+            area_px=own.area_px,
+            confidence=own.confidence,
+            window=fovea.rect,
+            movers=(own,),
+        )
 
     def _find(
         self,
@@ -166,15 +233,21 @@ class NormalFlowDetector:
         fovea: Fovea,
         centre: tuple[float, float],
         track: np.ndarray | None,
+        moved: bool | None,
+        background: tuple[float, float] | None,
         per_frame: float = 1.0,
     ) -> DetectorOutput | None:
         """The target in `fovea` against `pair`'s earlier frame (None: nothing moves there
-        against the background). `per_frame`: the share of the pair's displacement that one
-        frame interval makes (below 1 for `FramePair.older`); the track keeps a frame's."""
+        against the background). `moved`: whether the target's patch matched this frame away
+        from where it stood (None: no patch, or no match; `still_target`). `background`: the
+        pair's registration (`_background`; None: not registered). `per_frame`: the
+        share of the pair's displacement that one frame interval makes (below 1 for
+        `FramePair.older`); the track keeps a frame's."""
         window = FlowWindow(
             pair, fovea, self._offsets_px, self.min_gradient, track, SMOOTHING_SIGMA_PX
         )
-        self._register(pair, window, centre)
+        if background is not None:
+            window.register(background)
         # seed 000 §2: background where the ego-compensated normal flow is within the noise
         v_ind = window.independent_flow()
         moving = window.valid & (np.abs(v_ind) > self.noise_px)
@@ -211,6 +284,8 @@ class NormalFlowDetector:
         assert box is not None  # the target holds pixels: its area is at least min_area_px
         own = MoverRegion(u, v, du, dv, box.box_at(1), area, fit.score)
         self._box_px = own.box[2], own.box[3]
+        if moved is not False:  # a look that stays put keeps its patch, which ages
+            self._still.remember(pair, box, (u, v), moved=moved is True)
         if per_frame != 1.0:  # the other movers' tracks step frame by frame
             self._tracks.reset()
             movers: tuple[MoverRegion, ...] = (own,)
@@ -271,23 +346,26 @@ class NormalFlowDetector:
         explained[region & window.valid] = fit.inliers
         return explained
 
-    def _register(self, pair: FramePair, window: FlowWindow, centre: tuple[float, float]) -> None:
-        """Register the window on its background: the head poses the ego-rotation is taken from
-        are each off by their noise, and a small rotation error moves the whole surround alike.
-        The displacement b that most of the constraints of the ring between the fovea and a
-        window `SURROUND` times its side share (away from the predicted target, on a lattice, at
-        the coarse scale whose linear range spans a misregistration of a few pixels) is the
-        background's own, and the fovea takes it into its shift (`FlowWindow.register`). Only a
-        fit that explains most of its constraints, and within the still limit plus three
-        standard deviations of the poses' misregistration (√2 σ f, σ the head's pose noise), is
-        taken: otherwise the window stays as the odometry places it. A head with no pose noise (the
-        digital head, its view rendered at the pose it reports) has nothing to register.
+    def _background(
+        self, pair: FramePair, fovea: Fovea, centre: tuple[float, float]
+    ) -> tuple[float, float] | None:
+        """The background's own displacement about `fovea` beyond the head's step (None: not
+        registered). The head poses the ego-rotation is taken from are each off by their noise,
+        and a small rotation error moves the whole surround alike. The displacement b that most
+        of the constraints of the ring between the fovea and a window `SURROUND` times its side
+        share (away from the predicted target, on a lattice, at the coarse scale whose linear
+        range spans a misregistration of a few pixels) is the background's own, and the fovea
+        takes it into its shift (`FlowWindow.register`). Only a fit that explains most of its
+        constraints, and within the still limit plus three standard deviations of the poses'
+        misregistration (√2 σ f, σ the head's pose noise), is taken: otherwise the window stays
+        as the odometry places it. A head with no pose noise (the digital head, its view
+        rendered at the pose it reports) has nothing to register.
 
         The surround is seen on the frames reduced `REDUCTION` times: smoothed at the coarse
         scale, a full-resolution image holds nothing at the reduced one's Nyquist frequency, so
         the constraints are the same at a fraction of the cost."""
         if self.pose_noise_rad == 0.0:
-            return
+            return None
         r = REDUCTION
         reduced = FramePair(
             self._reduced(pair.gray),
@@ -298,7 +376,7 @@ class NormalFlowDetector:
         )
         h, w = reduced.gray.shape[:2]
         margin = MARGIN_PX // r
-        side = min(SURROUND * window.fovea.side // r, w - 2 * margin, h - 2 * margin)
+        side = min(SURROUND * fovea.side // r, w - 2 * margin, h - 2 * margin)
         cu, cv = ((c - (r - 1) / 2.0) / r for c in centre)  # the reduced pixel of the centre
         x0 = min(max(round(cu - (side - 1) / 2.0), margin), w - margin - side)
         y0 = min(max(round(cv - (side - 1) / 2.0), margin), h - margin - side)
@@ -320,13 +398,13 @@ class NormalFlowDetector:
                 max(0, math.floor(left / r) - x0) : max(0, math.ceil(right / r) - x0),
             ] = False
 
-        fovea = window.fovea  # where the target is looked for: the ring about it is background
+        # where the target is looked for: the ring about it is background
         clear(fovea.x0, fovea.y0, fovea.x0 + fovea.side, fovea.y0 + fovea.side)
         if self._track is not None and self._box_px is not None:
             bw, bh = self._box_px  # the target's box grown by half its size on every side
             clear(centre[0] - bw, centre[1] - bh, centre[0] + bw, centre[1] + bh)
         if np.count_nonzero(pixels) < BACKGROUND_MIN_CONSTRAINTS:
-            return
+            return None
         constraints = surround.constraints(pixels)
         noise = self.noise_px / r
         wide = constraints.fit(np.zeros((1, 2)), LINEAR_RANGE_PX * scale / r, noise * scale)
@@ -339,9 +417,10 @@ class NormalFlowDetector:
         fit = _refined(constraints, fit, noise, noise)
         background = fit.d * r
         misregistration_px = math.sqrt(2.0) * self.pose_noise_rad * float(pair.step.K[0, 0])
-        bound_px = self._still_px(pair.step, window.fovea) + 3.0 * misregistration_px
+        bound_px = self._still_px(pair.step, fovea) + 3.0 * misregistration_px
         if fit.score >= BACKGROUND_SCORE and math.hypot(*background) <= bound_px:
-            window.register(background)
+            return float(background[0]), float(background[1])
+        return None
 
     def _reduced(self, image: np.ndarray) -> np.ndarray:
         """`image` reduced `REDUCTION` times (block means), kept for the frames that follow."""
