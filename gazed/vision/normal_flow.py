@@ -154,12 +154,14 @@ class NormalFlowDetector:
         if pair.previous is None:
             self.reset()
             return DetectorOutput.nothing()
-        self._still.step(pair.step)
+        self._still.step(pair)
         self._size_fovea(pair.step.K)
         centre, fovea = self._place(pair.step, pair.gray.shape)
         background = self._background(pair, fovea, centre)  # against the previous frame
-        held, still_px = self._match_still(pair, fovea, centre, background)
+        held, still_px, registered = self._match_still(pair, fovea, centre, background)
         moved = None if held is None else held.moved_px > still_px
+        if moved and not registered:
+            moved = None  # a move seen through head poses the background did not bear out
         if moved is False and self._still.confirmed and self._still.age_frames >= BASELINE_FRAMES:
             # the target has stood where it stood over the longer baseline: what moves on it
             # is the poses' residue
@@ -188,16 +190,19 @@ class NormalFlowDetector:
         fovea: Fovea,
         centre: tuple[float, float],
         previous: tuple[float, float] | None,
-    ) -> tuple[Held | None, float]:
+    ) -> tuple[Held | None, float, bool]:
         """The target matched by its look where the detector last saw it move
-        (`still_target`; None: no patch, or no match), and how far from there it may be and
-        still count as standing: the noise, and the poses' error where the background could
-        not be registered. `previous`: the background registered against the previous frame,
-        which a patch taken there shares."""
+        (`still_target`; None: no patch, no match, or the head's steps since not all known);
+        how far from there it may be and still count as standing: the noise, and the poses'
+        error where the background could not be registered; and whether the head poses are
+        borne out: exact (no pose noise), or the background registered between the two frames.
+        `previous`: the background registered against the previous frame, which a patch taken
+        there shares."""
         reference = self._still.reference_pair(pair)
         if reference is None:
-            return None, self.noise_px
+            return None, self.noise_px, False
         background, error_px = (0.0, 0.0), 0.0
+        registered = None
         if self.pose_noise_rad:
             if reference is pair:
                 registered = previous
@@ -208,7 +213,9 @@ class NormalFlowDetector:
                 error_px = 3.0 * math.sqrt(2.0) * self.pose_noise_rad * focal_px
             else:
                 background = registered
-        return self._still.match(reference, background, error_px), self.noise_px + error_px
+        held = self._still.match(reference, background, error_px)
+        borne_out = not self.pose_noise_rad or registered is not None
+        return held, self.noise_px + error_px, borne_out
 
     def _held(self, held: Held, fovea: Fovea) -> DetectorOutput:
         """The target held by its look (`still_target`): the fovea stays on it, still."""

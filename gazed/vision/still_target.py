@@ -20,7 +20,13 @@ starts again; where it matched where it stood, the patch is kept, and it ages. A
 `confirmed` once its look has moved in `BASELINE_FRAMES` frames in a row. A region the motion
 detector finds for a frame on the background (the poses' residue on a strong edge) stands still
 in the world: its look never moves, and it is never held; one frame whose head pose was off
-(odometry late at a start) does not make the background a target either.
+does not make the background a target either. A move counts only where the head poses are borne
+out: every step since the patch's frame from the odometry (`FramePair.compensated`; a frame with
+no head pose, as at a replay's start, is taken as from a still head, and the background then
+seems to move), and the background registered between the two frames where the poses have noise
+(odometry that lags the frames, as a polled camera's, moves the background beyond what the
+registration takes). Otherwise the count starts again. A patch whose steps are not all known is
+not matched at all: a rig with no odometry does not hold a target that stops.
 
 The patch is the target's pixels that moved with it, grown by `GROW_PX` (its outline), not its
 box, so that the ground behind a target that left cannot pass for it. It is matched by
@@ -87,6 +93,7 @@ class StillTarget:
         self._t_s = 0.0
         self._H = np.eye(3)  # the patch's frame's pixels -> the newest frame's
         self._f_px = 1.0  # the patch's frame's focal length
+        self._compensated = True  # every step since the patch's frame from the odometry
         self.moves = 0  # the frames in a row its look was seen to move, up to this patch
         self.age_frames = 0  # the frames since the patch's
         # the target's recent places in the patch's frame, as shifts from where it stood
@@ -126,30 +133,34 @@ class StillTarget:
         self._t_s = pair.t_s
         self._H = np.eye(3)
         self._f_px = float(pair.step.K[0, 0])
+        self._compensated = True  # every step since from the odometry
         self.moves = self.moves + 1 if moved and self._frame is not None else int(moved)
         self._frame = gray
         self.age_frames = 0
         self._shifts.clear()
         self._shifts.add(pair.t_s, 0.0, 0.0)
 
-    def step(self, step: HeadStep) -> None:
-        """The head's step to the newest frame."""
+    def step(self, pair: FramePair) -> None:
+        """The head's step to `pair`'s current frame (from the odometry where the pair is
+        `compensated`; otherwise assumed still, and the patch's frame no longer maps by it)."""
         if self._frame is not None:
-            self._H = step.H @ self._H
+            self._H = pair.step.H @ self._H
+            self._compensated = self._compensated and pair.compensated
             self.age_frames += 1
 
     def reference_pair(self, pair: FramePair) -> FramePair | None:
         """`pair`'s current frame against the patch's frame, by the head's steps since
-        (`pair` itself where the patch was taken in its previous frame)."""
-        if self._frame is None or pair.t_s <= self._t_s:
-            return None
+        (`pair` itself where the patch was taken in its previous frame); None where a step
+        since was not from the odometry: where the head went is not known."""
+        if self._frame is None or pair.t_s <= self._t_s or not self._compensated:
+            return None  # no patch; or the head's steps since are not all known
         if self._frame is pair.previous:
             return pair
         dt_s = pair.t_s - self._t_s
         K = pair.step.K
         zoom_rate_s = math.log(float(K[0, 0]) / self._f_px) / dt_s
         step = HeadStep(self._H, np.zeros(3), dt_s, K, zoom_rate_s)
-        return FramePair(pair.gray, pair.t_s, self._frame, step, pair.compensated)
+        return FramePair(pair.gray, pair.t_s, self._frame, step, True)
 
     def match(
         self, pair: FramePair, background_px: tuple[float, float], error_px: float
