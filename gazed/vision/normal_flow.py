@@ -246,10 +246,10 @@ class NormalFlowDetector:
     ) -> DetectorOutput | None:
         """The target in `fovea` against `pair`'s earlier frame (None: nothing moves there
         against the background). `moved`: whether the target's patch matched this frame away
-        from where it stood (None: no patch, or no match; `still_target`). `background`: the
-        pair's registration (`_background`; None: not registered). `per_frame`: the
-        share of the pair's displacement that one frame interval makes (below 1 for
-        `FramePair.older`); the track keeps a frame's."""
+        from where it stood (None: no patch, no match, or a move the head poses do not bear
+        out; `still_target`). `background`: the pair's registration (`_background`; None: not
+        registered). `per_frame`: the share of the pair's displacement that one frame interval
+        makes (below 1 for `FramePair.older`); the track keeps a frame's."""
         window = FlowWindow(
             pair, fovea, self._offsets_px, self.min_gradient, track, SMOOTHING_SIGMA_PX
         )
