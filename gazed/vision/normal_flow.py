@@ -158,9 +158,9 @@ class NormalFlowDetector:
         self._size_fovea(pair.step.K)
         centre, fovea = self._place(pair.step, pair.gray.shape)
         background = self._background(pair, fovea, centre)  # against the previous frame
-        held, still_px, registered = self._match_still(pair, fovea, centre, background)
+        held, still_px, borne_out = self._match_still(pair, fovea, centre, background)
         moved = None if held is None else held.moved_px > still_px
-        if moved and not registered:
+        if moved and not borne_out:
             moved = None  # a move seen through head poses the background did not bear out
         if moved is False and self._still.confirmed and self._still.age_frames >= BASELINE_FRAMES:
             # the target has stood where it stood over the longer baseline: what moves on it
