@@ -63,6 +63,7 @@ from __future__ import annotations
 import functools
 import math
 from collections import deque
+from dataclasses import dataclass
 
 import cv2
 import numpy as np
@@ -98,6 +99,19 @@ REDUCTION = 2  # ... of the frames reduced this many times (the coarse scale los
 BACKGROUND_MIN_CONSTRAINTS = 50  # ... when it gives at least this many constraints
 BACKGROUND_SCORE = 0.5  # ... and its displacement explains at least this share of them
 _CLOSING_KERNEL = np.ones((3, 3), np.uint8)
+
+
+@dataclass(frozen=True)
+class Registration:
+    """The background's own displacement about the fovea beyond the head's step (None: not
+    registered), and whether the surround moved together further than the head poses' noise
+    allows: the poses, not the world, are off (`NormalFlowDetector._background`)."""
+
+    displacement: tuple[float, float] | None
+    poses_off: bool = False
+
+
+NOT_REGISTERED = Registration(None)
 
 
 @functools.lru_cache(maxsize=4)
@@ -157,7 +171,14 @@ class NormalFlowDetector:
         self._still.step(pair)
         self._size_fovea(pair.step.K)
         centre, fovea = self._place(pair.step, pair.gray.shape)
-        background = self._background(pair, fovea, centre)  # against the previous frame
+        registration = self._background(pair, fovea, centre)  # against the previous frame
+        if registration.poses_off:
+            # the surround moved together beyond what the head poses allow: the poses are off
+            # (odometry stamped wrong), and whatever moves in the fovea may be the background;
+            # the patch's chained steps went through them
+            self._still.reset()
+            return DetectorOutput.nothing(fovea.rect)
+        background = registration.displacement
         held, still_px, borne_out = self._match_still(pair, fovea, centre, background)
         moved = None if held is None else held.moved_px > still_px
         if moved and not borne_out:
@@ -170,13 +191,21 @@ class NormalFlowDetector:
         found = self._find(pair, fovea, centre, track, moved, background)
         if found is None and pair.older is not None and self.pose_noise_rad:
             # nothing moves against the registered background: a target slower than the
-            # noise moves several frames' worth against the older frame
+            # noise moves several frames' worth against the older frame, where the background
+            # registers too (unregistered, the poses' error moves it as much)
             ratio = pair.older.step.dt_s / pair.step.dt_s
             older_track = track * ratio if track is not None else None
             older = self._background(pair.older, fovea, centre)
-            found = self._find(
-                pair.older, fovea, centre, older_track, moved, older, per_frame=1.0 / ratio
-            )
+            if older.displacement is not None:
+                found = self._find(
+                    pair.older,
+                    fovea,
+                    centre,
+                    older_track,
+                    moved,
+                    older.displacement,
+                    per_frame=1.0 / ratio,
+                )
         if found is None:
             if held is not None and self._still.confirmed:
                 return self._held(held, fovea)  # nothing moves there; it looks as it did
@@ -207,7 +236,7 @@ class NormalFlowDetector:
             if reference is pair:
                 registered = previous
             else:
-                registered = self._background(reference, fovea, centre)
+                registered = self._background(reference, fovea, centre).displacement
             if registered is None:
                 focal_px = float(pair.step.K[0, 0])
                 error_px = 3.0 * math.sqrt(2.0) * self.pose_noise_rad * focal_px
@@ -355,24 +384,27 @@ class NormalFlowDetector:
 
     def _background(
         self, pair: FramePair, fovea: Fovea, centre: tuple[float, float]
-    ) -> tuple[float, float] | None:
-        """The background's own displacement about `fovea` beyond the head's step (None: not
-        registered). The head poses the ego-rotation is taken from are each off by their noise,
-        and a small rotation error moves the whole surround alike. The displacement b that most
-        of the constraints of the ring between the fovea and a window `SURROUND` times its side
-        share (away from the predicted target, on a lattice, at the coarse scale whose linear
-        range spans a misregistration of a few pixels) is the background's own, and the fovea
-        takes it into its shift (`FlowWindow.register`). Only a fit that explains most of its
-        constraints, and within the still limit plus three standard deviations of the poses'
-        misregistration (√2 σ f, σ the head's pose noise), is taken: otherwise the window stays
-        as the odometry places it. A head with no pose noise (the digital head, its view
-        rendered at the pose it reports) has nothing to register.
+    ) -> Registration:
+        """The background's own displacement about `fovea` beyond the head's step. The head poses
+        the ego-rotation is taken from are each off by their noise, and a small rotation error moves
+        the whole surround alike. The displacement b that most of the constraints of the ring
+        between the fovea and a window `SURROUND` times its side share (away from the predicted
+        target, on a lattice, at the coarse scale whose linear range spans a misregistration of a
+        few pixels) is the background's own, and the fovea takes it into its shift
+        (`FlowWindow.register`). Only a fit that explains most of its constraints, and within the
+        still limit plus three standard deviations of the poses' misregistration (√2 σ f, σ the
+        head's pose noise), is taken: otherwise the window stays as the odometry places it. Where
+        most of the surround moves together beyond that bound, it is not the poses' noise but poses
+        that are wrong (odometry stamped off the frames' exposures while the head turns): the
+        registration says so (`poses_off`), and the fovea, whose own background moves with the
+        surround, shows nothing that can be trusted. A head with no pose noise (the digital head,
+        its view rendered at the pose it reports) has nothing to register.
 
         The surround is seen on the frames reduced `REDUCTION` times: smoothed at the coarse
         scale, a full-resolution image holds nothing at the reduced one's Nyquist frequency, so
         the constraints are the same at a fraction of the cost."""
         if self.pose_noise_rad == 0.0:
-            return None
+            return NOT_REGISTERED
         r = REDUCTION
         reduced = FramePair(
             self._reduced(pair.gray),
@@ -411,23 +443,31 @@ class NormalFlowDetector:
             bw, bh = self._box_px  # the target's box grown by half its size on every side
             clear(centre[0] - bw, centre[1] - bh, centre[0] + bw, centre[1] + bh)
         if np.count_nonzero(pixels) < BACKGROUND_MIN_CONSTRAINTS:
-            return None
+            return NOT_REGISTERED
         constraints = surround.constraints(pixels)
         noise = self.noise_px / r
-        wide = constraints.fit(np.zeros((1, 2)), LINEAR_RANGE_PX * scale / r, noise * scale)
-        wide = _refined(constraints, wide, REFINE_RANGE_PX * scale / r, noise * scale)
+        # wide fits at the coarse scale's linear range: from no displacement, and from the
+        # shift the surround's phase correlation finds, however far (poses that are wrong, not
+        # noisy, misregister it beyond the linear range)
+        starts = [(0.0, 0.0)]
+        for start in ((0.0, 0.0), _shared_shift(surround)):
+            wide = constraints.fit(np.array([start]), LINEAR_RANGE_PX * scale / r, noise * scale)
+            wide = _refined(constraints, wide, REFINE_RANGE_PX * scale / r, noise * scale)
+            starts.append(tuple(wide.d))
         # the background is the displacement most constraints share, not the weighted mean: a
         # strongly textured target in the surround pulls the least squares (weighted by |∇E|²)
-        # towards itself; so from no displacement and from the wide fit, each refined on the
+        # towards itself; so from no displacement and from the wide fits, each refined on the
         # constraints within the pixel noise of it, the one that explains the most
-        fit = constraints.fit(np.array([(0.0, 0.0), tuple(wide.d)]), noise, noise)
+        fit = constraints.fit(np.array(starts), noise, noise)
         fit = _refined(constraints, fit, noise, noise)
         background = fit.d * r
         misregistration_px = math.sqrt(2.0) * self.pose_noise_rad * float(pair.step.K[0, 0])
         bound_px = self._still_px(pair.step, fovea) + 3.0 * misregistration_px
-        if fit.score >= BACKGROUND_SCORE and math.hypot(*background) <= bound_px:
-            return float(background[0]), float(background[1])
-        return None
+        if fit.score < BACKGROUND_SCORE:
+            return NOT_REGISTERED
+        if math.hypot(*background) > bound_px:
+            return Registration(None, poses_off=True)
+        return Registration((float(background[0]), float(background[1])))
 
     def _reduced(self, image: np.ndarray) -> np.ndarray:
         """`image` reduced `REDUCTION` times (block means), kept for the frames that follow."""
@@ -519,6 +559,20 @@ class NormalFlowDetector:
             if candidate.score > best.score:
                 best = candidate
         return _refined(constraints, best, REFINE_RANGE_PX, self.noise_px)
+
+
+@functools.lru_cache(maxsize=4)
+def _hanning(side: int) -> np.ndarray:
+    return cv2.createHanningWindow((side, side), cv2.CV_32F)
+
+
+def _shared_shift(window: FlowWindow) -> tuple[float, float]:
+    """The displacement (px per frame) by which the window's content moved from the previous
+    frame as the odometry places it: the phase correlation of the two, whose peak is the shift
+    most of the window shares."""
+    previous = window.previous_at((0.0, 0.0))
+    (du, dv), _ = cv2.phaseCorrelate(previous, window.current, _hanning(window.fovea.side))
+    return float(du), float(dv)
 
 
 def _refined(
