@@ -540,6 +540,32 @@ def test_a_saccade_lands_without_pursuing_a_prediction_that_leaves_the_fovea() -
     assert math.degrees(demand.pan_rad) == pytest.approx(goal_deg + 1.0, abs=0.1)
 
 
+def test_predictions_still_coming_from_frames_before_the_landing_are_checked_too() -> None:
+    """A track taken up during the move (from a frame the head's turn smeared, say) makes its
+    predictions a loop latency later, after the landing: one that puts the target outside
+    the fovea of the landing is not pursued, one inside is; the first made from a frame
+    exposed after the landing is pursued wherever it puts the target."""
+    clock = Clock()
+    c, goal_deg = settled_after_a_saccade(clock, 1.0)
+    landed_ns = clock.wall_ns - 20_000_000
+    elsewhere = prediction(clock, goal_deg - 12.0, 0.0, actuation_s=0.0)
+    assert elsewhere.t_capture_ns < landed_ns
+    c.on_prediction(elsewhere)
+    demand = c.tick(clock.wall_ns, clock.mono_s).demand
+    assert math.degrees(demand.pan_rad) == pytest.approx(goal_deg + 1.0, abs=0.1)
+    clock.advance(0.02)
+    c.on_prediction(prediction(clock, goal_deg + 2.0, 0.0, actuation_s=0.0))
+    demand = c.tick(clock.wall_ns, clock.mono_s).demand
+    assert math.degrees(demand.pan_rad) == pytest.approx(goal_deg + 2.0, abs=0.1)
+    clock.advance(0.2)  # frames exposed after the landing
+    later = prediction(clock, goal_deg - 12.0, 0.0, actuation_s=0.0)
+    assert later.t_capture_ns >= landed_ns
+    c.on_prediction(later)
+    demand = c.tick(clock.wall_ns, clock.mono_s).demand
+    assert demand.kind == "pursuit"
+    assert math.degrees(demand.pan_rad) == pytest.approx(goal_deg - 12.0, abs=0.1)
+
+
 def test_lost_the_zoom_widens_with_the_search_region_and_search_goes_to_the_widest() -> None:
     """A zoom lens f = 500 + 4500 z held at 0.8 (f = 4100: the frame's 0.35 x 480 px inside its
     edge margin hold 2.35°). Lost, the search region grows at 2°/s from the prediction; the

@@ -70,30 +70,48 @@ class Pursuit:
         self.kinematics = kinematics
         self.prediction: Prediction | None = None
         self.stale_predictions = 0
+        # the last saccade's landing (wall clock, head pose) while the predictions that come
+        # are still made from frames exposed before it
+        self._landing: tuple[int, tuple[float, float] | None] | None = None
 
     def on_prediction(self, prediction: Prediction) -> None:
+        if self._landing is not None:
+            if prediction.t_capture_ns >= self._landing[0]:
+                self._landing = None  # seen after the landing: the target the move found
+            elif not self._lands_on(prediction):
+                return  # another target's, on its way through the loop as the head landed
         self.prediction = prediction
         self.feedback.on_prediction(prediction)
 
     def restart(self) -> None:
         """Another target: forget the predictions of the last one and their residual."""
+        self._forget()
+        self._landing = None
+
+    def _forget(self) -> None:
         self.prediction = None
         self.feedback.predictions.clear()
         self.feedback.correction = (0.0, 0.0)
 
     def landed(self, head_rad: tuple[float, float] | None, wall_ns: int) -> None:
-        """A saccade has settled with the head at `head_rad`: a held prediction that does not
-        put the target in the fovea now is another target's (a track taken up before the move,
-        from the frames the move was not aimed by), and is forgotten rather than pursued."""
-        p = self.prediction
-        if p is None:
-            return
-        pan, tilt = Aim.of_prediction(p).at(wall_ns)
-        if (
-            head_rad is None
-            or angle_between(pan, tilt, *head_rad, self.kinematics) > self.fovea_rad
-        ):
-            self.restart()
+        """A saccade has settled with the head at `head_rad`: a prediction made from frames
+        exposed before now that does not put the target in the fovea now is another target's
+        (a track taken up before or during the move, from frames the move was not aimed by),
+        and is not pursued. That holds for the prediction held now and for those still on
+        their way through the loop's latency; the first made from a frame exposed after the
+        landing ends the check."""
+        self._landing = (wall_ns, head_rad)
+        if self.prediction is not None and not self._lands_on(self.prediction):
+            self._forget()
+
+    def _lands_on(self, p: Prediction) -> bool:
+        """Whether `p` puts the target in the fovea of the head as it landed."""
+        assert self._landing is not None
+        landed_ns, head_rad = self._landing
+        if head_rad is None:
+            return False
+        pan, tilt = Aim.of_prediction(p).at(landed_ns)
+        return angle_between(pan, tilt, *head_rad, self.kinematics) <= self.fovea_rad
 
     def on_detection(self, detection: Detection) -> None:
         """A detection seen in pursuit: it updates the residual feedback."""

@@ -41,7 +41,10 @@ registered on its surround (`_background`): the displacement most of the ring ar
 taken into the window's shift, and the target's displacement is fitted against the background
 as imaged. Registered, a target slower than the noise shows nothing against the previous
 frame; a fovea that shows nothing is looked at again against the frame `BASELINE_FRAMES` back
-(`FramePair.older`), where such a target has moved several frames' worth.
+(`FramePair.older`), where such a target has moved several frames' worth. A surround that moves
+together further than the poses' noise allows says the poses are wrong, not noisy (read at the
+wrong instant while the head turns): the fovea's background moves with it, and the frame shows
+nothing.
 
 Besides the target, the window's other regions that move against the background clear of the
 target (outside its box grown by half its size) are movers (`gazed.vision.movers`), each with
