@@ -566,11 +566,13 @@ class NormalFlowDetector:
 
 @functools.lru_cache(maxsize=4)
 def _hanning(side: int) -> np.ndarray:
-    return cv2.createHanningWindow((side, side), cv2.CV_32F)
+    window = cv2.createHanningWindow((side, side), cv2.CV_32F)
+    window.flags.writeable = False  # shared by every window of that side
+    return window
 
 
 def _shared_shift(window: FlowWindow) -> tuple[float, float]:
-    """The displacement (px per frame) by which the window's content moved from the previous
+    """The displacement (the window's pixels) by which its content moved from the previous
     frame as the odometry places it: the phase correlation of the two, whose peak is the shift
     most of the window shares."""
     previous = window.previous_at((0.0, 0.0))
