@@ -33,6 +33,8 @@ from gazed.vision.person_size import PersonSize
 from gazed.vision.region_tracks import RegionTracks
 
 VELOCITY_POINTS = 6  # a mover's recent points its velocity is fitted to
+FOREGROUND = 255  # MOG2's label of a foreground pixel
+SHADOW = 127  # and of a shadow's
 _OPENING_KERNEL = np.ones((3, 3), np.uint8)
 _CLOSING_KERNEL = np.ones((5, 5), np.uint8)
 
@@ -48,6 +50,26 @@ class Foreground:
     total_px: float
 
 
+def without_cast_shadows(labels: np.ndarray) -> np.ndarray:
+    """MOG2's labels (foreground, shadow, background) as a foreground mask: the foreground, and
+    the shadow pixels joined to it within the columns of a foreground blob."""
+    core = cv2.morphologyEx(
+        np.where(labels == FOREGROUND, FOREGROUND, 0).astype(np.uint8),
+        cv2.MORPH_OPEN,
+        _OPENING_KERNEL,
+    )
+    count, _, stats, _ = cv2.connectedComponentsWithStats(core, connectivity=8)
+    columns = np.zeros(labels.shape[1], bool)
+    for x, w in stats[1:, [cv2.CC_STAT_LEFT, cv2.CC_STAT_WIDTH]]:
+        columns[x : x + w] = True
+    union = (core > 0) | ((labels == SHADOW) & columns[None, :])
+    _, parts = cv2.connectedComponents(union.astype(np.uint8), connectivity=8)
+    held = np.zeros(parts.max() + 1, bool)
+    held[parts[core > 0]] = True
+    held[0] = False
+    return np.where(held[parts], FOREGROUND, 0).astype(np.uint8)
+
+
 class SilhouetteModel:
     def __init__(
         self,
@@ -58,8 +80,10 @@ class SilhouetteModel:
         min_area_px: float,
         learning_frames: int,
         person: PersonSize | None = None,
+        shadows: bool = False,
     ) -> None:
         self.level = level
+        self.shadows = shadows
         self.scale = 1 << level
         self.history_frames = history_frames
         self.threshold = threshold
@@ -89,7 +113,9 @@ class SilhouetteModel:
         """The frame's silhouettes, or None while the model is still learning the scene."""
         if self._model is None:
             self._model = cv2.createBackgroundSubtractorMOG2(
-                history=self.history_frames, varThreshold=self.threshold, detectShadows=False
+                history=self.history_frames,
+                varThreshold=self.threshold,
+                detectShadows=self.shadows,
             )
             self._learned = 0
             self.resets += 1
@@ -99,12 +125,14 @@ class SilhouetteModel:
         self._learned += 1
         if self._learned <= self.learning_frames:
             self._model.apply(small)
-            self._held = np.zeros(small.shape, np.int32)
+            self._held = np.zeros(small.shape[:2], np.int32)
             return None
         # the foreground against the model as it stands, then the model learns the frame with
         # the held pixels (under this frame's silhouettes) shown as the background it has
         rate = 1.0 / min(2 * self._learned, self.history_frames)
         mask = self._model.apply(small, learningRate=0.0)
+        if self.shadows:
+            mask = without_cast_shadows(mask)
         opened = cv2.morphologyEx(mask, cv2.MORPH_OPEN, _OPENING_KERNEL)
         mask = cv2.morphologyEx(opened, cv2.MORPH_CLOSE, _CLOSING_KERNEL)
         self._model.apply(self._held_out(small, mask), learningRate=rate)
@@ -129,8 +157,8 @@ class SilhouetteModel:
         own background, for at most `history_frames` frames in a row per pixel; then the pixel
         is learnt as it is, as the model would learn anything that stays for its memory."""
         silhouettes = cv2.dilate(mask, _CLOSING_KERNEL) > 0
-        if self._held is None or self._held.shape != small.shape:
-            self._held = np.zeros(small.shape, np.int32)
+        if self._held is None or self._held.shape != small.shape[:2]:
+            self._held = np.zeros(small.shape[:2], np.int32)
         self._held = np.where(silhouettes, self._held + 1, 0)
         hold = self._held <= self.history_frames
         hold &= silhouettes

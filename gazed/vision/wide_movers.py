@@ -59,6 +59,7 @@ class WideMovers:
             min_area_px=vision.background_min_area_px,
             learning_frames=vision.background_learning_frames,
             person=person,
+            shadows=True,
         )
         self.frames = 0
         self._last_t_ns: int | None = None
@@ -74,7 +75,8 @@ class WideMovers:
             return
         dt_s = 0.0 if self._last_t_ns is None else (frame.t_capture_ns - self._last_t_ns) * 1e-9
         self._last_t_ns = frame.t_capture_ns
-        foreground = self.silhouettes.segment(gray)
+        colour = frame.pixels if frame.encoding != "gray8" else gray
+        foreground = self.silhouettes.segment(colour)
         movers: tuple[MoverRegion, ...] = ()
         if foreground is not None:
             still = HeadStep(np.eye(3), np.zeros(3), dt_s, wide.K)  # the wide camera never turns

@@ -91,7 +91,7 @@ def main() -> None:
             break
         wide = view.wide
         gray = gray_frame(CapturedFrame(pixels, "bgr8", 0, frame), wide.width_px, wide.height_px)
-        foreground = silhouettes.segment(gray)
+        foreground = silhouettes.segment(pixels)
         if foreground is None:
             continue
         found = [(b, body) for b, (_, parts) in enumerate(foreground.found) for body in parts]
