@@ -26,9 +26,12 @@ def ground() -> np.ndarray:
     return base * texture
 
 
-def scene(n: int, walkers: list[tuple[float, tuple[int, int, int]]]) -> np.ndarray:
+def scene(
+    n: int, walkers: list[tuple[float, tuple[int, int, int]]], grey_legs: bool = False
+) -> np.ndarray:
     """Frame n: each walker (left edge in px, BGR colour) stands with their feet on row 180,
-    their shadow a strip along the ground to the right of their feet."""
+    their shadow a strip along the ground to the right of their feet. `grey_legs`: their lower
+    half is the ground's own colour, darker, as a shadow would be."""
     rng = np.random.default_rng(100 + n)
     frame = ground() + rng.normal(0.0, 1.5, (HEIGHT, WIDTH, 3))
     if n >= ENTER:
@@ -37,11 +40,14 @@ def scene(n: int, walkers: list[tuple[float, tuple[int, int, int]]]) -> np.ndarr
             x = round(left)
             frame[180 - 6 : 181, x : x + w + SHADOW_PX] *= DARKENING
             frame[180 - h + 1 : 181, x : x + w] = colour
+            if grey_legs:
+                legs = frame[180 - h // 2 : 181, x : x + w]
+                legs[:] = ground()[180 - h // 2 : 181, x : x + w] * DARKENING
     return np.clip(frame, 0, 255).astype(np.uint8)
 
 
 def silhouettes(
-    walkers: list[tuple[float, tuple[int, int, int]]], shadows: bool
+    walkers: list[tuple[float, tuple[int, int, int]]], shadows: bool, grey_legs: bool = False
 ) -> list[list[tuple[float, float, float, float]]]:
     """The blobs of the scene's last frame, each as its bodies' full-resolution boxes."""
     model = SilhouetteModel(
@@ -54,7 +60,7 @@ def silhouettes(
     )
     foreground = None
     for n in range(ENTER + 3):
-        foreground = model.segment(scene(n, walkers))
+        foreground = model.segment(scene(n, walkers, grey_legs))
     assert foreground is not None
     return [[body.box_at(model.scale) for body in parts] for _, parts in foreground.found]
 
@@ -82,3 +88,9 @@ def test_walkers_joined_only_by_their_shadows_are_two() -> None:
     boxes = sorted(parts[0] for parts in blobs)
     for (x, _, w, _), (left, _) in zip(boxes, walkers, strict=True):
         assert abs(x - left) <= 2 and abs(w - BODY[0]) <= 4
+
+
+def test_legs_the_colour_of_a_shadow_stay_with_the_body_above_them() -> None:
+    [[(x, y, w, h)]] = silhouettes([(100.0, RED)], shadows=True, grey_legs=True)
+    assert abs(x - 100) <= 2 and abs(w - BODY[0]) <= 4
+    assert abs(h - BODY[1]) <= 4  # the legs too, not only the torso

@@ -21,12 +21,14 @@ foreground it covers, and its velocity the slope of its own recent points (`Regi
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Literal
 
 import cv2
 import numpy as np
 
+from gazed.estimation.chi_square import chi2_quantile, log_upper_tail
 from gazed.vision.ego_motion import HeadStep
 from gazed.vision.movers import Blob, MoverRegion, blobs
 from gazed.vision.person_size import PersonSize
@@ -48,6 +50,18 @@ class Foreground:
 
     found: list[tuple[Blob, list[Blob]]]
     total_px: float
+
+
+def channel_threshold(threshold: float, channels: int) -> float:
+    """MOG2's threshold on the squared Mahalanobis distance summed over `channels`, at the false
+    alarm rate `threshold` gives one channel: the χ²(channels) quantile of χ²(1)'s at it."""
+    if channels == 1:
+        return threshold
+    return chi2_quantile(-math.expm1(log_upper_tail(threshold, 1)), channels)
+
+
+def _channels(image: np.ndarray) -> int:
+    return 1 if image.ndim == 2 else image.shape[2]
 
 
 def without_cast_shadows(labels: np.ndarray) -> np.ndarray:
@@ -114,7 +128,7 @@ class SilhouetteModel:
         if self._model is None:
             self._model = cv2.createBackgroundSubtractorMOG2(
                 history=self.history_frames,
-                varThreshold=self.threshold,
+                varThreshold=channel_threshold(self.threshold, _channels(gray)),
                 detectShadows=self.shadows,
             )
             self._learned = 0

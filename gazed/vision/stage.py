@@ -228,7 +228,7 @@ class VisionStage:
         if wide is None:
             return movers
         target = (out.u_px, out.v_px) if out.found else None
-        return target_first(movers[0] if movers else None, target, wide)
+        return target_first(None, target, wide)
 
     def _detection(
         self, frame: CapturedFrame, head: HeadPose | None, result: VisionResult
