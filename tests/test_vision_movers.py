@@ -261,10 +261,9 @@ def test_target_first_puts_the_mover_holding_the_target_first() -> None:
         return MoverRegion(u, 50.0, 0.0, 0.0, box, 100.0, 0.5)
 
     a, b = mover(10.0, (0, 30, 20, 40)), mover(60.0, (50, 30, 20, 40))
-    own = mover(200.0, (190, 30, 20, 40))
-    assert target_first(own, (58.0, 40.0), (a, b)) == (b, a)
-    assert target_first(own, (120.0, 40.0), (a, b)) == (own, a, b)  # in no wide box
-    assert target_first(None, None, (a, b)) == (a, b)
+    assert target_first((58.0, 40.0), (a, b)) == (b, a)
+    assert target_first((120.0, 40.0), (a, b)) == (a, b)  # in no wide box: nothing added
+    assert target_first(None, (a, b)) == (a, b)
 
 
 def test_a_digital_heads_movers_come_from_its_wide_camera() -> None:

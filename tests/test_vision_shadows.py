@@ -4,11 +4,20 @@ box is their body's and two walkers joined only by their shadows are two movers.
 from __future__ import annotations
 
 import functools
+import math
 
+import cv2
 import numpy as np
 import pytest
 
-from gazed.vision.silhouettes import SilhouetteModel
+from gazed.config import VisionSection
+from gazed.estimation.chi_square import log_upper_tail
+from gazed.geometry.camera import CameraModel
+from gazed.geometry.kinematics import HeadKinematics
+from gazed.vision.digital_view import DigitalView
+from gazed.vision.frames import CapturedFrame
+from gazed.vision.silhouettes import SilhouetteModel, channel_threshold
+from gazed.vision.wide_movers import WideMovers
 
 ENTER = 12  # frames of the empty scene the model learns first
 WIDTH, HEIGHT = 320, 240
@@ -47,9 +56,13 @@ def scene(
 
 
 def silhouettes(
-    walkers: list[tuple[float, tuple[int, int, int]]], shadows: bool, grey_legs: bool = False
+    walkers: list[tuple[float, tuple[int, int, int]]],
+    shadows: bool,
+    grey_legs: bool = False,
+    grey: bool = False,
 ) -> list[list[tuple[float, float, float, float]]]:
-    """The blobs of the scene's last frame, each as its bodies' full-resolution boxes."""
+    """The blobs of the scene's last frame, each as its bodies' full-resolution boxes; `grey`:
+    the frames given without their colour."""
     model = SilhouetteModel(
         level=1,
         history_frames=200,
@@ -60,12 +73,14 @@ def silhouettes(
     )
     foreground = None
     for n in range(ENTER + 3):
-        foreground = model.segment(scene(n, walkers, grey_legs))
+        frame = scene(n, walkers, grey_legs)
+        foreground = model.segment(cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY) if grey else frame)
     assert foreground is not None
     return [[body.box_at(model.scale) for body in parts] for _, parts in foreground.found]
 
 
 RED, DARK = (40, 40, 200), (25, 25, 25)
+KINEMATICS = HeadKinematics("pan-tilt")
 
 
 @pytest.mark.parametrize("colour", [RED, DARK], ids=["red", "dark"])
@@ -91,6 +106,32 @@ def test_walkers_joined_only_by_their_shadows_are_two() -> None:
 
 
 def test_legs_the_colour_of_a_shadow_stay_with_the_body_above_them() -> None:
-    [[(x, y, w, h)]] = silhouettes([(100.0, RED)], shadows=True, grey_legs=True)
+    [[(x, _, w, h)]] = silhouettes([(100.0, RED)], shadows=True, grey_legs=True)
     assert abs(x - 100) <= 2 and abs(w - BODY[0]) <= 4
     assert abs(h - BODY[1]) <= 4  # the legs too, not only the torso
+
+
+def test_a_grey_frame_keeps_its_shadows() -> None:
+    """Without colour, a shadow and dark clothes are alike: nothing is taken for a shadow."""
+    [[box]] = silhouettes([(100.0, RED)], shadows=True, grey=True)
+    assert box[2] >= BODY[0] + SHADOW_PX - 4
+
+
+def test_a_colour_threshold_has_one_grey_channels_false_alarm_rate() -> None:
+    assert channel_threshold(16.0, 1) == 16.0
+    colour = channel_threshold(16.0, 3)
+    assert colour > 16.0
+    assert math.isclose(log_upper_tail(colour, 3), log_upper_tail(16.0, 1), rel_tol=1e-9)
+
+
+@pytest.mark.parametrize("shadows", [True, False])
+def test_a_digital_heads_wide_movers_follow_the_rigs_shadow_setting(shadows) -> None:
+    wide_camera = CameraModel.from_fov(WIDTH, HEIGHT, math.radians(60))
+    view = DigitalView(wide_camera, CameraModel.from_fov(160, 120, math.radians(30)), KINEMATICS)
+    movers = WideMovers(view, VisionSection(background_shadows=shadows), "centroid")
+    walkers = [(100.0, RED)]
+    for n in range(ENTER + 3):
+        movers.observe(CapturedFrame(scene(n, walkers), "bgr8", n * 100_000_000, n))
+    [mover] = movers._movers[ENTER + 2]
+    width = mover.box[2]
+    assert abs(width - BODY[0]) <= 4 if shadows else width >= BODY[0] + SHADOW_PX - 4

@@ -113,6 +113,12 @@ class VisionSection(Section):
     background_min_area_px: int = Field(
         200, ge=1, description="background: smallest blob reported, in full-resolution pixels."
     )
+    background_shadows: bool = Field(
+        True,
+        description="background, on a colour frame (a digital head's wide camera): cast "
+        "shadows are left out of the silhouettes (MOG2's shadow test; a shadow pixel is kept "
+        "only where it joins a silhouette within its columns). A grey frame keeps them.",
+    )
     background_learning_frames: int = Field(
         10,
         ge=0,

@@ -7,6 +7,19 @@ grouped into blobs of at least `min_area_px` full-resolution pixels, and each bl
 the walkers it holds side by side (`gazed.vision.movers.split_blob`), judged against a
 person's size where they stand when the camera is calibrated (`person`, `PersonSize`).
 
+A colour frame is modelled in colour. MOG2 thresholds the squared Mahalanobis distance summed
+over the channels, so the rig's `threshold` (one grey channel's) becomes the χ² quantile of
+the channels' count at the same false-alarm rate (`channel_threshold`): three channels of
+noise sum higher than one. With `shadows`, MOG2 also labels a pixel that is a darker copy of
+its background, at most twice darker and of the same colour, a shadow (Prati, Mikic, Trivedi &
+Cucchiara, "Detecting moving shadows", IEEE PAMI 25(7), 2003). A walker's cast shadow joins
+them to the ground around them and to the walkers beside them, and widens their box; so the
+foreground is the foreground pixels and only those shadow pixels that join them within the
+columns of a foreground blob (`without_cast_shadows`): grey trousers under a coat, which the
+test takes for a shadow on a grey road, stay with the coat, and a shadow cast sideways, or
+along the ground between two walkers, is left out. A grey frame has no colour to tell a shadow
+from dark clothes, and its shadows are kept.
+
 A walker who stops would be learnt into the background within a few seconds. So the foreground
 is taken against the model as it stands, and the model then learns the frame with the pixels
 under the silhouettes shown as its own background image: the walker stays foreground. A pixel
@@ -60,19 +73,16 @@ def channel_threshold(threshold: float, channels: int) -> float:
     return chi2_quantile(-math.expm1(log_upper_tail(threshold, 1)), channels)
 
 
-def _channels(image: np.ndarray) -> int:
-    return 1 if image.ndim == 2 else image.shape[2]
-
-
 def without_cast_shadows(labels: np.ndarray) -> np.ndarray:
-    """MOG2's labels (foreground, shadow, background) as a foreground mask: the foreground, and
-    the shadow pixels joined to it within the columns of a foreground blob."""
+    """MOG2's labels (foreground, shadow, background) as a foreground mask: the foreground (its
+    speckle opened away), and the shadow pixels joined to it within the columns of one of its
+    blobs (see the module docstring)."""
     core = cv2.morphologyEx(
         np.where(labels == FOREGROUND, FOREGROUND, 0).astype(np.uint8),
         cv2.MORPH_OPEN,
         _OPENING_KERNEL,
     )
-    count, _, stats, _ = cv2.connectedComponentsWithStats(core, connectivity=8)
+    _, _, stats, _ = cv2.connectedComponentsWithStats(core, connectivity=8)
     columns = np.zeros(labels.shape[1], bool)
     for x, w in stats[1:, [cv2.CC_STAT_LEFT, cv2.CC_STAT_WIDTH]]:
         columns[x : x + w] = True
@@ -97,7 +107,7 @@ class SilhouetteModel:
         shadows: bool = False,
     ) -> None:
         self.level = level
-        self.shadows = shadows
+        self.shadows = shadows  # leave cast shadows out of a colour frame's silhouettes
         self.scale = 1 << level
         self.history_frames = history_frames
         self.threshold = threshold
@@ -106,6 +116,7 @@ class SilhouetteModel:
         self.person = person
         self.resets = 0
         self._model: cv2.BackgroundSubtractorMOG2 | None = None
+        self._shadow_test = False  # the model labels shadows (`shadows`, on a colour frame)
         self._learned = 0
         self._held: np.ndarray | None = None  # frames in a row each pixel has been held out
         self._tracks = RegionTracks(VELOCITY_POINTS)
@@ -123,17 +134,20 @@ class SilhouetteModel:
         """Nothing in view: no mover's track continues."""
         self._tracks.reset()
 
-    def segment(self, gray: np.ndarray) -> Foreground | None:
-        """The frame's silhouettes, or None while the model is still learning the scene."""
+    def segment(self, image: np.ndarray) -> Foreground | None:
+        """The silhouettes of a frame, grey (H, W) or colour (H, W, 3), or None while the model
+        is still learning the scene."""
         if self._model is None:
+            channels = 1 if image.ndim == 2 else image.shape[2]
+            self._shadow_test = self.shadows and channels == 3
             self._model = cv2.createBackgroundSubtractorMOG2(
                 history=self.history_frames,
-                varThreshold=channel_threshold(self.threshold, _channels(gray)),
-                detectShadows=self.shadows,
+                varThreshold=channel_threshold(self.threshold, channels),
+                detectShadows=self._shadow_test,
             )
             self._learned = 0
             self.resets += 1
-        small = gray
+        small = image
         for _ in range(self.level):
             small = cv2.pyrDown(small)
         self._learned += 1
@@ -145,7 +159,7 @@ class SilhouetteModel:
         # the held pixels (under this frame's silhouettes) shown as the background it has
         rate = 1.0 / min(2 * self._learned, self.history_frames)
         mask = self._model.apply(small, learningRate=0.0)
-        if self.shadows:
+        if self._shadow_test:
             mask = without_cast_shadows(mask)
         opened = cv2.morphologyEx(mask, cv2.MORPH_OPEN, _OPENING_KERNEL)
         mask = cv2.morphologyEx(opened, cv2.MORPH_CLOSE, _CLOSING_KERNEL)

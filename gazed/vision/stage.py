@@ -220,7 +220,8 @@ class VisionStage:
     def _movers(
         self, frame: CapturedFrame, head: HeadPose | None, out: DetectorOutput
     ) -> tuple[MoverRegion, ...]:
-        """The detector's movers, or a digital head's wide movers with the target's first."""
+        """The detector's movers, or a digital head's wide movers with the target's first (the
+        detector's own are not added to those: `gazed.vision.wide_movers`)."""
         movers = out.movers if out.found else ()
         if self.wide_movers is None or head is None:
             return movers
@@ -228,7 +229,7 @@ class VisionStage:
         if wide is None:
             return movers
         target = (out.u_px, out.v_px) if out.found else None
-        return target_first(None, target, wide)
+        return target_first(target, wide)
 
     def _detection(
         self, frame: CapturedFrame, head: HeadPose | None, result: VisionResult

@@ -3,8 +3,9 @@
 A digital head's view moves, but the wide camera it is rendered from does not: background
 subtraction holds there for good (it never relearns when the head turns), and it sees every
 walker in the wide view, not only those in the view's fovea. So each wide frame is segmented as
-it arrives (`SilhouetteModel`, with the rig's `[vision] background_*` settings), each mover's
-appearance taken from the wide frame's colour over its box; when the view rendered from that
+it arrives (`SilhouetteModel`, with the rig's `[vision] background_*` settings, in colour where
+the frame has it, so that cast shadows are told from walkers), each mover's appearance taken
+from the wide frame's colour over its box; when the view rendered from that
 frame is processed, the movers are mapped into the view at the pose it was rendered at. A wide
 pixel is undistorted to the wide camera's ideal pixel and taken through the inverse of the
 view's homography (`DigitalView.homography`); a box becomes its corners' box, a velocity goes
@@ -13,7 +14,11 @@ independent of the head). Movers behind the view are left out; the others may li
 view's pixels, where the head would see them if it turned.
 
 The detection's own target comes first: the wide mover whose box holds the target's pixel
-(nearest first), or else the detector's own mover.
+(nearest first). The view detector's own movers are not added: the wide camera's segmentation
+reports every walker it sees, and a target of the view's detector that lies in no wide mover is
+the moving view's residue, or a shadow the wide model left out; as a mover beside the wide ones
+it would be a second, differently placed point of a walker they already report, and start a
+second track on them.
 """
 
 from __future__ import annotations
@@ -59,7 +64,7 @@ class WideMovers:
             min_area_px=vision.background_min_area_px,
             learning_frames=vision.background_learning_frames,
             person=person,
-            shadows=True,
+            shadows=vision.background_shadows,
         )
         self.frames = 0
         self._last_t_ns: int | None = None
@@ -68,18 +73,16 @@ class WideMovers:
     def observe(self, frame: CapturedFrame) -> None:
         """Segment one wide frame (one that cannot be used is skipped: the view's own intake
         counts it)."""
-        wide = self.view.wide
         try:
-            gray = gray_frame(frame, wide.width_px, wide.height_px)
+            image = self.image(frame)
         except FrameError:
             return
         dt_s = 0.0 if self._last_t_ns is None else (frame.t_capture_ns - self._last_t_ns) * 1e-9
         self._last_t_ns = frame.t_capture_ns
-        colour = frame.pixels if frame.encoding != "gray8" else gray
-        foreground = self.silhouettes.segment(colour)
+        foreground = self.silhouettes.segment(image)
         movers: tuple[MoverRegion, ...] = ()
         if foreground is not None:
-            still = HeadStep(np.eye(3), np.zeros(3), dt_s, wide.K)  # the wide camera never turns
+            still = HeadStep(np.eye(3), np.zeros(3), dt_s, self.view.wide.K)  # it never turns
             found = self.silhouettes.movers(
                 foreground, self.point, still, frame.t_capture_ns * 1e-9
             )
@@ -88,6 +91,13 @@ class WideMovers:
         self._movers[frame.seq] = movers
         while len(self._movers) > KEPT_FRAMES:
             self._movers.popitem(last=False)
+
+    def image(self, frame: CapturedFrame) -> np.ndarray:
+        """What a wide frame's silhouettes are segmented in: its colour pixels, or grey where it
+        has no colour (FrameError where it cannot be used)."""
+        wide = self.view.wide
+        gray = gray_frame(frame, wide.width_px, wide.height_px)
+        return gray if frame.encoding == "gray8" else frame.pixels
 
     def in_view(self, seq: int, pose: HeadPose) -> tuple[MoverRegion, ...] | None:
         """The movers of wide frame `seq` in the view's pixels at `pose`; None where that frame
@@ -155,10 +165,10 @@ class WideMovers:
 
 
 def target_first(
-    own: MoverRegion | None, target_px: tuple[float, float] | None, wide: tuple[MoverRegion, ...]
+    target_px: tuple[float, float] | None, wide: tuple[MoverRegion, ...]
 ) -> tuple[MoverRegion, ...]:
     """The wide movers with the target's own first: the one whose box holds the target's pixel
-    (the nearest such), or else the detector's own mover `own`. No target: the wide movers."""
+    (the nearest such). No target, or none holding it: the wide movers as they are."""
     if target_px is None:
         return wide
     u, v = target_px
@@ -167,10 +177,10 @@ def target_first(
         for i, m in enumerate(wide)
         if m.box[0] <= u <= m.box[0] + m.box[2] and m.box[1] <= v <= m.box[1] + m.box[3]
     ]
-    if holding:
-        first = min(holding, key=lambda i: np.hypot(wide[i].u_px - u, wide[i].v_px - v))
-        return (wide[first], *wide[:first], *wide[first + 1 :])
-    return wide if own is None else (own, *wide)
+    if not holding:
+        return wide
+    first = min(holding, key=lambda i: np.hypot(wide[i].u_px - u, wide[i].v_px - v))
+    return (wide[first], *wide[:first], *wide[first + 1 :])
 
 
 class _Tap(FrameSource):

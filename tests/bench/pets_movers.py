@@ -41,7 +41,7 @@ from gazed.config import load_rig  # noqa: E402
 from gazed.eval.person_score import people_at  # noqa: E402
 from gazed.eval.truth import read_truth  # noqa: E402
 from gazed.vision.digital_camera import rig_view  # noqa: E402
-from gazed.vision.frames import CapturedFrame, gray_frame  # noqa: E402
+from gazed.vision.frames import CapturedFrame  # noqa: E402
 from gazed.vision.person_size import PersonSize  # noqa: E402
 from gazed.vision.wide_movers import WideMovers  # noqa: E402
 
@@ -78,7 +78,8 @@ def main() -> None:
     rig = load_rig(RIG)
     view = rig_view(rig, zoom=False)
     person = PersonSize.from_rig(rig, view.wide)
-    silhouettes = WideMovers(view, rig.vision, "centroid", person).silhouettes
+    wide_movers = WideMovers(view, rig.vision, "centroid", person)
+    silhouettes = wide_movers.silhouettes
     people = read_truth(TRUTH)
     capture = cv2.VideoCapture(str(rig.wide_source))
     capture.set(cv2.CAP_PROP_POS_FRAMES, first)
@@ -89,9 +90,7 @@ def main() -> None:
         ok, pixels = capture.read()
         if not ok:
             break
-        wide = view.wide
-        gray = gray_frame(CapturedFrame(pixels, "bgr8", 0, frame), wide.width_px, wide.height_px)
-        foreground = silhouettes.segment(pixels)
+        foreground = silhouettes.segment(wide_movers.image(CapturedFrame(pixels, "bgr8", 0, frame)))
         if foreground is None:
             continue
         found = [(b, body) for b, (_, parts) in enumerate(foreground.found) for body in parts]
