@@ -5,13 +5,13 @@ subtraction holds there for good (it never relearns when the head turns), and it
 walker in the wide view, not only those in the view's fovea. So each wide frame is segmented as
 it arrives (`SilhouetteModel`, with the rig's `[vision] background_*` settings, in colour where
 the frame has it, so that cast shadows are told from walkers), each mover's appearance taken
-from the wide frame's colour over its box; when the view rendered from that
-frame is processed, the movers are mapped into the view at the pose it was rendered at. A wide
-pixel is undistorted to the wide camera's ideal pixel and taken through the inverse of the
-view's homography (`DigitalView.homography`); a box becomes its corners' box, a velocity goes
-through the map's local Jacobian (the wide camera is still, so a wide velocity is already
-independent of the head). Movers behind the view are left out; the others may lie outside the
-view's pixels, where the head would see them if it turned.
+from the wide frame's colour over its box; when the view rendered from that frame is processed,
+the movers are mapped into the view at the pose it was rendered at. A wide pixel is undistorted
+to the wide camera's ideal pixel and taken through the inverse of the view's homography
+(`DigitalView.homography`); a box becomes its corners' box, a velocity goes through the map's
+local Jacobian (the wide camera is still, so a wide velocity is already independent of the
+head). Movers behind the view are left out; the others may lie outside the view's pixels, where
+the head would see them if it turned.
 
 The detection's own target comes first: the wide mover whose box holds the target's pixel
 (nearest first). The view detector's own movers are not added: the wide camera's segmentation
