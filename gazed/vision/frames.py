@@ -45,6 +45,15 @@ class CapturedFrame:
 
 def gray_frame(frame: CapturedFrame, width_px: int, height_px: int) -> np.ndarray:
     """The frame as uint8 grey (height, width), or FrameError saying why not."""
+    pixels = checked_pixels(frame, width_px, height_px)
+    if frame.encoding == "gray8":
+        return np.ascontiguousarray(pixels.reshape(height_px, width_px))
+    return cv2.cvtColor(pixels, _TO_GRAY[frame.encoding])
+
+
+def checked_pixels(frame: CapturedFrame, width_px: int, height_px: int) -> np.ndarray:
+    """The frame's pixels as they are, once they are uint8 of the rig's size with the channels
+    its encoding says, or FrameError saying why not."""
     pixels = frame.pixels
     if pixels is None or pixels.size == 0:
         raise FrameError("empty", f"frame {frame.seq} is empty")
@@ -59,14 +68,14 @@ def gray_frame(frame: CapturedFrame, width_px: int, height_px: int) -> np.ndarra
     if frame.encoding == "gray8":
         if channels != 1:
             raise FrameError("channels", f"gray8 frame {frame.seq} has {channels} channels")
-        return np.ascontiguousarray(pixels.reshape(height_px, width_px))
+        return pixels
     if frame.encoding not in _TO_GRAY:
         raise FrameError("encoding", f"frame {frame.seq}: unknown encoding {frame.encoding!r}")
     if channels != 3:
         raise FrameError(
             "channels", f"{frame.encoding} frame {frame.seq} has {channels} channels, expected 3"
         )
-    return cv2.cvtColor(pixels, _TO_GRAY[frame.encoding])
+    return pixels
 
 
 class FrameIntake:

@@ -34,7 +34,7 @@ from gazed.messages import HeadPose
 from gazed.vision.appearance import colour_histogram
 from gazed.vision.digital_view import DigitalView
 from gazed.vision.ego_motion import HeadStep
-from gazed.vision.frames import CapturedFrame, FrameError, gray_frame
+from gazed.vision.frames import CapturedFrame, FrameError, checked_pixels, gray_frame
 from gazed.vision.movers import MoverRegion
 from gazed.vision.person_size import PersonSize
 from gazed.vision.silhouettes import PointKind, SilhouetteModel
@@ -96,8 +96,9 @@ class WideMovers:
         """What a wide frame's silhouettes are segmented in: its colour pixels, or grey where it
         has no colour (FrameError where it cannot be used)."""
         wide = self.view.wide
-        gray = gray_frame(frame, wide.width_px, wide.height_px)
-        return gray if frame.encoding == "gray8" else frame.pixels
+        if frame.encoding == "gray8":
+            return gray_frame(frame, wide.width_px, wide.height_px)
+        return checked_pixels(frame, wide.width_px, wide.height_px)  # not converted to grey
 
     def in_view(self, seq: int, pose: HeadPose) -> tuple[MoverRegion, ...] | None:
         """The movers of wide frame `seq` in the view's pixels at `pose`; None where that frame
