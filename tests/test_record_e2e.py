@@ -21,7 +21,7 @@ from gazed.record.mcap_reader import read_recording
 
 pytestmark = pytest.mark.e2e
 
-RECORD_S = 15.0
+RECORD_S = 8.0
 FRAMES = "sim/frame"
 
 
