@@ -43,6 +43,7 @@ import numpy as np
 
 from gazed.estimation.chi_square import chi2_quantile, log_upper_tail
 from gazed.vision.ego_motion import HeadStep
+from gazed.vision.ghosts import ghost_mask
 from gazed.vision.movers import Blob, MoverRegion, blobs
 from gazed.vision.person_size import PersonSize
 from gazed.vision.region_tracks import RegionTracks
@@ -105,8 +106,10 @@ class SilhouetteModel:
         learning_frames: int,
         person: PersonSize | None = None,
         shadows: bool = False,
+        ghosts: bool = True,
     ) -> None:
         self.level = level
+        self.ghosts = ghosts  # leave ghosts (`gazed.vision.ghosts`) out, and learn them
         self.shadows = shadows  # leave cast shadows out of a colour frame's silhouettes
         self.scale = 1 << level
         self.history_frames = history_frames
@@ -115,6 +118,7 @@ class SilhouetteModel:
         self.learning_frames = learning_frames
         self.person = person
         self.resets = 0
+        self.ghost_px = 0  # model pixels left out as ghosts
         self._model: cv2.BackgroundSubtractorMOG2 | None = None
         self._shadow_test = False  # the model labels shadows (`shadows`, on a colour frame)
         self._learned = 0
@@ -163,7 +167,14 @@ class SilhouetteModel:
             mask = without_cast_shadows(mask)
         opened = cv2.morphologyEx(mask, cv2.MORPH_OPEN, _OPENING_KERNEL)
         mask = cv2.morphologyEx(opened, cv2.MORPH_CLOSE, _CLOSING_KERNEL)
-        self._model.apply(self._held_out(small, mask), learningRate=rate)
+        background = self._model.getBackgroundImage() if mask.any() else None
+        if background is not None and self.ghosts:
+            ghost = ghost_mask(mask, small, background)
+            if ghost.any():
+                self.ghost_px += int(np.count_nonzero(ghost))
+                mask[ghost] = 0
+                opened[ghost] = 0
+        self._model.apply(self._held_out(small, mask, background), learningRate=rate)
         area_scale = self.scale * self.scale
         found = blobs(
             mask,
@@ -180,7 +191,9 @@ class SilhouetteModel:
         size = self.person.at((blob.x + blob.width / 2.0) * scale, (blob.y + blob.height) * scale)
         return None if size is None else size[0] / scale
 
-    def _held_out(self, small: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    def _held_out(
+        self, small: np.ndarray, mask: np.ndarray, background: np.ndarray | None
+    ) -> np.ndarray:
         """The frame to learn: under the silhouettes (grown by the closing's reach) the model's
         own background, for at most `history_frames` frames in a row per pixel; then the pixel
         is learnt as it is, as the model would learn anything that stays for its memory."""
@@ -193,7 +206,7 @@ class SilhouetteModel:
         if not hold.any():
             return small
         learnt = small.copy()
-        learnt[hold] = self._model.getBackgroundImage()[hold]
+        learnt[hold] = background[hold]
         return learnt
 
     def point(self, blob: Blob, kind: PointKind) -> tuple[float, float]:
