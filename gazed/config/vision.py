@@ -119,6 +119,13 @@ class VisionSection(Section):
         "shadows are left out of the silhouettes (MOG2's shadow test; a shadow pixel is kept "
         "only where it joins a silhouette within its columns). A grey frame keeps them.",
     )
+    background_ghosts: bool = Field(
+        True,
+        description="background: a blob whose outline is an edge of the model's background "
+        "image rather than of the frame (a ghost: where someone stood while the model learnt the "
+        "scene, now bare ground) is left out of the silhouettes and learnt as the scene rather "
+        "than held out as a stopped walker is.",
+    )
     background_learning_frames: int = Field(
         10,
         ge=0,

@@ -41,6 +41,7 @@ class BackgroundDetector:
         min_area_px: int,
         learning_frames: int,
         still_px: float,
+        ghosts: bool = True,
     ) -> None:
         self.level = level
         self.min_area_px = min_area_px
@@ -51,6 +52,7 @@ class BackgroundDetector:
             threshold=threshold,
             min_area_px=min_area_px,
             learning_frames=learning_frames,
+            ghosts=ghosts,
         )
         self._drift = np.eye(3)  # the head's rotation since the model was started
         self._history = PositionHistory(VELOCITY_POINTS)

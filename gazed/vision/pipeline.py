@@ -68,6 +68,7 @@ def make_detector(
             min_area_px=vision.background_min_area_px,
             learning_frames=vision.background_learning_frames,
             still_px=vision.background_still_px,
+            ghosts=vision.background_ghosts,
         )
     raise ValueError(f"unknown detector {name!r} (expected flow, pyramid or background)")
 

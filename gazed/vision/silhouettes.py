@@ -24,8 +24,10 @@ A walker who stops would be learnt into the background within a few seconds. So 
 is taken against the model as it stands, and the model then learns the frame with the pixels
 under the silhouettes shown as its own background image: the walker stays foreground. A pixel
 is held out for at most `history_frames` frames in a row, the model's own memory, and then
-learnt as it is, as the model would learn anything that stays that long (so a ghost, where a
-walker stood when the model started, fades too).
+learnt as it is, as the model would learn anything that stays that long. A ghost (the ground
+where someone stood while the model learnt the scene, `gazed.vision.ghosts`) is not a walker:
+with `ghosts` it is left out of the silhouettes and not held out, so the model learns the
+ground it shows at its usual rate.
 
 Each walker is a mover: its point (the ground contact point at the bottom of its silhouette, or
 its centroid), box and area in full-resolution pixels, its confidence the share of the frame's

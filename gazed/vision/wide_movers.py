@@ -65,6 +65,7 @@ class WideMovers:
             learning_frames=vision.background_learning_frames,
             person=person,
             shadows=vision.background_shadows,
+            ghosts=vision.background_ghosts,
         )
         self.frames = 0
         self._last_t_ns: int | None = None
