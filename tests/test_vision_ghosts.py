@@ -3,16 +3,15 @@ they leave is not a walker; a walker who stops still is."""
 
 from __future__ import annotations
 
-import functools
 import math
 
 import cv2
 import numpy as np
 import pytest
+from test_vision_shadows import BODY, HEIGHT, KINEMATICS, RED, WIDTH, ground
 
 from gazed.config import VisionSection
 from gazed.geometry.camera import CameraModel
-from gazed.geometry.kinematics import HeadKinematics
 from gazed.vision.digital_view import DigitalView
 from gazed.vision.ghosts import edge_energy
 from gazed.vision.pipeline import make_detector
@@ -20,18 +19,7 @@ from gazed.vision.silhouettes import SilhouetteModel
 from gazed.vision.wide_movers import WideMovers
 
 LEARNING = 10  # frames the model learns before it reports
-WIDTH, HEIGHT = 320, 240
-BODY = (14, 40)  # a walker's width and height, pixels
 FEET = 180  # the row their feet stand on
-RED = (40, 40, 200)
-KINEMATICS = HeadKinematics("pan-tilt")
-
-
-@functools.cache
-def ground() -> np.ndarray:
-    """A textured, coloured ground (BGR, float)."""
-    rng = np.random.default_rng(5)
-    return np.array([90.0, 120.0, 150.0]) * rng.uniform(0.8, 1.2, (HEIGHT, WIDTH, 1))
 
 
 def frame(n: int, left_px: float | None, grey: bool = False) -> np.ndarray:

@@ -45,9 +45,6 @@ def ghost_mask(mask: np.ndarray, frame: np.ndarray, background: np.ndarray) -> n
     """The pixels of `mask`'s 8-connected blobs (uint8, nonzero: foreground) whose outline has
     more edge energy in the model's `background` image than in `frame` (both the mask's size,
     grey or colour alike), as a bool mask."""
-    ghost = np.zeros(mask.shape, bool)
-    if not mask.any():
-        return ghost
     fg = (mask > 0).astype(np.uint8)
     count, labels = cv2.connectedComponents(fg, connectivity=8)
     rows, cols = np.nonzero(fg & (cv2.erode(fg, _OUTLINE_KERNEL) == 0))
