@@ -10,6 +10,7 @@ import pytest
 from filterpy.common import Q_continuous_white_noise
 from filterpy.kalman import KalmanFilter
 
+from gazed.estimation.appearance_model import TrackAppearance, fits
 from gazed.estimation.association import (
     associate,
     gate_threshold,
@@ -75,13 +76,14 @@ def run(paths, seed: int, appearance: bool) -> list[list[int]]:
     people = len(paths)
     colours = rng.dirichlet(np.ones(16) * 0.5, people)  # each person's own histogram
     seen = lambda i: rng.dirichlet(colours[i] * 200 + 0.1)  # noqa: E731  one frame's histogram
-    # each track's spread of its own person's appearance, as the tracker measures it
-    spread = np.array(
-        [
-            np.mean([hellinger_squared(colours[i : i + 1], seen(i)[None])[0, 0] for _ in range(20)])
-            for i in range(people)
-        ]
-    )
+    # each track's appearance model, as the tracker learns it from 20 of its person's detections
+    learnt = []
+    for i in range(people):
+        look = TrackAppearance(seen(i))
+        for _ in range(19):
+            look.take(seen(i))
+        learnt.append(look)
+    templates, means, shapes = fits(learnt, colours.shape[1])
     z = [p + rng.normal(0, NOISE_M, p.shape) for p in paths]
     tracks = [track_for(z[i][0], z[i][1]) for i in range(people)]
     owners: list[list[int]] = [[] for _ in range(people)]
@@ -98,7 +100,7 @@ def run(paths, seed: int, appearance: bool) -> list[list[int]]:
             S,
             measured,
             GATE,
-            *((colours, looks, spread) if appearance else ()),
+            *((templates, looks, means, shapes) if appearance else ()),
         )
         result = associate(costs)
         for row, column in result.pairs:
@@ -156,7 +158,14 @@ def test_appearance_decides_where_positions_are_ambiguous() -> None:
     measured = np.array([[0.0, 0.02], [0.0, -0.02]])  # nearly on top of each other
     colours = np.array([red, blue])
     costs = pair_costs(
-        predicted, S, measured, gate_threshold(0.99, 2), colours, colours[::-1], np.full(2, 0.02)
+        predicted,
+        S,
+        measured,
+        gate_threshold(0.99, 2),
+        colours,
+        colours[::-1],
+        np.full(2, 0.02),
+        np.ones(2),
     )
     assert sorted(associate(costs).pairs) == [(0, 1), (1, 0)]
 

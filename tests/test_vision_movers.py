@@ -30,7 +30,7 @@ from gazed.geometry.camera import CameraModel
 from gazed.geometry.kinematics import HeadKinematics
 from gazed.messages import Detection, HeadPose
 from gazed.vision.annotate import MAGENTA, annotate
-from gazed.vision.appearance import GREY_BINS
+from gazed.vision.appearance import BINS
 from gazed.vision.detector import DetectorOutput
 from gazed.vision.digital_view import DigitalView
 from gazed.vision.frames import CapturedFrame
@@ -179,7 +179,7 @@ def test_differently_coloured_walkers_look_different(street_run) -> None:
     (late, late_feet), (early, early_feet) = street_run[-1], street_run[-4]
     looks = [np.array(nearest(late.movers, u, v).appearance) for u, v in late_feet]
     before = [np.array(nearest(early.movers, u, v).appearance) for u, v in early_feet]
-    assert all(len(a) == GREY_BINS for a in looks + before)
+    assert all(len(a) == BINS for a in looks + before)
     for i, a in enumerate(looks):
         assert np.abs(a - before[i]).sum() < 0.3  # the same walker a few frames apart
         for j in range(i + 1, len(looks)):
@@ -228,7 +228,7 @@ def test_the_targets_own_mover_comes_first(detector: str) -> None:
         )
         x, y, w, h = own.box
         assert x - 2 <= out.u_px <= x + w + 2 and y - 2 <= out.v_px <= y + h + 2
-        assert len(own.appearance) == GREY_BINS
+        assert len(own.appearance) == BINS
     assert found >= 10
 
 
@@ -251,7 +251,7 @@ def test_the_stage_puts_the_movers_on_the_detection(tmp_path: Path) -> None:
         own = detection.movers[0]
         assert (own.u_px, own.v_px) == (detection.u_px, detection.v_px)
         assert own.box_width_px > 0 and own.box_height_px > 0 and own.area_px > 0
-        assert len(own.appearance) == GREY_BINS
+        assert len(own.appearance) == BINS
         assert Detection.model_validate_json(detection.to_json()).movers == detection.movers
     assert found >= 6
 
@@ -293,7 +293,7 @@ def test_a_digital_heads_movers_come_from_its_wide_camera() -> None:
         seen.append((xs.mean(), ys.mean()))
     for mover, (u, v) in zip(mapped, seen, strict=True):
         assert math.hypot(mover.u_px - u, mover.v_px - v) <= 1.5
-        assert len(mover.appearance) == GREY_BINS
+        assert len(mover.appearance) == BINS
     view_du = (seen[-1][0] - seen[0][0]) * RATE_HZ / (len(seen) - 1)
     assert mapped[-1].du_px_s == pytest.approx(view_du, rel=0.15)
     assert movers.in_view(10**6, pose) is None  # a frame never segmented
@@ -387,7 +387,7 @@ def test_the_pets_rigs_detections_carry_the_walkers_of_its_wide_camera(shared_da
         assert detection is not None
         if n in RIG_SCORED:
             described = [m for m in detection.movers if m.appearance]
-            assert all(len(m.appearance) == GREY_BINS for m in described)
+            assert all(len(m.appearance) == BINS for m in described)
             coloured += len(described)
             counts.append(len(detection.movers) / people[n])
     capture.release()

@@ -11,12 +11,13 @@ it is a little nearer to it.
 
 The cost of a pair is its negative log-likelihood, doubled and without constants:
 `d² + ln det S` for the position (a track whose prediction is uncertain does not win merely by
-its wide gate), plus `h² / σ²` where both carry an appearance descriptor: `h² = 1 - BC` is the
+its wide gate), plus, where both carry an appearance descriptor, that of `h² = 1 - BC`, the
 squared Hellinger distance between their normalised colour histograms (BC, the Bhattacharyya
-coefficient, is 1 for the same colours), and `σ²` the track's own spread of it, measured over
-the detections it has taken — so a person whose colours vary from frame to frame (changing
-light, a turning body) is compared more loosely than one whose colours hold. Where positions are
-ambiguous the appearance decides; where they are not it barely matters.
+coefficient, is 1 for the same colours), under the distribution of it the track has measured
+over the detections it has taken (`appearance_model`) — so a person whose colours vary from
+frame to frame (changing light, a turning body) is compared more loosely than one whose colours
+hold. Where positions are ambiguous the appearance decides; the gate is on the positions alone
+(a person's colours change where a blob merges or a part of them is hidden).
 
 Two tracks are of one target (`same_target`) when the difference of their positions and
 velocities lies inside the χ² gate of that dimension against the sum of their covariances
@@ -51,6 +52,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from gazed.estimation.appearance_model import appearance_costs
 from gazed.estimation.chi_square import chi2_quantile
 from gazed.estimation.measurement import Measurement
 from gazed.estimation.results import PredictedState
@@ -89,14 +91,15 @@ def pair_costs(
     gate_d2: float,
     track_appearance: np.ndarray | None = None,
     detection_appearance: np.ndarray | None = None,
-    appearance_variance: np.ndarray | None = None,
+    appearance_mean: np.ndarray | None = None,
+    appearance_shape: np.ndarray | None = None,
 ) -> np.ndarray:
-    """(T, D) costs: `d² + ln det S (+ h² / σ²)`, inf where `d²` is outside the gate.
+    """(T, D) costs: `d² + ln det S (- 2 ln p(h²))`, inf where `d²` is outside the gate.
 
     predicted (T, m), measured (D, m); S (T, m, m) per track, or (T, D, m, m) per pair where
     each detection carries its own measurement noise (S = H P Hᵀ + R_d); appearances (T, B)
     and (D, B), rows summing to 1 (a row of NaN for a track or detection without one), and each
-    track's σ² (T,); all three or none."""
+    track's mean h² and shape (T,) (`appearance_model`); all four or none."""
     T, D = len(predicted), len(measured)
     if T == 0 or D == 0:
         return np.full((T, D), np.inf)
@@ -113,9 +116,9 @@ def pair_costs(
         log_det = np.linalg.slogdet(S_pairs)[1]
     costs = d2 + log_det
     if track_appearance is not None and detection_appearance is not None:
-        assert appearance_variance is not None, "an appearance needs each track's spread"
+        assert appearance_mean is not None and appearance_shape is not None, "and their fits"
         h2 = hellinger_squared(track_appearance, detection_appearance)
-        costs = costs + np.nan_to_num(h2 / appearance_variance[:, None], nan=0.0)
+        costs = costs + np.nan_to_num(appearance_costs(h2, appearance_mean, appearance_shape))
     return np.where(d2 <= gate_d2, costs, np.inf)
 
 
@@ -196,11 +199,12 @@ def find_blobs(
                 mean, S = group_prediction(predicted[rows], P[rows], z.position_cov)
                 looks = ()
                 if appearance:
-                    templates, seen, spreads = appearance
+                    templates, seen, means, shapes = appearance
                     looks = (
                         templates[rows].mean(axis=0)[None],
                         seen[column][None],
-                        spreads[rows].mean()[None],
+                        means[rows].mean()[None],
+                        shapes[rows].mean()[None],
                     )
                 cost = float(
                     pair_costs(mean[None], S[None], z.position[None], gate_d2, *looks)[0, 0]

@@ -122,10 +122,9 @@ class Merging:
         lost.estimator, lost.coasting = found.estimator, False
         lost.hits += found.hits
         lost.last_hit_s, lost.confirmed = found.last_hit_s, True
-        lost.box_height_px, lost.appearance, lost.spread, lost.takes = (
+        lost.box_height_px, lost.appearance, lost.takes = (
             found.box_height_px,
             found.appearance,
-            found.spread,
             found.takes,
         )
         return found.id

@@ -18,7 +18,8 @@ Every frame (one detection message, with any number of movers):
    both tracks take the blob as a measurement of each (the centroid less the other's
    prediction, its noise widened accordingly), keep their ids and are not ended while the blob
    holds them; the blob does not change their appearance templates;
-4. a track that takes a mover is updated, its appearance template and spread follow it; a track
+4. a track that takes a mover is updated, and its appearance model learns the mover's
+   histogram (`appearance_model`); a track
    left without one coasts (predict-only) and ends once it has coasted past `coast_max_ms`;
 5. a mover left without a track starts a new, tentative track, from its velocity where that
    differs from zero (`Measurement.moving`), else from two points. A tentative track is confirmed
@@ -59,6 +60,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from gazed.config import EstimatorSection
+from gazed.estimation.appearance_model import TrackAppearance, fits
 from gazed.estimation.association import (
     associate,
     find_blobs,
@@ -75,9 +77,6 @@ from gazed.estimation.sighting import Sighting
 from gazed.estimation.silhouette_reach import ToPixel, held
 
 MAX_TRACKS = 256  # an EstimatorState carries at most this many
-APPEARANCE_SMOOTHING = 0.1  # weight of each new histogram in a track's template and its spread
-INITIAL_SPREAD = 0.05  # a new track's appearance spread (h²), until its detections measure it
-SPREAD_FLOOR = 0.01  # a spread never below this: one colour change is not a different person
 # a first velocity that does not differ from zero at this level gives a track no heading
 MOVING_PROBABILITY = 0.95
 TAKEN = (Outcome.ACCEPTED, Outcome.INITIALISED, Outcome.PENDING, Outcome.REINITIALISED)
@@ -96,23 +95,18 @@ class PersonTrack:
     confirmed: bool = False
     coasting: bool = False
     box_height_px: float = 0.0
-    appearance: np.ndarray | None = None
-    spread: float = INITIAL_SPREAD
+    appearance: TrackAppearance | None = None
     takes: Takes = field(default_factory=Takes)  # its latest movers (`duplicates`)
 
-    def take_appearance(self, appearance: np.ndarray | None) -> None:
-        """Move the template toward a detection's histogram, and the spread toward the squared
-        Hellinger distance between them."""
-        if appearance is None:
+    def take_appearance(self, histogram: np.ndarray | None) -> None:
+        """Learn a mover's histogram (`appearance_model`); the first, or one of another length,
+        starts the template afresh."""
+        if histogram is None:
             return
-        if self.appearance is None or self.appearance.shape != appearance.shape:
-            self.appearance = appearance
+        if self.appearance is None or len(self.appearance.template) != len(histogram):
+            self.appearance = TrackAppearance(histogram)
             return
-        h2 = max(0.0, 1.0 - float(np.sqrt(self.appearance * appearance).sum()))
-        a = APPEARANCE_SMOOTHING
-        self.spread = max(SPREAD_FLOOR, (1 - a) * self.spread + a * h2)
-        template = (1 - a) * self.appearance + a * appearance
-        self.appearance = template / template.sum()
+        self.appearance.take(histogram)
 
 
 @dataclass
@@ -270,26 +264,22 @@ class TrackSet(Merging):
         return members, {blob.column for blob in blobs}
 
     def _appearances(self, sightings: list[Sighting]) -> tuple[np.ndarray, ...]:
-        """(track templates, sighting histograms, track spreads) where both sides have some of
-        one length, NaN rows for those without; () otherwise."""
+        """(track templates, sighting histograms, track means, track shapes) where both sides
+        have some of one length, NaN rows for those without (`appearance_model.fits`); ()
+        otherwise."""
         bins = {len(s.appearance) for s in sightings if s.appearance is not None}
-        bins |= {len(t.appearance) for t in self.tracks if t.appearance is not None}
+        bins |= {len(t.appearance.template) for t in self.tracks if t.appearance is not None}
         if len(bins) != 1:
             return ()
         (b,) = bins
-
-        def rows(histograms: list[np.ndarray | None]) -> np.ndarray:
-            out = np.full((len(histograms), b), math.nan)
-            for k, h in enumerate(histograms):
-                if h is not None:
-                    out[k] = h
-            return out
-
-        templates = rows([t.appearance for t in self.tracks])
-        seen = rows([s.appearance for s in sightings])
+        templates, means, shapes = fits([t.appearance for t in self.tracks], b)
+        seen = np.full((len(sightings), b), math.nan)
+        for k, s in enumerate(sightings):
+            if s.appearance is not None:
+                seen[k] = s.appearance
         if np.isnan(templates).all() or np.isnan(seen).all():
             return ()
-        return templates, seen, np.array([t.spread for t in self.tracks])
+        return templates, seen, means, shapes
 
     def _take(self, track: PersonTrack, sighting: Sighting, t_s: float) -> None:
         # a velocity is gated against the track's own (none while it waits for a second point)
@@ -322,8 +312,8 @@ class TrackSet(Merging):
             t_s,
             t_s,
             box_height_px=sighting.box_height_px,
-            appearance=sighting.appearance,
         )
+        track.take_appearance(sighting.appearance)
         track.confirmed = self.section.confirm_hits <= 1
         track.takes.add(sighting.measurement, sighting.tail_or_core)
         self.next_id += 1
