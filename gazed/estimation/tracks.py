@@ -19,8 +19,8 @@ Every frame (one detection message, with any number of movers):
    prediction, its noise widened accordingly), keep their ids and are not ended while the blob
    holds them; the blob does not change their appearance templates;
 4. a track that takes a mover is updated, and its appearance model learns the mover's
-   histogram (`appearance_model`); a track
-   left without one coasts (predict-only) and ends once it has coasted past `coast_max_ms`;
+   histogram (`appearance_model`); a track left without one coasts (predict-only) and ends
+   once it has coasted past `coast_max_ms`;
 5. a mover left without a track starts a new, tentative track, from its velocity where that
    differs from zero (`Measurement.moving`), else from two points. A tentative track is confirmed
    once it has `confirm_hits` detections within its first `confirm_frames` frames (M of N); one
