@@ -78,6 +78,23 @@ def test_without_the_ghost_test_the_place_stays_a_walker() -> None:
     assert all(any(abs(x - 60.0) <= 3.0 for x in found) for found in seen[10:])
 
 
+@pytest.mark.parametrize("grey", [False, True], ids=["colour", "grey"])
+def test_a_walker_beside_the_place_they_stood_is_kept_and_the_ghost_left_out(grey: bool) -> None:
+    """One step to the side after the model learnt them, then slowly on: the walker and their
+    ghost are one blob (the closing joins them across the gap), split in two, and each half is
+    judged on its own outline: only the walker is seen, in every frame."""
+    silhouettes = model(ghosts=True)
+    for n in range(LEARNING + 10):
+        left = 60.0 if n < LEARNING else 80.0 + 0.5 * (n - LEARNING)
+        foreground = silhouettes.segment(frame(n, left, grey))
+        if foreground is None:
+            continue
+        boxes = [body.box_at(2) for _, bodies in foreground.found for body in bodies]
+        centre = left + BODY[0] / 2
+        assert len(boxes) == 1 and boxes[0][0] <= centre <= boxes[0][0] + boxes[0][2], n
+    assert silhouettes.ghost_px > 0
+
+
 def test_a_ghost_is_learnt_as_the_ground_it_shows() -> None:
     """Not held out as a stopped walker is: the model learns the bare ground, and after a
     while there is no ghost left to leave out."""

@@ -12,6 +12,11 @@ bare ground. So a blob whose outline has more gradient energy in the background 
 the frame is a ghost: the edge test that tells an object removed from the scene from one left
 in it (Connell, Senior, Hampapur, Tian, Brown & Pankanti, "Detection and tracking in the IBM
 PeopleVision system", ICME 2004). A ghost is not a walker, and is learnt as the scene it is.
+
+A walker still beside the place where they were learnt is one blob with their ghost, and the
+blob's outline is the walker's as much as the ghost's. Where the blob is split into the bodies
+it holds side by side (`gazed.vision.movers.split_blob`), each body is judged on its own outline
+(`is_ghost`), so the ghost beside a walker is left out while the walker is kept.
 """
 
 from __future__ import annotations
@@ -54,3 +59,14 @@ def ghost_mask(mask: np.ndarray, frame: np.ndarray, background: np.ndarray) -> n
     is_ghost = in_background > in_frame
     is_ghost[0] = False
     return is_ghost[labels]
+
+
+def is_ghost(body: np.ndarray, x: int, y: int, frame: np.ndarray, background: np.ndarray) -> bool:
+    """Whether one silhouette (a bool mask over its box at (x, y) in the images' pixels) has
+    more edge energy along its outline in the model's `background` image than in `frame`."""
+    fg = np.pad(body, 1).astype(np.uint8)  # the box's edge is the silhouette's outline too
+    rows, cols = np.nonzero(fg & (cv2.erode(fg, _OUTLINE_KERNEL) == 0))
+    rows, cols = rows + y - 1, cols + x - 1
+    return int(edge_energy(background, rows, cols).sum()) > int(
+        edge_energy(frame, rows, cols).sum()
+    )

@@ -27,7 +27,8 @@ is held out for at most `history_frames` frames in a row, the model's own memory
 learnt as it is, as the model would learn anything that stays that long. A ghost (the ground
 where someone stood while the model learnt the scene, `gazed.vision.ghosts`) is not a walker:
 with `ghosts` it is left out of the silhouettes and not held out, so the model learns the
-ground it shows at its usual rate.
+ground it shows at its usual rate; a blob split into several bodies has each judged on its own
+(a walker beside the ghost they left is kept).
 
 Each walker is a mover: its point (the ground contact point at the bottom of its silhouette, or
 its centroid), box and area in full-resolution pixels, its confidence the share of the frame's
@@ -45,7 +46,7 @@ import numpy as np
 
 from gazed.estimation.chi_square import chi2_quantile, log_upper_tail
 from gazed.vision.ego_motion import HeadStep
-from gazed.vision.ghosts import ghost_mask
+from gazed.vision.ghosts import ghost_mask, is_ghost
 from gazed.vision.movers import Blob, MoverRegion, blobs
 from gazed.vision.person_size import PersonSize
 from gazed.vision.region_tracks import RegionTracks
@@ -170,13 +171,6 @@ class SilhouetteModel:
         opened = cv2.morphologyEx(mask, cv2.MORPH_OPEN, _OPENING_KERNEL)
         mask = cv2.morphologyEx(opened, cv2.MORPH_CLOSE, _CLOSING_KERNEL)
         background = self._model.getBackgroundImage() if mask.any() else None
-        if background is not None and self.ghosts:
-            ghost = ghost_mask(mask, small, background)
-            if ghost.any():
-                self.ghost_px += int(np.count_nonzero(ghost))
-                mask[ghost] = 0
-                opened[ghost] = 0
-        self._model.apply(self._held_out(small, mask, background), learningRate=rate)
         area_scale = self.scale * self.scale
         found = blobs(
             mask,
@@ -185,7 +179,41 @@ class SilhouetteModel:
             evidence=opened,
             person_width=None if self.person is None else self._person_width,
         )
+        if background is not None and self.ghosts:
+            found = self._without_ghosts(found, mask, small, background)
+        self._model.apply(self._held_out(small, mask, background), learningRate=rate)
         return Foreground(found, float(np.count_nonzero(mask)) * area_scale)
+
+    def _without_ghosts(
+        self,
+        found: list[tuple[Blob, list[Blob]]],
+        mask: np.ndarray,
+        small: np.ndarray,
+        background: np.ndarray,
+    ) -> list[tuple[Blob, list[Blob]]]:
+        """The blobs without their ghosts (`gazed.vision.ghosts`), whose pixels are cleared from
+        `mask` so that they are not held out: a blob judged whole (`ghost_mask`, too small ones
+        included), and each body of a blob split into several on its own (`is_ghost`)."""
+        ghost = ghost_mask(mask, small, background)
+        kept = []
+        for blob, bodies in found:
+            if len(bodies) == 1:
+                if not ghost[blob.y, blob.x : blob.x + blob.width][blob.mask[0]].any():
+                    kept.append((blob, bodies))
+                continue
+            _region(ghost, blob)[blob.mask] = False  # each of its bodies judged on its own
+            walkers = []
+            for body in bodies:
+                if is_ghost(body.mask, body.x, body.y, small, background):
+                    _region(ghost, body)[body.mask] = True
+                else:
+                    walkers.append(body)
+            if walkers:
+                kept.append((blob, walkers))
+        if ghost.any():
+            self.ghost_px += int(np.count_nonzero(ghost))
+            mask[ghost] = 0
+        return kept
 
     def _person_width(self, blob: Blob) -> float | None:
         """A person's width (model pixels) at the middle of the blob's bottom edge."""
@@ -250,3 +278,8 @@ class SilhouetteModel:
             area = float(body.area * area_scale)
             movers.append(MoverRegion(u, v, du, dv, box, area, min(1.0, area / total)))
         return tuple(movers)
+
+
+def _region(image: np.ndarray, blob: Blob) -> np.ndarray:
+    """The view of `image` over a blob's box."""
+    return image[blob.y : blob.y + blob.height, blob.x : blob.x + blob.width]
