@@ -121,10 +121,10 @@ class VisionSection(Section):
     )
     background_ghosts: bool = Field(
         True,
-        description="background: a blob whose outline is an edge of the model's background "
-        "image rather than of the frame (a ghost: where someone stood while the model learnt the "
-        "scene, now bare ground) is left out of the silhouettes and learnt as the scene rather "
-        "than held out as a stopped walker is.",
+        description="background: a silhouette (a blob, or each body split from one) whose "
+        "outline is an edge of the model's background image rather than of the frame (a "
+        "ghost: where someone stood while the model learnt the scene, now bare ground) is left out "
+        "of the silhouettes and learnt as the scene rather than held out as a stopped walker is.",
     )
     background_learning_frames: int = Field(
         10,

@@ -24,6 +24,12 @@ Per person visible for at least `--min-seconds`:
   merge) or `swap` (an id that was on another person before), each with the nearest other
   person's distance then. Only restarts and swaps are the tracker losing or trading a person.
 
+A replay's figures swing with small changes anywhere upstream (a mover a pixel off starts
+another track, which changes every association after it), so a change is judged over many
+replays: `--starts 0-280/20` replays from each of those frames to the last of `--frames` (the
+background model learning a different scene each time) and prints the counts summed and the
+one-id share averaged; with `--frames 400-794`, the truth-free figures averaged.
+
 Frames without truth (400-794) are scored by a truth-free figure, printed for any range: the
 ids of confirmed tracks born, per minute of footage, and how long each is held (from its first
 to its last frame as a confirmed, non-coasting track). A tracker that loses people, or splits
@@ -35,6 +41,7 @@ from __future__ import annotations
 import argparse
 import sys
 from collections import Counter
+from dataclasses import dataclass
 from pathlib import Path
 
 import cv2
@@ -161,27 +168,36 @@ def id_lifetimes(replayed: list[dict], rate_hz: float) -> dict[str, float]:
     }
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--frames", default="0-399")
-    parser.add_argument("--filter", default=None, help="estimation mode (default: the rig's)")
-    parser.add_argument("--min-seconds", type=float, default=10.0)
-    parser.add_argument("--rig", type=Path, default=RIG)
-    parser.add_argument("--match", choices=("view", "ground"), default="view")
-    parser.add_argument(
-        "--point", default="centroid", help="the movers' point: centroid or ground-contact"
-    )
-    args = parser.parse_args()
-    first, last = (int(x) for x in args.frames.split("-"))
-    rig = load_rig(args.rig)
+@dataclass
+class Scores:
+    """One replay scored: per person their counts and the tracks holding them each frame, the
+    changes of their tracks (lines), and the replay itself."""
+
+    stats: dict[int, Counter]
+    held_by: dict[int, list[set[int]]]
+    changes: list[str]
+    replayed: list[dict]
+
+    def totals(self) -> tuple[Counter, float]:
+        """The counts over every person, and the share of their frames held by one id."""
+        total = sum(self.stats.values(), Counter())
+        held = sum(one_id_share(self.held_by[p])[0] * s["frames"] for p, s in self.stats.items())
+        return total, held / total["frames"] if total["frames"] else 0.0
+
+
+def score(
+    rig_path: Path, frames: range, mode: str | None, point: str, min_seconds: float, match: str
+) -> Scores:
+    """Replay `frames` and score the tracks against the people visible `min_seconds` or more."""
+    rig = load_rig(rig_path)
     people = read_truth(TRUTH)
-    replayed = replay(args.rig, range(first, last + 1), args.filter, args.point)
+    replayed = replay(rig_path, frames, mode, point)
     geometry = ViewPeople(
         rig_view(rig, zoom=False),
         FieldOfRegard.for_scoring(rig),
     )
     aim = GroundGeometry.from_rig(rig)
-    scored = sorted(p.id for p in people.values() if p.seconds_visible >= args.min_seconds)
+    scored = sorted(p.id for p in people.values() if p.seconds_visible >= min_seconds)
     stats = {pid: Counter() for pid in scored}
     owner: dict[int, int] = {}  # track id -> the person it was last on
     held: dict[int, int | None] = {}
@@ -197,7 +213,7 @@ def main() -> None:
         wide = np.array(row["wide"]).reshape(-1, 2)
         track_ids = list(row["tracks"])
         track_xy = np.array([row["tracks"][t] for t in track_ids]).reshape(-1, 2)
-        if args.match == "view":
+        if match == "view":
             distance = aimed_at(geometry, aim, boxes, track_xy)
         else:
             distance = np.linalg.norm(ground[:, None] - track_xy[None], axis=-1)
@@ -235,6 +251,36 @@ def main() -> None:
                 )
             held[pid] = track
             owner[track] = pid
+    return Scores(stats, held_by, changes, replayed)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--frames", default="0-399")
+    parser.add_argument("--filter", default=None, help="estimation mode (default: the rig's)")
+    parser.add_argument("--min-seconds", type=float, default=10.0)
+    parser.add_argument("--rig", type=Path, default=RIG)
+    parser.add_argument("--match", choices=("view", "ground"), default="view")
+    parser.add_argument(
+        "--point", default="centroid", help="the movers' point: centroid or ground-contact"
+    )
+    parser.add_argument(
+        "--starts",
+        default=None,
+        help="FIRST-LAST/STEP: replay from each of these frames to --frames' last, and print "
+        "the sums (module docstring)",
+    )
+    args = parser.parse_args()
+    first, last = (int(x) for x in args.frames.split("-"))
+    rig = load_rig(args.rig)
+    if args.starts is not None:
+        span, step = args.starts.split("/")
+        low, high = (int(x) for x in span.split("-"))
+        print_starts(args, range(low, high + 1, int(step)), last, rig.wide.rate_hz)
+        return
+    scores = score(
+        args.rig, range(first, last + 1), args.filter, args.point, args.min_seconds, args.match
+    )
     print(
         f"frames {first}-{last}, filter {args.filter or rig.estimator.filter}, {args.point}, "
         f"matched by {args.match}"
@@ -243,30 +289,57 @@ def main() -> None:
         f"  {'person':>6} {'frames':>6} {'out of reach':>12} {'missed':>6} {'lost':>5} "
         f"{'restarts':>8} {'swaps':>5} {'twins':>5} {'one id':>6} {'ids':>4}"
     )
-    one_id_frames = 0.0
-    for pid in scored:
-        s = stats[pid]
-        share, n_ids = one_id_share(held_by[pid])
-        one_id_frames += share * s["frames"]
+    for pid, s in scores.stats.items():
+        share, n_ids = one_id_share(scores.held_by[pid])
         print(
             f"  {pid:>6} {s['frames']:>6} {s['out_of_reach']:>12} {s['missed']:>6} "
             f"{s['lost']:>5} {s['restart']:>8} {s['swap']:>5} {s['twin']:>5} {share:>6.2f} "
             f"{n_ids:>4}"
         )
-    total = sum(stats.values(), Counter())
-    one_id = one_id_frames / total["frames"] if total["frames"] else 0.0
+    total, one_id = scores.totals()
     print(
         f"  {'all':>6} {total['frames']:>6} {total['out_of_reach']:>12} {total['missed']:>6} "
         f"{total['lost']:>5} {total['restart']:>8} {total['swap']:>5} {total['twin']:>5} "
         f"{one_id:>6.2f}"
     )
-    ids = id_lifetimes(replayed, rig.wide.rate_hz)
+    ids = id_lifetimes(scores.replayed, rig.wide.rate_hz)
     print(
         f"  ids born {ids['ids']} ({ids['ids_per_min']:.1f} per minute), lifetime median "
         f"{ids['median_life_s']:.1f} s, mean {ids['mean_life_s']:.1f} s"
     )
     print("changes of a person's track:")
-    print("\n".join(changes))
+    print("\n".join(scores.changes))
+
+
+def print_starts(args: argparse.Namespace, starts: range, last: int, rate_hz: float) -> None:
+    """One replay from each start to `last`: the person-frames' counts summed, the share held
+    by one id averaged, and the ids born per minute and their mean lifetime averaged."""
+    total: Counter = Counter()
+    one_ids, per_minute, lives = [], [], []
+    for start in starts:
+        scores = score(
+            args.rig, range(start, last + 1), args.filter, args.point, args.min_seconds, args.match
+        )
+        counts, one_id = scores.totals()
+        total += counts
+        if counts["frames"]:
+            one_ids.append(one_id)
+        ids = id_lifetimes(scores.replayed, rate_hz)
+        per_minute.append(ids["ids_per_min"])
+        lives.append(ids["mean_life_s"])
+    print(
+        f"{len(starts)} replays, from frames {starts.start}-{starts[-1]} every {starts.step} "
+        f"to {last}:"
+    )
+    print(
+        f"  person-frames {total['frames']}: missed {total['missed']}, lost {total['lost']}, "
+        f"restarts {total['restart']}, swaps {total['swap']}, twins {total['twin']}"
+        + (f"; one id (mean) {np.mean(one_ids):.3f}" if one_ids else "")
+    )
+    print(
+        f"  ids born per minute (mean) {np.mean(per_minute):.1f}, "
+        f"lifetime (mean) {np.mean(lives):.1f} s"
+    )
 
 
 if __name__ == "__main__":
