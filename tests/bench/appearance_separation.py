@@ -6,11 +6,12 @@ within `NEAR_M` of them on the ground in the same frame.
 
 Each footage frame is segmented as the vision process segments the wide frame (`WideMovers`,
 the rig's `[vision]` settings); a mover is a person's when at least half of its box lies in
-that person's annotated box (the person holding most of it). Each person's template learns their
-movers as a track's does (`TrackAppearance`), and before it learns a frame's mover it is
-compared with that mover (h², own) and with the movers of the people near them in the frame
-(h², near). Printed for the descriptor (`colour_histogram`) and, for comparison, a single
-hue-saturation histogram of the whole box without brightness bins (`box_hue_saturation`):
+that person's annotated box (the person holding most of it, as `pets_movers.py` counts it).
+Each person's template learns their movers as a track's does (`TrackAppearance`), and before
+it learns a frame's mover it is compared with that mover (h², own) and with the movers of the
+people near them in the frame (h², near). Printed for the descriptor (`colour_histogram`) and,
+for comparison, a single hue-saturation histogram of the whole box without brightness bins
+(`box_hue_saturation`):
 
 - pairs: (own, near) pairs compared, and the share in which the own mover is the nearer;
 - AUC: the share of all (own, near) pairs of distances, frames mixed, in which own is nearer;
@@ -30,6 +31,9 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from pets_movers import overlap  # noqa: E402
 
 from gazed.config import load_rig  # noqa: E402
 from gazed.estimation.appearance_model import TrackAppearance  # noqa: E402
@@ -86,14 +90,9 @@ def owned_movers(
             continue
         for _, parts in foreground.found:
             for body in parts:
-                x, y, w, h = body.box_at(wide.silhouettes.scale)
-                across = np.minimum(x + w, boxes[:, 0] + boxes[:, 2] / 2) - np.maximum(
-                    x, boxes[:, 0] - boxes[:, 2] / 2
-                )
-                down = np.minimum(y + h, boxes[:, 1] + boxes[:, 3] / 2) - np.maximum(
-                    y, boxes[:, 1] - boxes[:, 3] / 2
-                )
-                share = np.clip(across, 0, None) * np.clip(down, 0, None) / max(w * h, 1e-9)
+                x, y, w, h = box = body.box_at(wide.silhouettes.scale)
+                corners = np.column_stack([boxes[:, :2] - boxes[:, 2:] / 2, boxes[:, 2:]])
+                share = np.array([overlap(np.array(box), c) for c in corners]) / max(w * h, 1e-9)
                 if share.max() >= 0.5:
                     owned.append(
                         (frame, ids[int(share.argmax())], pixels, (x + w / 2, y + h / 2, w, h))
