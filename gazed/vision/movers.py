@@ -34,6 +34,8 @@ SEVERAL_WIDTHS = 2.0  # a blob at least this many people's widths across holds m
 BODY_FRACTION = 0.5  # a body's column holds at least this fraction of the blob's height
 FOOT_FRACTION = 0.1  # the bottom tenth of a silhouette gives its ground contact point's u
 MAX_MOVERS = 64  # a Detection carries at most this many, the target's own first
+OPENING_KERNEL = np.ones((3, 3), np.uint8)  # an opening by it drops a mask's speckle
+CLOSING_KERNEL = np.ones((5, 5), np.uint8)  # a closing by it joins a silhouette's parts
 
 
 @dataclass(frozen=True)
@@ -96,6 +98,13 @@ class Blob:
             float(self.width * scale),
             float(self.height * scale),
         )
+
+
+def cleaned(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A foreground mask (uint8) opened, its speckle dropped, and that closed, a silhouette's
+    parts joined: (opened, closed)."""
+    opened = cv2.morphologyEx(mask, cv2.MORPH_OPEN, OPENING_KERNEL)
+    return opened, cv2.morphologyEx(opened, cv2.MORPH_CLOSE, CLOSING_KERNEL)
 
 
 def trimmed(x: int, y: int, mask: np.ndarray) -> Blob | None:

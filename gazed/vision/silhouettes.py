@@ -20,6 +20,9 @@ test takes for a shadow on a grey road, stay with the coat, and a shadow cast si
 along the ground between two walkers, is left out. A grey frame has no colour to tell a shadow
 from dark clothes, and its shadows are kept.
 
+The model learns its first `learning_frames` frames together once they are all in, the people
+passing through them left out (`gazed.vision.scene_learning`), and reports nothing until then.
+
 A walker who stops would be learnt into the background within a few seconds. So the foreground
 is taken against the model as it stands, and the model then learns the frame with the pixels
 under the silhouettes shown as its own background image: the walker stays foreground. A pixel
@@ -47,15 +50,14 @@ import numpy as np
 from gazed.estimation.chi_square import chi2_quantile, log_upper_tail
 from gazed.vision.ego_motion import HeadStep
 from gazed.vision.ghosts import ghost_mask, is_ghost
-from gazed.vision.movers import Blob, MoverRegion, blobs
+from gazed.vision.movers import CLOSING_KERNEL, OPENING_KERNEL, Blob, MoverRegion, blobs, cleaned
 from gazed.vision.person_size import PersonSize
 from gazed.vision.region_tracks import RegionTracks
+from gazed.vision.scene_learning import without_passers_by
 
 VELOCITY_POINTS = 6  # a mover's recent points its velocity is fitted to
 FOREGROUND = 255  # MOG2's label of a foreground pixel
 SHADOW = 127  # and of a shadow's
-_OPENING_KERNEL = np.ones((3, 3), np.uint8)
-_CLOSING_KERNEL = np.ones((5, 5), np.uint8)
 
 PointKind = Literal["centroid", "ground-contact"]
 
@@ -84,7 +86,7 @@ def without_cast_shadows(labels: np.ndarray) -> np.ndarray:
     core = cv2.morphologyEx(
         np.where(labels == FOREGROUND, FOREGROUND, 0).astype(np.uint8),
         cv2.MORPH_OPEN,
-        _OPENING_KERNEL,
+        OPENING_KERNEL,
     )
     _, _, stats, _ = cv2.connectedComponentsWithStats(core, connectivity=8)
     columns = np.zeros(labels.shape[1], bool)
@@ -126,6 +128,7 @@ class SilhouetteModel:
         self._shadow_test = False  # the model labels shadows (`shadows`, on a colour frame)
         self._learned = 0
         self._held: np.ndarray | None = None  # frames in a row each pixel has been held out
+        self._learning: list[np.ndarray] = []  # the learning frames, until they are learnt
         self._tracks = RegionTracks(VELOCITY_POINTS)
 
     @property
@@ -153,14 +156,16 @@ class SilhouetteModel:
                 detectShadows=self._shadow_test,
             )
             self._learned = 0
+            self._learning = []
             self.resets += 1
         small = image
         for _ in range(self.level):
             small = cv2.pyrDown(small)
         self._learned += 1
         if self._learned <= self.learning_frames:
-            self._model.apply(small)
-            self._held = np.zeros(small.shape[:2], np.int32)
+            self._learning.append(small)
+            if self._learned == self.learning_frames:
+                self._learn_scene()
             return None
         # the foreground against the model as it stands, then the model learns the frame with
         # the held pixels (under this frame's silhouettes) shown as the background it has
@@ -168,8 +173,7 @@ class SilhouetteModel:
         mask = self._model.apply(small, learningRate=0.0)
         if self._shadow_test:
             mask = without_cast_shadows(mask)
-        opened = cv2.morphologyEx(mask, cv2.MORPH_OPEN, _OPENING_KERNEL)
-        mask = cv2.morphologyEx(opened, cv2.MORPH_CLOSE, _CLOSING_KERNEL)
+        opened, mask = cleaned(mask)
         background = self._model.getBackgroundImage() if mask.any() else None
         area_scale = self.scale * self.scale
         found = blobs(
@@ -183,6 +187,18 @@ class SilhouetteModel:
             found = self._without_ghosts(found, mask, small, background)
         self._model.apply(self._held_out(small, mask, background), learningRate=rate)
         return Foreground(found, float(np.count_nonzero(mask)) * area_scale)
+
+    def _learn_scene(self) -> None:
+        """Learn the learning frames, the people passing through them left out
+        (`scene_learning`)."""
+        assert self._model is not None
+        frames, self._learning = self._learning, []
+        channels = 1 if frames[0].ndim == 2 else frames[0].shape[2]
+        area = self.min_area_px / (self.scale * self.scale)
+        threshold = channel_threshold(self.threshold, channels)
+        for frame in without_passers_by(frames, threshold, self._model.getVarMin(), area):
+            self._model.apply(frame)
+        self._held = np.zeros(frames[0].shape[:2], np.int32)
 
     def _without_ghosts(
         self,
@@ -227,7 +243,7 @@ class SilhouetteModel:
         """The frame to learn: under the silhouettes (grown by the closing's reach) the model's
         own background, for at most `history_frames` frames in a row per pixel; then the pixel
         is learnt as it is, as the model would learn anything that stays for its memory."""
-        silhouettes = cv2.dilate(mask, _CLOSING_KERNEL) > 0
+        silhouettes = cv2.dilate(mask, CLOSING_KERNEL) > 0
         if self._held is None or self._held.shape != small.shape[:2]:
             self._held = np.zeros(small.shape[:2], np.int32)
         self._held = np.where(silhouettes, self._held + 1, 0)
