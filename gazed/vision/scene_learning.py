@@ -55,7 +55,7 @@ def without_passers_by(
     if distance.ndim == 4:  # colour: summed over the channels, as the model does
         distance = distance.sum(axis=3)
     passers = [_passers(far, min_area) for far in distance > threshold]
-    cleaned = []
+    learnt = []
     for k, frame in enumerate(frames):
         out = frame.copy()
         missing = passers[k].copy()
@@ -65,8 +65,8 @@ def without_passers_by(
             take = missing & ~passers[j]
             out[take] = frames[j][take]
             missing &= ~take
-        cleaned.append(out)
-    return cleaned
+        learnt.append(out)
+    return learnt
 
 
 def _passers(far: np.ndarray, min_area: float) -> np.ndarray:
