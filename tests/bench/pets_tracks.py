@@ -6,7 +6,8 @@ estimator's tracks over the footage, offline (no loop, no clock), against the an
 Each footage frame is segmented as the vision process segments the wide frame (`WideMovers`,
 the rig's `[vision]` settings), its movers are mapped into the view at rest and handed to the
 estimator (`TargetTracker.update`) as one detection, in the frame's own time (`frame / rate`).
-Per person visible for at least `--min-seconds`:
+Per person visible for at least `--min-seconds`, over the frames from the first the background
+model reports (after its `background_learning_frames`):
 
 - out of reach: frames whose box centre the head cannot foveate within its limits
   (`ViewPeople`, `FieldOfRegard.for_scoring`);
@@ -73,7 +74,8 @@ T0_NS = 1_000_000_000_000_000_000
 
 
 def replay(rig_path: Path, frames: range, mode: str | None, point: str) -> list[dict]:
-    """Per frame: the movers' wide points and the confirmed tracks' ids and ground points."""
+    """Per frame: the movers' wide points and the confirmed tracks' ids and ground points, and
+    whether the background model was still learning the scene (it reports nothing then)."""
     rig = load_rig(rig_path)
     if mode is not None:
         rig = rig.model_copy(
@@ -115,7 +117,15 @@ def replay(rig_path: Path, frames: range, mode: str | None, point: str) -> list[
             state = track.estimator.predict(t_ns / 1e9)
             if track.confirmed and state is not None and not track.coasting:
                 tracks[track.id] = np.asarray(state.position[:2])
-        out.append({"frame": frame, "wide": [(m.u_px, m.v_px) for m in wide], "tracks": tracks})
+        learning = frame - frames.start < rig.vision.background_learning_frames
+        out.append(
+            {
+                "frame": frame,
+                "learning": learning,
+                "wide": [(m.u_px, m.v_px) for m in wide],
+                "tracks": tracks,
+            }
+        )
     return out
 
 
@@ -150,8 +160,8 @@ def change_kind(before: int, was_elsewhere: bool, on_person: np.ndarray, track_i
 
 
 def id_lifetimes(replayed: list[dict], rate_hz: float) -> dict[str, float]:
-    """The truth-free figure of a replay (module docstring): ids born, ids per minute, and
-    their lifetimes' median and mean in seconds."""
+    """The truth-free figure of a replay (module docstring): ids born, ids per minute of the
+    frames the background model reports, and their lifetimes' median and mean in seconds."""
     first: dict[int, int] = {}
     last: dict[int, int] = {}
     for row in replayed:
@@ -159,7 +169,7 @@ def id_lifetimes(replayed: list[dict], rate_hz: float) -> dict[str, float]:
             first.setdefault(track_id, row["frame"])
             last[track_id] = row["frame"]
     lives = np.array([(last[i] - first[i] + 1) / rate_hz for i in first])
-    minutes = len(replayed) / rate_hz / 60.0 if replayed else 0.0
+    minutes = sum(not row["learning"] for row in replayed) / rate_hz / 60.0
     return {
         "ids": len(lives),
         "ids_per_min": len(lives) / minutes if minutes else 0.0,
@@ -206,7 +216,7 @@ def score(
     for row in replayed:
         frame = row["frame"]
         ids, boxes = people_at(people, frame)
-        if not ids:
+        if not ids or row["learning"]:
             continue
         here = geometry.at_pose(boxes, 0.0, 0.0)
         ground = np.array([people[i].ground_m[people[i].at_frame(frame)] for i in ids])
