@@ -130,8 +130,8 @@ class VisionSection(Section):
         10,
         ge=0,
         le=10000,
-        description="background: frames learnt after a reset before anything is reported, "
-        "the people passing through them left out (docs/vision.md).",
+        description="background: frames learnt after a reset before anything is reported; "
+        "from 3 of them, the people passing through them are left out (docs/vision.md).",
     )
     background_still_px: float = Field(
         1.0,

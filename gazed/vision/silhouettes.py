@@ -20,8 +20,9 @@ test takes for a shadow on a grey road, stay with the coat, and a shadow cast si
 along the ground between two walkers, is left out. A grey frame has no colour to tell a shadow
 from dark clothes, and its shadows are kept.
 
-The model learns its first `learning_frames` frames together once they are all in, the people
-passing through them left out (`gazed.vision.scene_learning`), and reports nothing until then.
+The model learns its first `learning_frames` frames together, in runs of at most
+`SCENE_BATCH_FRAMES` (their memory bounded), the people passing through them left out
+(`gazed.vision.scene_learning`), and reports nothing until then.
 
 A walker who stops would be learnt into the background within a few seconds. So the foreground
 is taken against the model as it stands, and the model then learns the frame with the pixels
@@ -58,6 +59,7 @@ from gazed.vision.scene_learning import without_passers_by
 VELOCITY_POINTS = 6  # a mover's recent points its velocity is fitted to
 FOREGROUND = 255  # MOG2's label of a foreground pixel
 SHADOW = 127  # and of a shadow's
+SCENE_BATCH_FRAMES = 15  # learning frames learnt together at most: their memory is bounded
 
 PointKind = Literal["centroid", "ground-contact"]
 
@@ -147,6 +149,11 @@ class SilhouetteModel:
     def segment(self, image: np.ndarray) -> Foreground | None:
         """The silhouettes of a frame, grey (H, W) or colour (H, W, 3), or None while the model
         is still learning the scene."""
+        small = image
+        for _ in range(self.level):
+            small = cv2.pyrDown(small)
+        if self._learning and small.shape != self._learning[0].shape:
+            self._model = None  # the frames changed size or channels while learning: start over
         if self._model is None:
             channels = 1 if image.ndim == 2 else image.shape[2]
             self._shadow_test = self.shadows and channels == 3
@@ -158,13 +165,10 @@ class SilhouetteModel:
             self._learned = 0
             self._learning = []
             self.resets += 1
-        small = image
-        for _ in range(self.level):
-            small = cv2.pyrDown(small)
         self._learned += 1
         if self._learned <= self.learning_frames:
             self._learning.append(small)
-            if self._learned == self.learning_frames:
+            if self._learned == self.learning_frames or len(self._learning) == SCENE_BATCH_FRAMES:
                 self._learn_scene()
             return None
         # the foreground against the model as it stands, then the model learns the frame with
@@ -189,7 +193,7 @@ class SilhouetteModel:
         return Foreground(found, float(np.count_nonzero(mask)) * area_scale)
 
     def _learn_scene(self) -> None:
-        """Learn the learning frames, the people passing through them left out
+        """Learn the learning frames held, the people passing through them left out
         (`scene_learning`)."""
         assert self._model is not None
         frames, self._learning = self._learning, []
