@@ -7,8 +7,12 @@ import pytest
 from bench.pets_tracks import id_lifetimes
 
 
-def rows(tracks_by_frame: list[list[int]]) -> list[dict]:
-    return [{"frame": f, "tracks": dict.fromkeys(ids)} for f, ids in enumerate(tracks_by_frame)]
+def rows(tracks_by_frame: list[list[int]], learning: int = 0) -> list[dict]:
+    """Replay rows, the first `learning` of them while the background model learns."""
+    return [
+        {"frame": f, "learning": f < learning, "tracks": dict.fromkeys(ids)}
+        for f, ids in enumerate(tracks_by_frame)
+    ]
 
 
 def test_one_id_held_throughout_is_one_long_life():
@@ -24,6 +28,12 @@ def test_a_person_split_into_restarts_gives_more_ids_and_shorter_lives():
     assert restarted["ids"] == held["ids"] + 4
     assert restarted["median_life_s"] < held["median_life_s"]
     assert restarted["mean_life_s"] < held["mean_life_s"]
+
+
+def test_ids_are_born_per_minute_of_the_frames_the_model_reports():
+    """The learning frames, where no track can exist, are not minutes ids could be born in."""
+    figure = id_lifetimes(rows([[]] * 10 + [[3]] * 70, learning=10), rate_hz=7.0)
+    assert figure["ids_per_min"] == pytest.approx(6.0)
 
 
 def test_no_tracks_no_ids():
