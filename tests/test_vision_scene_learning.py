@@ -46,7 +46,7 @@ def test_a_passer_by_is_shown_as_the_scene_and_the_foliage_kept() -> None:
         assert np.abs(out[block] - still[block]).max() < 8.0, n  # the scene, within the noise
         # every shown pixel is the same pixel of a frame whose block lies clear of it
         for column in range(4 + 3 * n, 4 + 3 * n + BLOCK[1]):
-            clear = [m for m in range(10) if not -2 <= column - 4 - 3 * m < BLOCK[1] + 2]
+            clear = [m for m in range(10) if not 0 <= column - 4 - 3 * m < BLOCK[1]]
             samples = np.stack([plain[m][30 : 30 + BLOCK[0], column] for m in clear])
             assert (samples == out[30 : 30 + BLOCK[0], column]).any(axis=0).all(), (n, column)
         rest = np.ones(SIZE, bool)
@@ -66,10 +66,10 @@ def test_a_passer_by_smaller_than_a_blob_is_kept() -> None:
 
 
 def test_colour_frames_are_judged_over_their_channels() -> None:
-    """A block 9 grey levels off the scene in each of three channels: within the threshold on
+    """A block 11 grey levels off the scene in each of three channels: within the threshold on
     any one channel (over the floor's variance), beyond it summed over the three, as MOG2
     judges a colour pixel."""
-    threshold, var_min, shift = channel_threshold(16.0, 3), 4.0, 9.0
+    threshold, var_min, shift = channel_threshold(16.0, 3), 6.0, 11.0
     assert shift**2 / var_min < threshold < 3 * shift**2 / var_min
     frames = []
     for n in range(10):
@@ -77,11 +77,9 @@ def test_colour_frames_are_judged_over_their_channels() -> None:
         image[30 : 30 + BLOCK[0], 4 + 3 * n : 4 + 3 * n + BLOCK[1]] += shift
         frames.append(np.clip(image, 0, 255).astype(np.uint8))
     cleaned = without_passers_by(frames, threshold, var_min, min_area=20)
-    shown = 0  # frames with most of the block shown as the scene
     for n, (image, out) in enumerate(zip(frames, cleaned, strict=True)):
         block = (slice(30, 30 + BLOCK[0]), slice(4 + 3 * n, 4 + 3 * n + BLOCK[1]))
-        shown += bool((out[block] != image[block]).any(axis=2).mean() >= 0.75)
-    assert shown >= 7
+        assert (out[block] != image[block]).any(axis=2).mean() >= 0.7, n  # most of it
 
 
 def test_too_few_frames_to_tell_the_scene_are_learnt_as_they_are() -> None:

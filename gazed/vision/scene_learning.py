@@ -14,15 +14,14 @@ a walker crosses a narrow one. A frame's pixel is an outlier where its squared d
 median, over that spread (at least the model's own floor `var_min`) and summed over the
 channels, exceeds the model's threshold (`channel_threshold`). The outliers are cleaned as the
 silhouettes are (an opening drops speckle, a closing joins a body's parts), and the blobs of at
-least `min_area` pixels, grown by the closing's reach (a body's edge pixels are nearer the scene
-than the threshold), are the passers-by. Before the model learns a frame, a passer-by's pixels
-are shown as the nearest frame in time shows them without one (nor any outlier): a sample of the
-scene with its own noise (the median, one value repeated, would teach the model a variance below
-the camera's noise, and those pixels would be foreground ever after). The rest of the frame,
-foliage included, is learnt as it is, so the mixture keeps the scene's own motion as several
-modes (Rousseeuw & Croux, "Alternatives to the median absolute deviation", JASA 88(424), 1993,
-for the MAD; the median background of Cucchiara, Grana, Piccardi & Prati, "Detecting moving
-objects, ghosts, and shadows in video streams", IEEE PAMI 25(10), 2003).
+least `min_area` pixels are the passers-by. Before the model learns a frame, a passer-by's
+pixels are shown as the nearest frame in time shows them without one: a sample of the scene with
+its own noise (the median, one value repeated, would teach the model a variance below the
+camera's noise, and those pixels would be foreground ever after). The rest of the frame, foliage
+included, is learnt as it is, so the mixture keeps the scene's own motion as several modes
+(Rousseeuw & Croux, "Alternatives to the median absolute deviation", JASA 88(424), 1993, for the
+MAD; the median background of Cucchiara, Grana, Piccardi & Prati, "Detecting moving objects,
+ghosts, and shadows in video streams", IEEE PAMI 25(10), 2003).
 
 A person who stands through most of the learning frames is the median, and learnt as the
 scene.
@@ -33,7 +32,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from gazed.vision.movers import CLOSING_KERNEL, cleaned
+from gazed.vision.movers import cleaned
 
 MAD_TO_SIGMA = 1.4826  # a Gaussian's σ over its median absolute deviation
 
@@ -44,8 +43,8 @@ def without_passers_by(
     """The frames (each (H, W) or (H, W, C), uint8) with the pixels of the blobs that differ
     from the frames' median by more than `threshold` (squared, summed over the channels, in
     units of each pixel's robust variance, at least `var_min`) shown as the nearest frame in
-    time in which that pixel is no passer-by's nor an outlier; blobs of fewer than `min_area`
-    pixels, and a pixel no frame shows so, are kept as they are."""
+    time in which that pixel is no passer-by's; blobs of fewer than `min_area` pixels, and a
+    pixel that is a passer-by's in every frame, are kept as they are."""
     if len(frames) < 3:  # no majority to tell the scene by
         return frames
     stack = np.stack(frames).astype(np.float32)
@@ -55,8 +54,7 @@ def without_passers_by(
     distance = deviation**2 / variance
     if distance.ndim == 4:  # colour: summed over the channels, as the model does
         distance = distance.sum(axis=3)
-    outliers = distance > threshold
-    passers = [_passers(far, min_area) for far in outliers]
+    passers = [_passers(far, min_area) for far in distance > threshold]
     learnt = []
     for k, frame in enumerate(frames):
         out = frame.copy()
@@ -64,7 +62,7 @@ def without_passers_by(
         for j in sorted(range(len(frames)), key=lambda j: (abs(j - k), j))[1:]:
             if not missing.any():
                 break
-            take = missing & ~passers[j] & ~outliers[j]
+            take = missing & ~passers[j]
             out[take] = frames[j][take]
             missing &= ~take
         learnt.append(out)
@@ -73,9 +71,8 @@ def without_passers_by(
 
 def _passers(far: np.ndarray, min_area: float) -> np.ndarray:
     """The blobs of at least `min_area` pixels of one frame's outliers `far` (bool), cleaned
-    as the silhouettes are, and grown by the closing's reach (a body's edge pixels, nearer the
-    scene than the threshold, are the body's too)."""
+    as the silhouettes are."""
     _, mask = cleaned(far.astype(np.uint8))
     _, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
     large = np.flatnonzero(stats[1:, cv2.CC_STAT_AREA] >= min_area) + 1
-    return cv2.dilate(np.isin(labels, large).astype(np.uint8), CLOSING_KERNEL) > 0
+    return np.isin(labels, large)
