@@ -52,7 +52,7 @@ def ghost_mask(mask: np.ndarray, frame: np.ndarray, background: np.ndarray) -> n
     grey or colour alike), as a bool mask."""
     fg = (mask > 0).astype(np.uint8)
     count, labels = cv2.connectedComponents(fg, connectivity=8)
-    rows, cols = np.nonzero(fg & (cv2.erode(fg, _OUTLINE_KERNEL) == 0))
+    rows, cols = _outline(fg)
     ids = labels[rows, cols]
     in_frame = np.bincount(ids, edge_energy(frame, rows, cols), minlength=count)
     in_background = np.bincount(ids, edge_energy(background, rows, cols), minlength=count)
@@ -65,8 +65,14 @@ def is_ghost(body: np.ndarray, x: int, y: int, frame: np.ndarray, background: np
     """Whether one silhouette (a bool mask over its box at (x, y) in the images' pixels) has
     more edge energy along its outline in the model's `background` image than in `frame`."""
     fg = np.pad(body, 1).astype(np.uint8)  # the box's edge is the silhouette's outline too
-    rows, cols = np.nonzero(fg & (cv2.erode(fg, _OUTLINE_KERNEL) == 0))
+    rows, cols = _outline(fg)
     rows, cols = rows + y - 1, cols + x - 1
     return int(edge_energy(background, rows, cols).sum()) > int(
         edge_energy(frame, rows, cols).sum()
     )
+
+
+def _outline(fg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The rows and columns of a 0/1 mask's (uint8) outline: its set pixels with an unset one
+    among their eight neighbours."""
+    return np.nonzero(fg & (cv2.erode(fg, _OUTLINE_KERNEL) == 0))

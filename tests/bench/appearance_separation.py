@@ -88,10 +88,10 @@ def owned_movers(
         ids, boxes = people_at(people, frame)
         if foreground is None or not ids:
             continue
+        corners = np.column_stack([boxes[:, :2] - boxes[:, 2:] / 2, boxes[:, 2:]])
         for _, parts in foreground.found:
             for body in parts:
                 x, y, w, h = box = body.box_at(wide.silhouettes.scale)
-                corners = np.column_stack([boxes[:, :2] - boxes[:, 2:] / 2, boxes[:, 2:]])
                 share = np.array([overlap(np.array(box), c) for c in corners]) / max(w * h, 1e-9)
                 if share.max() >= 0.5:
                     owned.append(
