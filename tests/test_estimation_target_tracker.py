@@ -105,6 +105,22 @@ def test_predictions_lead_to_the_effect_time() -> None:
     assert tracker.counts["measured"] == 20 and tracker.latency.visual_s == ARRIVAL_NS / 1e9
 
 
+def test_every_track_carries_its_filters_covariance_over_position_and_velocity() -> None:
+    """The gaze takes a track back along its velocity with these (`walk_gate.point_fit`)."""
+    tracker, clock = tracker_for(load_rig(SIM_RIG))
+    for detection in detections(SIM_RIG, 12):
+        update = feed(tracker, clock, detection)
+        assert update is not None
+        state, _ = tracker.settle(update)
+    assert state is not None and len(state.tracks) == 1
+    (track,) = state.tracks
+    P = tracker.tracks.tracks[0].estimator.predict(detection.t_capture_ns / 1e9).covariance
+    assert np.asarray(track.ground_cov_m2) == pytest.approx(P[:2, :2], rel=1e-12)
+    assert np.asarray(track.ground_velocity_cov_m2_s2) == pytest.approx(P[2:, 2:], rel=1e-12)
+    assert np.asarray(track.ground_position_velocity_cov_m2_s) == pytest.approx(P[:2, 2:])
+    assert np.abs(P[:2, 2:]).max() > 0.0  # a filter's position and velocity are correlated
+
+
 def test_the_baseline_offers_the_estimate_at_the_capture() -> None:
     rig = load_rig(SIM_RIG)
     section = rig.estimator.model_copy(update={"predict_over_latency": False})

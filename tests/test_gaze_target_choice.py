@@ -417,7 +417,7 @@ def test_a_nearer_tentative_track_is_waited_for() -> None:
     assert change is not None and change.target_id == 11
 
 
-def test_a_young_track_is_taken_back_only_to_its_birth() -> None:
+def test_a_young_track_without_its_velocitys_covariance_is_taken_back_only_to_its_birth() -> None:
     c = choice(select_rule="first")
     c.on_select(GazeSelect(t_capture_ns=1_000_000_000, ground_xy_m=(0.0, 5.0)), None)
     # 1.6 s on: someone born 0.8 s ago 2.5 m from the point, and the person at the point,
@@ -427,6 +427,45 @@ def test_a_young_track_is_taken_back_only_to_its_birth() -> None:
     young = walker(9, (1.0, 5.0), (4.0, 2.5)).model_copy(update={"age_s": 0.3})
     change = c.on_state(at(2.6, someone, young), None)
     assert change is not None and change.target_id == 9
+
+
+def sure_of(track: Track, velocity_var_m2_s2: float) -> Track:
+    """`track` with its velocity's covariance (position and velocity uncorrelated)."""
+    return track.model_copy(
+        update={
+            "ground_velocity_cov_m2_s2": ((velocity_var_m2_s2, 0.0), (0.0, velocity_var_m2_s2)),
+            "ground_position_velocity_cov_m2_s": ((0.0, 0.0), (0.0, 0.0)),
+        }
+    )
+
+
+def test_a_track_is_taken_back_along_its_velocity_to_the_request() -> None:
+    """The point is given while nobody has a track; two are born 0.3 s before the choice, the
+    one born nearer walking across, the other (the person at the point) walking away from it:
+    taken back along their velocities over the 1.4 s since the request, only the second comes
+    from the point."""
+    c = choice(select_rule="first")
+    c.on_select(GazeSelect(t_capture_ns=1_000_000_000, ground_xy_m=(0.0, 5.0)), None)
+    across = sure_of(walker(4, (0.6, 5.7), (1.2, -0.9)), 0.09).model_copy(update={"age_s": 0.3})
+    away = sure_of(walker(9, (0.0, 6.6), (0.0, 1.2)), 0.09).model_copy(update={"age_s": 0.3})
+    change = c.on_state(at(2.4, across, away), None)
+    assert change is not None and change.target_id == 9 and c.by_operator
+
+
+def test_a_poorly_known_velocity_is_taken_back_with_its_uncertainty() -> None:
+    """A young track's velocity, far off, moves its position back far from the point, but its
+    covariance over the time widens the fit so much that the person at the point is taken."""
+    c = choice(select_rule="first")
+    c.on_select(GazeSelect(t_capture_ns=1_000_000_000, ground_xy_m=(0.0, 5.0)), None)
+    someone = sure_of(walker(4, (2.5, 5.0), (0.0, 0.0)), 0.01).model_copy(update={"age_s": 0.8})
+    young = sure_of(walker(9, (1.0, 5.0), (4.0, 2.5)), 16.0).model_copy(update={"age_s": 0.3})
+    change = c.on_state(at(2.6, someone, young), None)
+    assert change is not None and change.target_id == 9
+    # as sure of that velocity as of the other's, it does not come from the point
+    c = choice(select_rule="first")
+    c.on_select(GazeSelect(t_capture_ns=1_000_000_000, ground_xy_m=(0.0, 5.0)), None)
+    sure = sure_of(young, 0.01)
+    assert c.on_state(at(2.6, someone, sure), None) is None and c.pending is not None
 
 
 def test_the_controller_follows_no_other_track_while_the_choice_waits() -> None:

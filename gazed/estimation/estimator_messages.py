@@ -6,6 +6,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
+
 from gazed.estimation.events import ManeuverEvent as ModelChange
 from gazed.estimation.loop_latency import LoopLatency
 from gazed.estimation.results import PredictedState
@@ -27,12 +29,14 @@ class EstimatorMessages:
         """One track's message: its state at the frame's capture."""
         if self.geometry is None:  # image-cv: the state is the gaze itself
             pan, tilt = state.position.tolist()
-            ground = velocity = cov = None
+            ground = velocity = cov = velocity_cov = cross_cov = None
         else:
             x, y = state.position.tolist()
             pan, tilt = self.geometry.gaze_from_ground(x, y)
             ground, velocity = (x, y), tuple(state.velocity.tolist())
-            cov = tuple(map(tuple, state.covariance[:2, :2].tolist()))
+            cov = _block(state.covariance[:2, :2])
+            velocity_cov = _block(state.covariance[2:, 2:])
+            cross_cov = _block(state.covariance[:2, 2:])
         return Track(
             id=track.id,
             confirmed=track.confirmed,
@@ -41,6 +45,8 @@ class EstimatorMessages:
             ground_xy_m=ground,
             ground_velocity_m_s=velocity,
             ground_cov_m2=cov,
+            ground_velocity_cov_m2_s2=velocity_cov,
+            ground_position_velocity_cov_m2_s=cross_cov,
             age_s=max(0.0, t_s - track.first_s),
             hits=track.hits,
             coasting=track.coasting,
@@ -67,7 +73,7 @@ class EstimatorMessages:
             vx, vy = predicted.velocity.tolist()
             pan, tilt, pan_rate, tilt_rate = self.geometry.gaze_motion_from_ground(x, y, vx, vy)
             ground, velocity = (x, y), (vx, vy)
-            cov = tuple(map(tuple, predicted.covariance[:2, :2].tolist()))
+            cov = _block(predicted.covariance[:2, :2])
         return Prediction(
             t_capture_ns=t_capture_ns,
             stamps=stamps,
@@ -102,3 +108,9 @@ def maneuver_message(
         mean_s_dot_m_s2=event.mean_s_dot_m_s2,
         mean_theta_dot_rad_s=event.mean_theta_dot_rad_s,
     )
+
+
+def _block(C: np.ndarray) -> tuple[tuple[float, float], tuple[float, float]]:
+    """A 2x2 block of a covariance as the wire's nested tuples."""
+    (a, b), (c, d) = C.tolist()
+    return (a, b), (c, d)

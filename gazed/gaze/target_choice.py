@@ -35,12 +35,14 @@ track of them (a person who has just walked in needs a few detections to be conf
 outside the head's view none until the view turns to them), and often beside others who have
 tracks. A ground point is taken by the confirmed track that explains it best: the one under
 whose position its person most likely was at the point when it was chosen. The track's ground
-position is taken back along its velocity over the time its detections measured that velocity:
-to the request's capture time, or to its birth where it was born after the request (a young
-track's velocity is too poor to take back further). The person at the point is spread over
+position is taken back along its velocity to the request's capture time, with the covariance
+that gives it over the time (its position's, its velocity's over the time, and their
+correlation: a young track's poor velocity spreads it far); a track whose message carries no
+velocity covariance is taken back only to its birth. The person at the point is spread over
 their width (the point and the track's position may each be anywhere across a shoulder,
-`PERSON_WIDTH_M`), and over where they can have walked from the request to the birth: the
-covariance `walked_on` gives a lost person, whose gate's edge lies at `WALK_MAX_M_S`. The track
+`PERSON_WIDTH_M`), and, for the time from the request to the track's birth, over how far they
+can have strayed from that velocity unseen: the covariance `walked_on` gives a lost person,
+whose gate's edge lies at `WALK_MAX_M_S`. The track
 fits where that position lies within `CONTINUATION_GATE_PROBABILITY`'s χ² gate of two dimensions
 against the sum of this spread and the track's own covariance (all of it: a track's covariance
 is long in range and narrow across, and a point across from it is not explained by its range);

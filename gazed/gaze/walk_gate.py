@@ -49,12 +49,12 @@ def point_fit(select: GazeSelect, track: Track, t_ns: int, gate_d2: float) -> fl
     if select.ground_xy_m is None or track.ground_xy_m is None:
         return None
     dt_s = max(0.0, (t_ns - select.t_capture_ns) * 1e-9)
-    back_s = min(dt_s, track.age_s)  # to the request, or to its birth after it
+    back_s, spread = back_along_velocity(track, dt_s)
     velocity = np.asarray(track.ground_velocity_m_s or (0.0, 0.0))
     delta = np.asarray(track.ground_xy_m) - velocity * back_s - np.asarray(select.ground_xy_m)
-    stray_m2 = (WALK_MAX_M_S * (dt_s - back_s)) ** 2 / gate_d2  # as `walked_on`
-    own = np.asarray(track.ground_cov_m2) if track.ground_cov_m2 is not None else np.zeros((2, 2))
-    spread = own + (PERSON_EXTENT_M2 + stray_m2) * np.eye(2)
+    unseen_s = dt_s - min(dt_s, track.age_s)  # before its birth: they may have turned
+    stray_m2 = (WALK_MAX_M_S * unseen_s) ** 2 / gate_d2  # as `walked_on`
+    spread = spread + (PERSON_EXTENT_M2 + stray_m2) * np.eye(2)
     try:
         d2 = float(delta @ np.linalg.solve(spread, delta))
     except np.linalg.LinAlgError:
@@ -62,6 +62,20 @@ def point_fit(select: GazeSelect, track: Track, t_ns: int, gate_d2: float) -> fl
     if d2 > gate_d2:
         return None
     return math.exp(-0.5 * d2) / (2.0 * math.pi * math.sqrt(float(np.linalg.det(spread))))
+
+
+def back_along_velocity(track: Track, dt_s: float) -> tuple[float, np.ndarray]:
+    """How far back (seconds) towards `dt_s` ago a track's position is taken along its velocity,
+    and the covariance of the position there. Where the track carries its velocity's covariance,
+    all the way, with that uncertainty over the time (`p - v·dt` has the covariance
+    `Pp - dt·(Ppv + Ppvᵀ) + dt²·Pv`); else only to its birth, with the position's own covariance
+    (a velocity of unknown quality is taken no further than it was measured)."""
+    own = np.asarray(track.ground_cov_m2) if track.ground_cov_m2 is not None else np.zeros((2, 2))
+    velocity_cov, cross = track.ground_velocity_cov_m2_s2, track.ground_position_velocity_cov_m2_s
+    if velocity_cov is None or cross is None:
+        return min(dt_s, track.age_s), own
+    Ppv = np.asarray(cross)
+    return dt_s, own - dt_s * (Ppv + Ppv.T) + dt_s**2 * np.asarray(velocity_cov)
 
 
 def most_likely(

@@ -21,6 +21,12 @@ class Track(BaseModel):
     ground_xy_m: tuple[float, float] | None = None
     ground_velocity_m_s: tuple[float, float] | None = None
     ground_cov_m2: tuple[tuple[float, float], tuple[float, float]] | None = None
+    ground_velocity_cov_m2_s2: tuple[tuple[float, float], tuple[float, float]] | None = Field(
+        None, description="The velocity's covariance."
+    )
+    ground_position_velocity_cov_m2_s: tuple[tuple[float, float], tuple[float, float]] | None = (
+        Field(None, description="The covariance of position (rows) and velocity (columns).")
+    )
     age_s: float = Field(ge=0, description="Since the track began.")
     hits: int = Field(ge=0, description="Detections it has taken.")
     coasting: bool = Field(False, description="No detection of it in this frame.")
@@ -31,10 +37,10 @@ class Track(BaseModel):
 class EstimatorState(Message):
     """The filter after a detection or a coasting step: combined state, covariance, model
     probabilities and the target on the ground (the chosen track's, `target_id`), and every
-    track. Version 2 adds `tracks` and `target_id`."""
+    track. Version 2 adds `tracks` and `target_id`; version 3 the tracks' velocity covariances."""
 
     SCHEMA: ClassVar[str] = "gazed.EstimatorState"
-    VERSION: ClassVar[int] = 2
+    VERSION: ClassVar[int] = 3
     filter: str
     x: tuple[float, ...] = Field(
         description="Combined state vector (its layout depends on the filter)."
