@@ -92,7 +92,7 @@ def test_tail_prints_one_line_per_message(running: RunningSupervisor) -> None:
     assert len(lines) == 3
     key = f"gazed/{running.rig.name}/vision/detection"
     for seq, line in enumerate(lines):
-        assert line.startswith(f"{key} gazed.Detection/4 ")
+        assert line.startswith(f"{key} gazed.Detection/5 ")
         assert f'"seq":{seq},' in line and '"detector":"test"' in line
 
 
@@ -106,7 +106,7 @@ def test_tail_json(running: RunningSupervisor) -> None:
     assert tail.returncode == 0, err
     records = [json.loads(line) for line in out.splitlines()]
     assert [r["payload"]["seq"] for r in records] == [0, 1]
-    assert all(r["schema"] == "gazed.Detection/4" and r["age_ms"] >= 0 for r in records)
+    assert all(r["schema"] == "gazed.Detection/5" and r["age_ms"] >= 0 for r in records)
 
 
 @pytest.mark.e2e

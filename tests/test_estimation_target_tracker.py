@@ -239,6 +239,17 @@ def test_a_change_of_the_cameras_delay_retimes_the_tracks() -> None:
     assert hidden.ground_xy_m == pytest.approx(known.ground_xy_m, abs=1e-6)
 
 
+def test_a_mover_without_a_velocity_is_measured_by_its_position_alone() -> None:
+    """A mover seen for the first time, or whose region merged or split, reports (0, 0) and
+    `velocity_known` false: that is no measurement of a person standing still."""
+    (first, *_) = detections(SIM_RIG, 1)
+    moving = Mover(u_px=first.u_px, v_px=first.v_px, du_px_s=40.0, dv_px_s=0.0)
+    unknown = Mover(u_px=first.u_px + 200.0, v_px=first.v_px, velocity_known=False)
+    tracker, _ = tracker_for(load_rig(SIM_RIG))
+    sightings = tracker._sightings(first.model_copy(update={"movers": (moving, unknown)}))
+    assert [s.measurement.velocity is not None for s in sightings] == [True, False]
+
+
 @pytest.mark.parametrize("fraction", [(0.0, 0.0), (0.1, 0.05)])
 def test_a_movers_point_is_as_uncertain_as_its_box_is_large(fraction: tuple) -> None:
     """Two movers at one point: the larger box's measurement is the less certain, by

@@ -157,7 +157,7 @@ def test_every_topic_model_has_a_sample() -> None:
 
 
 def test_schema_id_names_model_and_version() -> None:
-    assert m.Detection.schema_id() == "gazed.Detection/4"  # movers, the head's zoom, delay_ms added
+    assert m.Detection.schema_id() == "gazed.Detection/5"  # movers, zoom, delay_ms, velocity_known
     assert m.Health.schema_id() == "gazed.Health/2"  # subscribes and publishes added
 
 
@@ -239,7 +239,7 @@ def test_random_json_objects_decode_or_are_counted(fields: dict) -> None:
     stats = Stats()
     payload = json.dumps(fields).encode()
     result = decode_sample(
-        VISION_DETECTION, FakeSample(payload, "application/json;gazed.Detection/4"), stats
+        VISION_DETECTION, FakeSample(payload, "application/json;gazed.Detection/5"), stats
     )
     counters, _ = stats.snapshot()
     assert (result is None) == (counters.get("malformed", 0) == 1)
@@ -252,7 +252,7 @@ def test_schema_mismatch_is_malformed() -> None:
     good = SAMPLES[1].to_json()
     assert (
         decode_sample(
-            VISION_DETECTION, FakeSample(good, "application/json;gazed.Detection/4"), stats
+            VISION_DETECTION, FakeSample(good, "application/json;gazed.Detection/5"), stats
         )
         is not None
     )
@@ -265,7 +265,7 @@ def test_schema_mismatch_is_malformed() -> None:
     assert decode_sample(VISION_DETECTION, FakeSample(good, "application/json"), stats) is not None
     counters, _ = stats.snapshot()
     assert counters["malformed"] == 1
-    assert stats.last_malformed is not None and "gazed.Detection/4" in stats.last_malformed
+    assert stats.last_malformed is not None and "gazed.Detection/5" in stats.last_malformed
 
 
 def test_a_selection_names_at_most_one_choice() -> None:

@@ -297,6 +297,8 @@ class TargetTracker:
             measurement = self._measure(seen, self.noise.for_region(*size, self.extent_core))
             if measurement is None:
                 continue
+            if not mover.velocity_known:  # its (0, 0) would say the person stands still
+                measurement = measurement.position_only()
             tail_cov = None
             if self.tail_weight > 0:  # the mixture's tail: the same point, its wider spread
                 tail = self._measure(seen, self.noise.for_region(*size, self.extent_tail))

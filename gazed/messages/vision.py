@@ -41,6 +41,11 @@ class Mover(BaseModel):
     v_px: float
     du_px_s: float = 0.0
     dv_px_s: float = 0.0
+    velocity_known: bool = Field(
+        True,
+        description="False: the mover has no velocity yet (seen for the first time, or its "
+        "region merged or split): du and dv are 0 and say nothing.",
+    )
     box_width_px: float = Field(0.0, ge=0)
     box_height_px: float = Field(0.0, ge=0)
     area_px: float = Field(0.0, ge=0)
@@ -55,10 +60,10 @@ class Mover(BaseModel):
 class Detection(Message):
     """The target as the detector saw it in one frame (pixels, image coordinates: u right, v down),
     and every mover the frame shows. Version 2 adds `movers`, version 3 the head's `zoom`, version
-    4 `delay_ms`."""
+    4 `delay_ms`, version 5 `Mover.velocity_known`."""
 
     SCHEMA: ClassVar[str] = "gazed.Detection"
-    VERSION: ClassVar[int] = 4
+    VERSION: ClassVar[int] = 5
     seq: int = Field(ge=0, description="Frame sequence number.")
     detector: str
     found: bool

@@ -82,12 +82,14 @@ class CandidateFinder:
                 continue
             u, v = su[i] / sums[i] * scale, sv[i] / sums[i] * scale
             found.append((u, v, area, float(sums[i] * scale * scale) / UNITS_PER_GREY))
-        velocities = self._tracks.update(
+        tracked = self._tracks.update(
             pair.step,
             [(u, v) for u, v, _, _ in found],
             [max(np.sqrt(a), 2.0 * scale) for _, _, a, _ in found],
+            [a for _, _, a, _ in found],
             pair.t_s,
         )
+        velocities = [velocity or (0.0, 0.0) for velocity in tracked]  # none yet: no speed
         speeds = [float(np.hypot(*d)) for d in velocities]
         totals = (
             sum(f[3] for f in found),

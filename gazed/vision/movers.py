@@ -50,6 +50,22 @@ class MoverRegion:
     area_px: float
     confidence: float
     appearance: tuple[float, ...] = ()
+    velocity_known: bool = True  # False: no velocity yet (du, dv are 0 and say nothing)
+
+    @classmethod
+    def tracked(
+        cls,
+        u_px: float,
+        v_px: float,
+        velocity_px_s: tuple[float, float] | None,
+        box: tuple[float, float, float, float],
+        area_px: float,
+        confidence: float,
+    ) -> MoverRegion:
+        """A mover with the velocity of its region's track (`region_tracks`; None: none yet)."""
+        du, dv = velocity_px_s or (0.0, 0.0)
+        known = velocity_px_s is not None
+        return cls(u_px, v_px, du, dv, box, area_px, confidence, velocity_known=known)
 
     @property
     def radius_px(self) -> float:

@@ -367,15 +367,16 @@ class NormalFlowDetector:
         boxes = [own.box] + [
             (fovea.x0 + b.x, fovea.y0 + b.y, float(b.width), float(b.height)) for b in others
         ]
-        velocities = self._tracks.update(
-            pair.step, centroids, [0.5 * max(b[2], b[3]) for b in boxes], pair.t_s
-        )
+        radii = [0.5 * max(b[2], b[3]) for b in boxes]
+        areas = [own.area_px] + [float(blob.area) for blob in others]
+        velocities = self._tracks.update(pair.step, centroids, radii, areas, pair.t_s)
         movers = [own]
         total = own.area_px + sum(blob.area for blob in others)
-        for blob, (u, v), (du, dv), box in zip(
+        for blob, (u, v), velocity, box in zip(
             others, centroids[1:], velocities[1:], boxes[1:], strict=True
         ):
-            movers.append(MoverRegion(u, v, du, dv, box, float(blob.area), blob.area / total))
+            area = float(blob.area)
+            movers.append(MoverRegion.tracked(u, v, velocity, box, area, area / total))
         return tuple(movers)
 
     @staticmethod

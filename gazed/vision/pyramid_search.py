@@ -203,18 +203,20 @@ class PyramidDetector:
         centroids = [(final.u_px, final.v_px)]
         centroids += [(cu * scale, cv * scale) for cu, cv in (b.centroid() for b in blobs[1:])]
         boxes = [b.box_at(scale) for b in blobs]
-        velocities = self._tracks.update(
-            pair.step, centroids, [0.5 * max(b[2], b[3]) for b in boxes], pair.t_s
-        )
+        radii = [0.5 * max(b[2], b[3]) for b in boxes]
+        areas = [float(blob.area * scale * scale) for blob in blobs]
+        velocities = self._tracks.update(pair.step, centroids, radii, areas, pair.t_s)
         total = float(energies.sum())
         half_dt = pair.step.dt_s / 2.0  # a centroid is at mid-interval, as the target's
         movers = [dataclasses.replace(own, box=boxes[0])]
-        for i, (u, v), (du, dv), box, blob in zip(
+        for i, (u, v), velocity, box, blob in zip(
             regions[1:], centroids[1:], velocities[1:], boxes[1:], blobs[1:], strict=True
         ):
             area = float(blob.area * scale * scale)
+            du, dv = velocity or (0.0, 0.0)
             u, v = u + du * half_dt, v + dv * half_dt
-            movers.append(MoverRegion(u, v, du, dv, box, area, float(energies[i]) / total))
+            energy = float(energies[i]) / total
+            movers.append(MoverRegion.tracked(u, v, velocity, box, area, energy))
         return tuple(movers)
 
     def _coarsest(self, pyramid: list[np.ndarray]) -> WindowLook | None:

@@ -290,13 +290,13 @@ class SilhouetteModel:
         points = [self.point(body, kind) for body in bodies]
         boxes = [body.box_at(self.scale) for body in bodies]
         radii = [0.5 * max(box[2], box[3]) for box in boxes]
-        velocities = self._tracks.update(step, points, radii, t_s)
         area_scale = self.scale * self.scale
+        areas = [float(body.area * area_scale) for body in bodies]
+        velocities = self._tracks.update(step, points, radii, areas, t_s)
         total = max(foreground.total_px, 1.0)
         movers = []
-        for body, (u, v), (du, dv), box in zip(bodies, points, velocities, boxes, strict=True):
-            area = float(body.area * area_scale)
-            movers.append(MoverRegion(u, v, du, dv, box, area, min(1.0, area / total)))
+        for (u, v), velocity, box, area in zip(points, velocities, boxes, areas, strict=True):
+            movers.append(MoverRegion.tracked(u, v, velocity, box, area, min(1.0, area / total)))
         return tuple(movers)
 
 

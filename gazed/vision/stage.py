@@ -283,6 +283,7 @@ def mover_message(mover: MoverRegion) -> Mover:
         v_px=mover.v_px,
         du_px_s=mover.du_px_s,
         dv_px_s=mover.dv_px_s,
+        velocity_known=mover.velocity_known,
         box_width_px=mover.box[2],
         box_height_px=mover.box[3],
         area_px=mover.area_px,
