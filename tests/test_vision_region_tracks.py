@@ -69,3 +69,19 @@ def test_a_region_that_splits_has_no_velocity() -> None:
     velocity, flicker = run(RegionTracks(6), [*frames, beside], [AREA_PX, 9.0])
     assert velocity is not None and velocity[0] == pytest.approx(14.0, abs=1.0)
     assert flicker is None
+
+
+def test_a_flicker_beside_a_region_whose_area_varies_leaves_it_its_velocity() -> None:
+    """A walker's region changes its area from frame to frame; a small flicker comes and goes
+    beside it. Neither is a merge or a split: the region keeps its velocity throughout."""
+    rng = np.random.default_rng(7)
+    tracks, area_px, velocities = RegionTracks(6), 3000.0, []
+    for k, (u, v) in enumerate(walk(100.0, 14.0, 200)):
+        centroids, areas = [(u, v)], [area_px * (1.0 + 0.03 * rng.standard_normal())]
+        if k % 2:
+            centroids.append((u + 35.0, v))
+            areas.append(float(rng.uniform(20.0, 60.0)))
+        velocities.append(
+            tracks.update(STILL, centroids, [40.0] * len(areas), areas, k / RATE_HZ)[0]
+        )
+    assert all(velocity is not None for velocity in velocities[1:])

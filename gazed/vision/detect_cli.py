@@ -183,6 +183,7 @@ def _frame_record(index: int, t_s: float, out: DetectorOutput) -> dict[str, obje
                 "v": round(m.v_px, 3),
                 "du": round(m.du_px_s, 3),
                 "dv": round(m.dv_px_s, 3),
+                "velocity_known": m.velocity_known,
                 "box": [round(x, 1) for x in m.box],
             }
             for m in out.movers

@@ -155,7 +155,8 @@ class PyramidDetector:
         self._history.add(
             pair.t_s - pair.step.dt_s / 2.0, final.u_px, final.v_px, gate_px=final.rect[2] / 2.0
         )
-        du, dv = self._history.velocity() or (0.0, 0.0)
+        velocity = self._history.velocity()
+        du, dv = velocity or (0.0, 0.0)
         half_dt = pair.step.dt_s / 2.0
         level = pyramid[final.level]
         level_energy = float(level[level > self.energy_threshold].sum())
@@ -167,6 +168,7 @@ class PyramidDetector:
             box=(0.0, 0.0, 0.0, 0.0),
             area_px=float(final.active << (2 * final.level)),
             confidence=min(1.0, final.energy / level_energy) if level_energy > 0 else 0.0,
+            velocity_known=velocity is not None,
         )
         return DetectorOutput(
             found=True,

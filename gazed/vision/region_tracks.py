@@ -16,6 +16,12 @@ import numpy as np
 from gazed.vision.ego_motion import HeadStep
 from gazed.vision.position_history import PositionHistory
 
+# a region merged with or split from another only where that other is at least this share of
+# its own area: a region's area changes from frame to frame (a walker's stride, the mask's
+# edge), and a fragment or flicker smaller than that change cannot be told from it (nor does
+# it move the centroid much)
+PART_SHARE = 0.25
+
 
 class RegionTracks:
     """The recent centroids of the previous frame's regions, each with the radius it reaches and
@@ -55,8 +61,9 @@ class RegionTracks:
         mask took in another or lost a part, which moved by the change of its mask, not by its
         motion: a merge, where a previous region within its reach went to no region and it
         gained at least half that region's area; a split, where a new region is within its
-        previous region's reach and it lost at least half the new region's area (a flicker
-        beside a region takes nothing from it)."""
+        previous region's reach and it lost at least half the new region's area. Either other
+        region is at least `PART_SHARE` of the whole (the merged region, or the one that split):
+        a flicker beside a region, or a fragment, is not told from the change of its area."""
         matched: dict[int, PositionHistory] = {}
         if self._previous and centroids:
             ends = np.array([history.last()[1:] for history, _, _ in self._previous])
@@ -79,10 +86,13 @@ class RegionTracks:
             areas = np.asarray(areas_px, float)
             for i, j in source.items():
                 change = areas[i] - before[j]
+                own_px = PART_SHARE * max(areas[i], before[j])
                 absorbed = before[within[i] & ~taken]
+                absorbed = absorbed[absorbed >= own_px]
                 parted = areas[new[within[new, j]]]
-                merged = bool((change >= 0.5 * absorbed).any()) if absorbed.size else False
-                split = bool((-change >= 0.5 * parted).any()) if parted.size else False
+                parted = parted[parted >= own_px]
+                merged = bool((change >= 0.5 * absorbed).any())
+                split = bool((-change >= 0.5 * parted).any())
                 if merged or split:
                     matched[i].clear()
                     matched[i].add(t_s, *centroids[i])
