@@ -17,9 +17,9 @@ from gazed.vision.ego_motion import HeadStep
 from gazed.vision.position_history import PositionHistory
 
 # a region merged with or split from another only where that other is at least this share of
-# its own area: a region's area changes from frame to frame (a walker's stride, the mask's
-# edge), and a fragment or flicker smaller than that change cannot be told from it (nor does
-# it move the centroid much)
+# the whole (the merged region, or the one before it split): a region's area changes from frame
+# to frame (a walker's stride, the mask's edge), and a fragment or flicker smaller than that
+# change cannot be told from it (nor does it move the centroid much)
 PART_SHARE = 0.25
 
 
