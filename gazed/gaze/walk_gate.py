@@ -49,7 +49,7 @@ def point_fit(select: GazeSelect, track: Track, t_ns: int, gate_d2: float) -> fl
     if select.ground_xy_m is None or track.ground_xy_m is None:
         return None
     dt_s = max(0.0, (t_ns - select.t_capture_ns) * 1e-9)
-    back_s, spread = back_along_velocity(track, dt_s)
+    back_s, spread = _back_along_velocity(track, dt_s)
     velocity = np.asarray(track.ground_velocity_m_s or (0.0, 0.0))
     delta = np.asarray(track.ground_xy_m) - velocity * back_s - np.asarray(select.ground_xy_m)
     unseen_s = dt_s - min(dt_s, track.age_s)  # before its birth: they may have turned
@@ -64,7 +64,7 @@ def point_fit(select: GazeSelect, track: Track, t_ns: int, gate_d2: float) -> fl
     return math.exp(-0.5 * d2) / (2.0 * math.pi * math.sqrt(float(np.linalg.det(spread))))
 
 
-def back_along_velocity(track: Track, dt_s: float) -> tuple[float, np.ndarray]:
+def _back_along_velocity(track: Track, dt_s: float) -> tuple[float, np.ndarray]:
     """How far back (seconds) towards `dt_s` ago a track's position is taken along its velocity,
     and the covariance of the position there. Where the track carries its velocity's covariance,
     all the way, with that uncertainty over the time (`p - v·dt` has the covariance
