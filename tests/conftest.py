@@ -218,6 +218,20 @@ class RunningSupervisor:
         status = poll_until(complete, 10.0)
         return {p.name: p.pid for p in status.processes if p.pid is not None}
 
+    def back_after(self, name: str, since_s: float) -> float | None:
+        """When `name`'s liveliness token came back after vanishing, both after `since_s`
+        (monotonic); None before then. A token seen again without first vanishing (the
+        observer's links to the mesh changing as a peer dies) is not a comeback."""
+        gone = False
+        for t, n, alive in list(self.alive_events):
+            if n != name or t <= since_s:
+                continue
+            if not alive:
+                gone = True
+            elif gone:
+                return t
+        return None
+
     def wait_ready(self, timeout_s: float = 30.0) -> None:
         poll_until(lambda: self.notify.count("READY=1") >= 1, timeout_s)
 

@@ -99,8 +99,7 @@ class Watch:
     def recovered(self, name: str, killed_s: float, killed_ns: int) -> int | None:
         """Once `name` is alive again: when tracking resumed after the kill (None: not yet)."""
         self.pump()
-        events = self.supervisor.alive_events
-        if not any(n == name and up and t > killed_s for t, n, up in events):
+        if self.supervisor.back_after(name, killed_s) is None:
             return None
         return self.tracking_since_ns(killed_ns)
 
@@ -140,9 +139,8 @@ def test_tracking_survives_each_process_being_killed(tmp_path: Path) -> None:
             back = poll_until(
                 partial(watch.recovered, name, killed_s, killed_ns), 20.0, interval_s=0.0
             )
-            alive_again_s = next(
-                t for t, n, up in supervisor.alive_events if n == name and up and t > killed_s
-            )
+            alive_again_s = supervisor.back_after(name, killed_s)
+            assert alive_again_s is not None
             recovery_s = max((back - killed_ns) / 1e9, alive_again_s - killed_s)
             recoveries[name] = recovery_s
             print(

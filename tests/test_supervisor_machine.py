@@ -113,6 +113,22 @@ def test_a_process_running_stably_restarts_quickly_again(supervisor: Supervisor)
     assert crash(supervisor, "vision", 9.0) == pytest.approx(0.5)
 
 
+def test_a_dead_processs_token_seen_late_does_not_make_its_restart_running(
+    supervisor: Supervisor,
+) -> None:
+    vision = supervisor.children["vision"]
+    vision.popen.returncode = -9  # type: ignore[union-attr]
+    supervisor.step(1.0)
+    assert vision.state == State.BACKOFF
+    supervisor.bus.on_alive("vision", True)  # type: ignore[attr-defined]  # the old token, late
+    supervisor.step(vision.restart_at_s)
+    supervisor.step(vision.restart_at_s + 0.01)
+    assert vision.state == State.STARTING
+    supervisor.bus.on_alive("vision", True)  # type: ignore[attr-defined]  # the new process's
+    supervisor.step(vision.restart_at_s + 0.02)
+    assert vision.state == State.RUNNING
+
+
 def test_it_gives_up_past_the_restart_intensity(supervisor: Supervisor) -> None:
     for k in range(6):
         crash(supervisor, "servo", 1.0 + 10.0 * k)

@@ -83,6 +83,7 @@ class Supervisor:
         child.spawn(self.rig_path)
         assert child.popen is not None
         child.state = State.STARTING
+        child.alive = False  # only a token declared after this spawn says it is up
         child.started_s = now_s
         child.message = f"started (pid {child.popen.pid})"
         log.info("%s: %s", child.name, child.message)
