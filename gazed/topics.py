@@ -60,7 +60,8 @@ VISION_EDGE = Topic("vision/edge", EdgeObservation, "the edge under the fovea wh
 ESTIMATOR_STATE = Topic(
     "estimator/state",
     EstimatorState,
-    "every track, and the chosen one's state, covariance and model probabilities",
+    "every track with its appearance, and the chosen one's state, covariance and model "
+    "probabilities",
 )
 ESTIMATOR_PREDICTION = Topic(
     "estimator/prediction", Prediction, "gaze angles and rates when the next demand acts"

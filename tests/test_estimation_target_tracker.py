@@ -121,6 +121,34 @@ def test_every_track_carries_its_filters_covariance_over_position_and_velocity()
     assert np.abs(P[:2, 2:]).max() > 0.0  # a filter's position and velocity are correlated
 
 
+def test_every_track_carries_its_appearance_model() -> None:
+    """The gaze tells a lost person's new track from someone else's by these (`look_gate`)."""
+    tracker, clock = tracker_for(load_rig(SIM_RIG))
+    rng = np.random.default_rng(5)
+    clothes = rng.dirichlet(np.full(64, 0.5))
+    for detection in detections(SIM_RIG, 12):
+        histogram = 0.9 * clothes + 0.1 * rng.dirichlet(np.full(64, 0.5))
+        mover = Mover(
+            u_px=detection.u_px,
+            v_px=detection.v_px,
+            du_px_s=detection.du_px_s,
+            dv_px_s=detection.dv_px_s,
+            box_width_px=20.0,
+            box_height_px=50.0,
+            area_px=800.0,
+            appearance=tuple(histogram.tolist()),
+        )
+        update = feed(tracker, clock, detection.model_copy(update={"movers": (mover,)}))
+        assert update is not None
+        state, _ = tracker.settle(update)
+    assert state is not None and len(state.tracks) == 1
+    (track,) = state.tracks
+    model = tracker.tracks.tracks[0].appearance
+    assert track.look is not None and model is not None and model.taken == 11  # the first began it
+    assert np.asarray(track.look.template) == pytest.approx(model.template, rel=1e-12)
+    assert (track.look.h2_mean, track.look.h2_shape) == (model.mean, model.shape)
+
+
 def test_the_baseline_offers_the_estimate_at_the_capture() -> None:
     rig = load_rig(SIM_RIG)
     section = rig.estimator.model_copy(update={"predict_over_latency": False})

@@ -11,6 +11,7 @@ import pytest
 from test_gaze_controller import RIG, Clock, detection, odometry, prediction
 
 from gazed.config import GazeSection
+from gazed.estimation.association import hellinger_squared
 from gazed.gaze.controller import GazeController
 from gazed.gaze.focus import focus
 from gazed.gaze.target_choice import TargetChoice, track_start_up_s
@@ -20,7 +21,15 @@ from gazed.geometry.camera import CameraModel
 from gazed.geometry.kinematics import HeadKinematics
 from gazed.geometry.target_angles import target_angles
 from gazed.geometry.zoom import ZoomLens
-from gazed.messages import EstimatorState, GazeSelect, HeadPose, Mover, Prediction, Track
+from gazed.messages import (
+    EstimatorState,
+    GazeSelect,
+    HeadPose,
+    Mover,
+    Prediction,
+    Track,
+    TrackLook,
+)
 
 CAMERA = CameraModel.from_section(RIG.camera)
 LENS = ZoomLens.fixed(CAMERA)
@@ -303,6 +312,55 @@ def test_a_held_choice_is_continued_only_where_its_person_can_have_walked() -> N
     change = c.on_state(at(1.7, beside, behind, far, walker(7, (0.9, 5.1), (1.0, 0.0))), None)
     assert change is not None and change.target_id == 7 and c.by_operator and not c.holding
     assert change.reason == "track 2 lost; its person continues as 7"
+
+
+PERSON_LOOK = np.random.default_rng(3).dirichlet(np.full(64, 0.5))
+
+
+def look(away: float) -> TrackLook:
+    """An appearance whose template is the share `away` of the way from a person's to another
+    histogram; its movers lie at h² 0.05 of it (about the median of the PETS footage's people's
+    own distances; a person near them lies at a median 0.26: docs/performance.md)."""
+    elsewhere = np.random.default_rng(4).dirichlet(np.full(64, 0.5))
+    template = (1.0 - away) * PERSON_LOOK + away * elsewhere
+    return TrackLook(template=tuple(template.tolist()), h2_mean=0.05, h2_shape=4.0)
+
+
+def looking(track: Track, away: float) -> Track:
+    return track.model_copy(update={"look": look(away)})
+
+
+def test_the_looks_lie_as_the_footages_people_do() -> None:
+    h2 = hellinger_squared(
+        np.array([look(0.0).template]), np.array([look(a).template for a in (0.25, 0.9)])
+    )
+    assert h2[0] == pytest.approx([0.03, 0.24], abs=0.01)
+
+
+def test_a_continuation_is_not_someone_who_looks_different() -> None:
+    c = choice(select_rule="first")
+    chosen = looking(walker(2, (0.0, 5.0), (1.0, 0.0)), 0.0)
+    c.on_state(at(1.0, chosen), None)
+    c.on_select(GazeSelect(t_capture_ns=1, track_id=2), None)
+    change = c.on_state(at(1.2), None)
+    assert change is not None and change.target_id == 2 and c.holding
+    # someone else is born where 2's person can have walked: not them, by their clothes
+    other = looking(walker(5, (0.3, 5.0), (1.0, 0.0)), 0.9)
+    assert c.on_state(at(1.4, other), None) is None and c.target_id == 2 and c.holding
+    # 2's person comes back beside them, further from where they were going, and continues it
+    back = looking(walker(7, (0.9, 5.6), (1.0, 0.0)), 0.25)
+    change = c.on_state(at(1.6, other, back), None)
+    assert change is not None and change.target_id == 7 and c.by_operator
+    assert change.reason == "track 2 lost; its person continues as 7"
+
+
+def test_a_merge_into_someone_who_looks_different_is_not_a_continuation() -> None:
+    c = choice(select_rule="first")
+    beside = looking(walker(1, (0.3, 5.0), (0.0, 0.0)), 0.9)
+    c.on_state(at(1.0, beside, looking(walker(2, (0.0, 5.0), (0.0, 0.0)), 0.0)), None)
+    c.on_select(GazeSelect(t_capture_ns=1, track_id=2), None)
+    change = c.on_state(at(1.1, beside), None)  # ended at once beside 1, who is not them
+    assert change is not None and change.target_id == 2 and c.holding
 
 
 def test_a_grown_gate_takes_no_track_held_before_the_loss() -> None:

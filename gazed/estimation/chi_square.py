@@ -17,7 +17,7 @@ _TINY = 1e-300
 _EPSILON = 1e-16
 
 
-def log_upper_tail(x: float, dof: int) -> float:
+def log_upper_tail(x: float, dof: float) -> float:
     """log P(χ²(dof) > x) for x >= 0."""
     if x <= 0.0:
         return 0.0

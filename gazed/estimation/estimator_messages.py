@@ -8,12 +8,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from gazed.estimation.appearance_model import TrackAppearance
 from gazed.estimation.events import ManeuverEvent as ModelChange
 from gazed.estimation.loop_latency import LoopLatency
 from gazed.estimation.results import PredictedState
 from gazed.estimation.tracks import PersonTrack
 from gazed.geometry.ground import GroundGeometry
-from gazed.messages import ManeuverEvent, Prediction, Stamp, Track
+from gazed.messages import ManeuverEvent, Prediction, Stamp, Track, TrackLook
 
 
 @dataclass(frozen=True)
@@ -52,6 +53,7 @@ class EstimatorMessages:
             coasting=track.coasting,
             box_height_px=track.box_height_px,
             most_likely=track.estimator.most_likely(),
+            look=_look(track.appearance),
         )
 
     def prediction(
@@ -107,6 +109,17 @@ def maneuver_message(
         previous_duration_s=event.previous_duration_s,
         mean_s_dot_m_s2=event.mean_s_dot_m_s2,
         mean_theta_dot_rad_s=event.mean_theta_dot_rad_s,
+    )
+
+
+def _look(appearance: TrackAppearance | None) -> TrackLook | None:
+    """A track's appearance model on the wire (None: it has none)."""
+    if appearance is None:
+        return None
+    return TrackLook(
+        template=tuple(appearance.template.tolist()),
+        h2_mean=appearance.mean,
+        h2_shape=appearance.shape,
     )
 
 

@@ -24,11 +24,16 @@ dimensions against the sum of their covariances. The chosen track's side is the 
 the estimator's own (its coasting covariance, or once it has ended its last state walked on,
 below), and the chosen track in the state of its last detection walked on (`walked_on`) over the
 time since, so the gate widens as far as the person can have walked since they were last seen,
-however little the estimator's covariance grows while it coasts. Of several, the
-nearest (in that distance) continues it. A chosen track that ends without having coasted was
-merged by the estimator with another track of its person (a track ends by coasting otherwise),
-so any track within that gate continues it, however old. Tracks without a ground position
-(image-cv) are not continued.
+however little the estimator's covariance grows while it coasts. Someone else can walk there
+too, so where both tracks carry an appearance (`Track.look`), the new track's template must also
+lie within the chosen track's appearance gate, of the same probability (`look_gate`): it is not
+the person where their clothes differ by more than the person's own movers do. A track is judged
+by its appearance at every state, as its young template learns its movers; by the ground only
+when it first appears. Of several, the one of least cost — the gate's distance plus the
+appearance's cost, as the estimator's association adds them — continues it. A chosen track that
+ends without having coasted was merged by the estimator with another track of its person (a
+track ends by coasting otherwise), so any track within both gates continues it, however old.
+Tracks without a ground position (image-cv) are not continued.
 
 An operator points at a person the moment they see them, often before the estimator has a
 track of them (a person who has just walked in needs a few detections to be confirmed, and one
@@ -53,7 +58,7 @@ one more likely than every confirmed track that fits is waited for: a person who
 walked in is still tentative while those around them are confirmed, and a tentative track is
 confirmed or dropped within the estimator's `confirm_frames`. A point no confirmed track can
 take yet is held rather than refused, and taken by the first track that can. The same holds for
-a continuation: a tentative new track nearer (in the gate's distance) than every confirmed one
+a continuation: a tentative new track of less cost than every confirmed one
 is waited for. While it is held, the rule does not pick. It is held for as long as a person in
 view can go without a confirmed track (`track_start_up_s`): the detector's start-up (`[vision]
 background_learning_frames`), the estimator's confirmation (`confirm_frames`), and then as long
@@ -89,10 +94,12 @@ replaced at once.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from gazed.config import Rig
 from gazed.estimation.chi_square import chi2_quantile
+from gazed.gaze.look_gate import look_cost
 from gazed.gaze.target_rule import (
     GroundZone,
     nearest_by_angle,
@@ -225,15 +232,17 @@ class TargetChoice:
             lost = walked_on(lost, (t_ns - self._chosen_ns) * 1e-9, self.continuation_d2)
         seen = self._seen if self._seen is not None and self._seen.id == lost.id else lost
         walked = walked_on(seen, (t_ns - self._seen_ns) * 1e-9, self.continuation_d2)
-        best, best_d2, born_elsewhere = None, self.continuation_d2, set()
+        best, best_cost, born_elsewhere = None, math.inf, set()
         for track in tracks:
             if (track.id in self._known and not merged) or track.coasting:
                 continue
             d2 = _nearer(ground_distance2(lost, track), ground_distance2(walked, track))
             if d2 is None or d2 > self.continuation_d2:
                 born_elsewhere.add(track.id)  # not where the person can have walked: never
-            elif d2 <= best_d2:
-                best, best_d2 = track, d2
+                continue
+            cost = d2 + look_cost(seen.look, track.look, CONTINUATION_GATE_PROBABILITY)
+            if cost < best_cost:  # infinite: someone else to look at (judged again later)
+                best, best_cost = track, cost
         self._known |= born_elsewhere
         if best is None or not best.confirmed:  # none, or wait for the tentative (docstring)
             return None

@@ -3,7 +3,7 @@ zenoh encoding `application/json;gazed.<Name>/<version>`. One module per process
 them; `gazed.messages.base` holds what they share (see its docstring for stamps and units)."""
 
 from gazed.messages.base import ARRIVAL_STAGE, HeadPose, Message, Stamp
-from gazed.messages.estimator import EstimatorState, ManeuverEvent, Prediction, Track
+from gazed.messages.estimator import EstimatorState, ManeuverEvent, Prediction, Track, TrackLook
 from gazed.messages.gaze import (
     GazeCommand,
     GazeDemand,
@@ -51,4 +51,5 @@ __all__ = [
     "SupervisorStatus",
     "TraceResult",
     "Track",
+    "TrackLook",
 ]

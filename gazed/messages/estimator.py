@@ -10,6 +10,19 @@ from pydantic import BaseModel, ConfigDict, Field
 from gazed.messages.base import Message
 
 
+class TrackLook(BaseModel):
+    """A track's appearance (gazed.estimation.appearance_model): the template of the colour
+    histograms it has taken, and the gamma distribution its own movers' squared Hellinger
+    distances h² to it follow."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, frozen=True)
+    template: tuple[float, ...] = Field(
+        min_length=2, max_length=64, description="Normalised, as a mover's `appearance`."
+    )
+    h2_mean: float = Field(gt=0, description="The mean h² of its own movers to the template.")
+    h2_shape: float = Field(ge=1, description="Their gamma distribution's shape.")
+
+
 class Track(BaseModel):
     """One person the estimator follows, at the frame's capture."""
 
@@ -32,15 +45,17 @@ class Track(BaseModel):
     coasting: bool = Field(False, description="No detection of it in this frame.")
     box_height_px: float = Field(0.0, ge=0, description="Its last box's height.")
     most_likely: str = ""
+    look: TrackLook | None = Field(None, description="None: no mover of it had an appearance.")
 
 
 class EstimatorState(Message):
     """The filter after a detection or a coasting step: combined state, covariance, model
     probabilities and the target on the ground (the chosen track's, `target_id`), and every
-    track. Version 2 adds `tracks` and `target_id`; version 3 the tracks' velocity covariances."""
+    track. Version 2 adds `tracks` and `target_id`; version 3 the tracks' velocity covariances;
+    version 4 their appearance (`Track.look`)."""
 
     SCHEMA: ClassVar[str] = "gazed.EstimatorState"
-    VERSION: ClassVar[int] = 3
+    VERSION: ClassVar[int] = 4
     filter: str
     x: tuple[float, ...] = Field(
         description="Combined state vector (its layout depends on the filter)."
