@@ -58,9 +58,9 @@ one more likely than every confirmed track that fits is waited for: a person who
 walked in is still tentative while those around them are confirmed, and a tentative track is
 confirmed or dropped within the estimator's `confirm_frames`. A point no confirmed track can
 take yet is held rather than refused, and taken by the first track that can. The same holds for
-a continuation: a tentative new track of less cost than every confirmed one
-is waited for. While it is held, the rule does not pick. It is held for as long as a person in
-view can go without a confirmed track (`track_start_up_s`): the detector's start-up (`[vision]
+a continuation: a tentative new track of less cost than every confirmed one is waited for. While
+it is held, the rule does not pick. It is held for as long as a person in view can go without a
+confirmed track (`track_start_up_s`): the detector's start-up (`[vision]
 background_learning_frames`), the estimator's confirmation (`confirm_frames`), and then as long
 as the estimator keeps a person through missed detections (`coast_max_ms`). A point no track has
 taken by then is refused, and the rule picks.
