@@ -121,13 +121,14 @@ def test_every_track_carries_its_filters_covariance_over_position_and_velocity()
     assert np.abs(P[:2, 2:]).max() > 0.0  # a filter's position and velocity are correlated
 
 
-def test_every_track_carries_its_appearance_model() -> None:
+@pytest.mark.parametrize("bins", [64, 2, 1])  # the vision's own, and any a producer may send
+def test_every_track_carries_its_appearance_model(bins: int) -> None:
     """The gaze tells a lost person's new track from someone else's by these (`look_gate`)."""
     tracker, clock = tracker_for(load_rig(SIM_RIG))
     rng = np.random.default_rng(5)
-    clothes = rng.dirichlet(np.full(64, 0.5))
+    clothes = rng.dirichlet(np.full(bins, 0.5))
     for detection in detections(SIM_RIG, 12):
-        histogram = 0.9 * clothes + 0.1 * rng.dirichlet(np.full(64, 0.5))
+        histogram = 0.9 * clothes + 0.1 * rng.dirichlet(np.full(bins, 0.5))
         mover = Mover(
             u_px=detection.u_px,
             v_px=detection.v_px,
@@ -144,7 +145,11 @@ def test_every_track_carries_its_appearance_model() -> None:
     assert state is not None and len(state.tracks) == 1
     (track,) = state.tracks
     model = tracker.tracks.tracks[0].appearance
-    assert track.look is not None and model is not None and model.taken == 11  # the first began it
+    assert model is not None and model.taken == 11  # the first began it
+    if bins == 1:
+        assert track.look is None  # one bin tells nobody apart
+        return
+    assert track.look is not None
     assert np.asarray(track.look.template) == pytest.approx(model.template, rel=1e-12)
     assert (track.look.h2_mean, track.look.h2_shape) == (model.mean, model.shape)
 

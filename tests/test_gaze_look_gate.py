@@ -1,5 +1,5 @@
 """The appearance gate of a continuation: the gamma tail against scipy's, the cost the
-estimator's association gives, and no judgement without an appearance."""
+estimator's association gives (above its mode's), and no judgement without an appearance."""
 
 from __future__ import annotations
 
@@ -40,10 +40,11 @@ def test_a_look_within_the_gate_costs_what_the_association_says() -> None:
         h2 = 1.0 - np.sqrt(person * other / other.sum()).sum()
         assert h2_upper_tail(h2, 0.05, 4.0) > 1.0 - PROBABILITY
         cost = look_cost(look(person), look(other), PROBABILITY)
-        expected = appearance_costs(np.array([[h2]]), np.array([0.05]), np.array([4.0]))[0, 0]
-        assert cost == pytest.approx(expected, rel=1e-9)
+        both = appearance_costs(np.array([[h2, 0.0]]), np.array([0.05]), np.array([4.0]))
+        assert cost == pytest.approx(both[0, 0] - both[0, 1], abs=1e-9)  # above the mode's
         costs.append(cost)
-    assert costs[0] <= costs[1] < costs[2]  # no dearer than the mode's cost, then rising
+    assert costs[0] == pytest.approx(0.0, abs=1e-12)  # as near as the person's own movers
+    assert 0.0 < costs[1] < costs[2]
 
 
 def test_a_look_beyond_the_gate_is_not_the_person() -> None:

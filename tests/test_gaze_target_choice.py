@@ -354,6 +354,31 @@ def test_a_continuation_is_not_someone_who_looks_different() -> None:
     assert change.reason == "track 2 lost; its person continues as 7"
 
 
+def test_of_two_new_tracks_the_one_that_looks_more_like_the_person_continues_it() -> None:
+    c = choice(select_rule="first")
+    c.on_state(at(1.0, looking(walker(2, (0.0, 5.0), (1.0, 0.0)), 0.0)), None)
+    c.on_select(GazeSelect(t_capture_ns=1, track_id=2), None)
+    c.on_state(at(1.2), None)  # ended: held for its person, at about (0.2, 5) by now
+    # both within the gates: 5 nearer where the person was going, 7 dressed as they are
+    nearer = looking(walker(5, (0.4, 5.1), (1.0, 0.0)), 0.6)
+    alike = looking(walker(7, (0.6, 5.3), (1.0, 0.0)), 0.25)
+    change = c.on_state(at(1.4, nearer, alike), None)
+    assert change is not None and change.target_id == 7
+
+
+def test_a_new_track_that_looked_like_someone_else_is_judged_again() -> None:
+    c = choice(select_rule="first")
+    c.on_state(at(1.0, looking(walker(2, (0.0, 5.0), (1.0, 0.0)), 0.0)), None)
+    c.on_select(GazeSelect(t_capture_ns=1, track_id=2), None)
+    c.on_state(at(1.2), None)
+    # its first movers were of a blob with someone else; then its template learns the person
+    young = walker(5, (0.3, 5.0), (1.0, 0.0))
+    assert c.on_state(at(1.4, looking(young, 0.9)), None) is None and c.holding
+    learnt = looking(young.model_copy(update={"ground_xy_m": (0.5, 5.0)}), 0.25)
+    change = c.on_state(at(1.6, learnt), None)
+    assert change is not None and change.target_id == 5 and not c.holding
+
+
 def test_a_merge_into_someone_who_looks_different_is_not_a_continuation() -> None:
     c = choice(select_rule="first")
     beside = looking(walker(1, (0.3, 5.0), (0.0, 0.0)), 0.9)

@@ -113,8 +113,9 @@ def maneuver_message(
 
 
 def _look(appearance: TrackAppearance | None) -> TrackLook | None:
-    """A track's appearance model on the wire (None: it has none)."""
-    if appearance is None:
+    """A track's appearance model on the wire (None: it has none, or of one bin, which tells
+    nobody apart)."""
+    if appearance is None or len(appearance.template) < 2:
         return None
     return TrackLook(
         template=tuple(appearance.template.tolist()),

@@ -7,9 +7,11 @@ the gamma distribution that its own movers' squared Hellinger distances h² to i
 movers, so where it is the same person its h² to the first's template lies no further than one
 of that person's movers does: it is tested against the first's distribution, and is not that
 person where it lies in the distribution's upper tail beyond the gate's probability. Where it
-passes, its cost is the distribution's `-2 ln p(h²)`, in the unit of the ground's squared
-Mahalanobis distance, as the estimator's association adds them. A track without an appearance,
-or with a histogram of another length, is not judged by it.
+passes, its cost is the distribution's `-2 ln p(h²)` above that of the distribution's mode, in
+the unit of the ground's squared Mahalanobis distance (the estimator's association adds the
+same term to its pairs' costs): 0 for a template as near as the person's own movers usually
+lie, or nearer, and growing as it lies further. A track without an appearance, or with a
+histogram of another length, is not judged by it: it costs 0, as a usual match does.
 """
 
 from __future__ import annotations
@@ -25,15 +27,17 @@ from gazed.messages import TrackLook
 
 
 def look_cost(person: TrackLook | None, other: TrackLook | None, probability: float) -> float:
-    """The cost of `other`'s template under `person`'s distribution (module docstring): 0 where
-    either has no appearance to compare, infinite beyond the gate of `probability`."""
+    """The cost of `other`'s template under `person`'s distribution above its mode's (module
+    docstring): 0 where either has no appearance to compare, infinite beyond the gate of
+    `probability`."""
     if person is None or other is None or len(person.template) != len(other.template):
         return 0.0
     h2 = hellinger_squared(np.array([person.template]), np.array([other.template]))
     if h2_upper_tail(float(h2[0, 0]), person.h2_mean, person.h2_shape) < 1.0 - probability:
         return math.inf
     mean, shape = np.array([person.h2_mean]), np.array([person.h2_shape])
-    return float(appearance_costs(h2, mean, shape)[0, 0])
+    costs = appearance_costs(np.array([[h2[0, 0], 0.0]]), mean, shape)  # 0: below the mode
+    return float(costs[0, 0] - costs[0, 1])
 
 
 def h2_upper_tail(h2: float, mean: float, shape: float) -> float:

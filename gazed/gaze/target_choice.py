@@ -27,10 +27,11 @@ time since, so the gate widens as far as the person can have walked since they w
 however little the estimator's covariance grows while it coasts. Someone else can walk there
 too, so where both tracks carry an appearance (`Track.look`), the new track's template must also
 lie within the chosen track's appearance gate, of the same probability (`look_gate`): it is not
-the person where their clothes differ by more than the person's own movers do. A track is judged
-by its appearance at every state, as its young template learns its movers; by the ground only
-when it first appears. Of several, the one of least cost — the gate's distance plus the
-appearance's cost, as the estimator's association adds them — continues it. A chosen track that
+the person where their clothes differ by more than the person's own movers do. A new track is
+judged at every state until it continues the choice (its appearance anew each time, as its young
+template learns its movers), and never again once it lies outside the ground's gate. Of several,
+the one of least cost — the gate's distance plus the appearance's cost above its usual
+(`look_gate`) — continues it. A chosen track that
 ends without having coasted was merged by the estimator with another track of its person (a
 track ends by coasting otherwise), so any track within both gates continues it, however old.
 Tracks without a ground position (image-cv) are not continued.
@@ -81,9 +82,9 @@ ends and no track continues it, the choice is held for its person rather than ha
 rule, which would pick another walker. The lost person is taken on along their last velocity,
 their covariance grown so that the gate's edge lies as far as a person can stray from that in
 the time since (`WALK_MAX_M_S` over it), so a new track born where they can have walked
-continues the choice (the gate above). Each new track is judged once, when it first appears: one
-born outside the gate is not them however far the region grows later, and none held before
-(those the estimator already kept for someone else) is. Meanwhile the gaze takes no other
+continues the choice (the gates above). A new track outside the ground's gate is not them
+however far the region grows later, and none held before (those the estimator already kept for
+someone else) is. Meanwhile the gaze takes no other
 track's predictions: it coasts and searches where the person was going. The hold lasts until
 the gaze would give a lost target up and go back to search (`lost_after_ms` then
 `search_after_ms`, from the chosen track's last detection; the estimator ends a track only after

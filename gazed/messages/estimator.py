@@ -20,7 +20,7 @@ class TrackLook(BaseModel):
         min_length=2, max_length=64, description="Normalised, as a mover's `appearance`."
     )
     h2_mean: float = Field(gt=0, description="The mean h² of its own movers to the template.")
-    h2_shape: float = Field(ge=1, description="Their gamma distribution's shape.")
+    h2_shape: float = Field(gt=0, description="Their gamma distribution's shape.")
 
 
 class Track(BaseModel):
