@@ -31,10 +31,10 @@ the person where their clothes differ by more than the person's own movers do. A
 judged at every state until it continues the choice (its appearance anew each time, as its young
 template learns its movers), and never again once it lies outside the ground's gate. Of several,
 the one of least cost — the gate's distance plus the appearance's cost above its usual
-(`look_gate`) — continues it. A chosen track that
-ends without having coasted was merged by the estimator with another track of its person (a
-track ends by coasting otherwise), so any track within both gates continues it, however old.
-Tracks without a ground position (image-cv) are not continued.
+(`look_gate`) — continues it. A chosen track that ends without having coasted was merged by the
+estimator with another track of its person (a track ends by coasting otherwise), so any track
+within both gates continues it, however old. Tracks without a ground position (image-cv) are not
+continued.
 
 An operator points at a person the moment they see them, often before the estimator has a
 track of them (a person who has just walked in needs a few detections to be confirmed, and one
@@ -84,8 +84,8 @@ their covariance grown so that the gate's edge lies as far as a person can stray
 the time since (`WALK_MAX_M_S` over it), so a new track born where they can have walked
 continues the choice (the gates above). A new track outside the ground's gate is not them
 however far the region grows later, and none held before (those the estimator already kept for
-someone else) is. Meanwhile the gaze takes no other
-track's predictions: it coasts and searches where the person was going. The hold lasts until
+someone else) is. Meanwhile the gaze takes no other track's predictions: it coasts and
+searches where the person was going. The hold lasts until
 the gaze would give a lost target up and go back to search (`lost_after_ms` then
 `search_after_ms`, from the chosen track's last detection; the estimator ends a track only after
 coasting `coast_max_ms` of that); past that the rule picks. A held id that the estimator shows
