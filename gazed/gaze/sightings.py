@@ -94,8 +94,7 @@ class Sightings:
     def on_candidates(self, candidates: Candidates) -> None:
         """The newest candidates; a frame whose best candidate has no velocity (a region seen
         for the first time, or merged or split, (0, 0) from vision) or seen from a turning head
-        restarts the run
-        (a repeat of a frame counts nothing)."""
+        restarts the run (a repeat of a frame counts nothing)."""
         previous, self.candidates = self.candidates, candidates
         if previous is not None and candidates.t_capture_ns <= previous.t_capture_ns:
             return
