@@ -16,6 +16,7 @@ each process reports them in its health, and a test checks them against `gazed.t
 from __future__ import annotations
 
 import contextlib
+import os
 import threading
 import time
 from collections import Counter, deque
@@ -30,7 +31,7 @@ from pydantic import ValidationError
 from gazed.config import Rig
 from gazed.messages import FrameHeader, Message
 from gazed.session import BusError, identity_of, is_peer, open_session
-from gazed.topics import Topic, alive_key
+from gazed.topics import Topic, alive_key, split_alive_key
 
 M = TypeVar("M", bound=Message)
 
@@ -60,6 +61,13 @@ class Stats:
     def count(self, name: str, n: int = 1) -> None:
         with self._lock:
             self.counters[name] += n
+
+    def malformed(self, where: str, why: str) -> None:
+        """Count a dropped message at `where` (a key suffix) and keep why."""
+        with self._lock:
+            self.counters["malformed"] += 1
+            self.counters[f"malformed:{where}"] += 1
+            self.last_malformed = f"{where}: {why}"
 
     def receive(self, suffix: str) -> None:
         with self._lock:
@@ -121,9 +129,7 @@ def decode_sample(topic: Topic, sample: zenoh.Sample, stats: Stats) -> Any | Non
         _check_schema(str(sample.encoding), topic.model)
         return topic.model.model_validate_json(sample.payload.to_bytes())
     except (ValidationError, ValueError) as exc:
-        stats.count("malformed")
-        stats.count(f"malformed:{topic.suffix}")
-        stats.last_malformed = f"{topic.suffix}: {str(exc).splitlines()[0]}"
+        stats.malformed(topic.suffix, str(exc).splitlines()[0])
         return None
 
 
@@ -273,9 +279,12 @@ class Bus:
             self.notify()
 
     def declare_alive(self) -> None:
-        """Declare `gazed/<rig>/alive/<process>`; it vanishes when the session closes or dies."""
+        """Declare `gazed/<rig>/alive/<process>/<pid>`; it vanishes when the session closes or
+        dies."""
         self._closables.append(
-            self.session.liveliness().declare_token(alive_key(self.rig.name, self.process))
+            self.session.liveliness().declare_token(
+                alive_key(self.rig.name, self.process, os.getpid())
+            )
         )
 
     def alive(self, timeout_s: float = 1.0) -> set[str]:
@@ -283,20 +292,26 @@ class Bus:
         replies = self.session.liveliness().get(alive_key(self.rig.name), timeout=timeout_s)
         names = set()
         for reply in replies:
-            if reply.ok is not None:
-                names.add(str(reply.ok.key_expr).rsplit("/", 1)[-1])
+            parts = split_alive_key(str(reply.ok.key_expr)) if reply.ok is not None else None
+            if parts is not None:
+                names.add(parts[1])
         return names
 
-    def watch_alive(self, callback: Callable[[str, bool], None]) -> None:
-        """Call `callback(process, alive)` as tokens appear and vanish (present ones first)."""
+    def watch_alive(self, callback: Callable[[str, int, bool], None]) -> None:
+        """Call `callback(process, pid, alive)` as tokens appear and vanish (present ones
+        first). A token whose key is not `alive/<process>/<pid>` is dropped and counted."""
 
         def on_sample(sample: zenoh.Sample) -> None:
-            callback(str(sample.key_expr).rsplit("/", 1)[-1], sample.kind == zenoh.SampleKind.PUT)
+            parts = split_alive_key(str(sample.key_expr))
+            if parts is None:
+                self.stats.malformed("alive", f"not a liveliness key: {sample.key_expr}")
+                return
+            callback(parts[1], parts[2], sample.kind == zenoh.SampleKind.PUT)
             self.notify()
 
         self._closables.append(
             self.session.liveliness().declare_subscriber(
-                alive_key(self.rig.name),
+                alive_key(self.rig.name, "*", "**"),
                 zenoh.handlers.Callback(on_sample, indirect=False),
                 history=True,
             )

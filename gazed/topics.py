@@ -1,7 +1,8 @@
 """Every key on the bus in one place: its payload model, and which process publishes and reads it.
 
-Keys are `gazed/<rig>/<suffix>`; liveliness tokens are `gazed/<rig>/alive/<process>`; every
-process also publishes `gazed/<rig>/<process>/health`.
+Keys are `gazed/<rig>/<suffix>`; liveliness tokens are `gazed/<rig>/alive/<process>/<pid>`
+(the pid tells one run of a process from its restart); every process also publishes
+`gazed/<rig>/<process>/health`.
 """
 
 from __future__ import annotations
@@ -252,9 +253,20 @@ def health(process: str) -> Topic:
     return Topic(f"{process}/health", Health, "counters, receive rates and stage times")
 
 
-def alive_key(rig: str, process: str = "*") -> str:
-    """Liveliness token of a process (`*` for all of a rig's)."""
-    return f"{PREFIX}/{rig}/alive/{process}"
+def alive_key(rig: str, process: str = "*", pid: int | str = "*") -> str:
+    """Liveliness token of one run of a process, its pid (`*` for all of a rig's, or all runs).
+
+    The pid is in the key so that a token of a process that has died, arriving late (a
+    peer's links change as it dies), is never taken for its restart's."""
+    return f"{PREFIX}/{rig}/alive/{process}/{pid}"
+
+
+def split_alive_key(key: str) -> tuple[str, str, int] | None:
+    """`gazed/<rig>/alive/<process>/<pid>` -> (rig, process, pid); None for any other key."""
+    parts = key.split("/")
+    if len(parts) != 5 or parts[0] != PREFIX or parts[2] != "alive" or not parts[4].isdigit():
+        return None
+    return parts[1], parts[3], int(parts[4])
 
 
 def split_key(key: str) -> tuple[str, str] | None:

@@ -13,7 +13,7 @@ run again, and publishes `<process>/health` about once a second, with the keys t
 subscribes and publishes. A sample of the process's main input (a subscription made with
 `immediate=True`) runs the step at once in the bus's receive thread instead, when no step is
 running: one thread switch less per hop of the loop. SIGTERM and SIGINT stop it; the
-liveliness token `gazed/<rig>/alive/<process>` is declared once the service is built (so
+liveliness token `gazed/<rig>/alive/<process>/<pid>` is declared once the service is built (so
 "alive" means "ready") and vanishes when the session closes. An exception in `step` is logged
 and counted; a process whose step fails persistently exits non-zero so the supervisor restarts
 it.

@@ -177,7 +177,7 @@ class RunningSupervisor:
             target=lambda: self.stderr.extend(self.process.stderr), daemon=True
         )
         self._reader.start()
-        self.alive_events: list[tuple[float, str, bool]] = []
+        self.alive_events: list[tuple[float, str, int, bool]] = []
         self.statuses: list[SupervisorStatus] = []
         self.bus = Bus(self.rig, "observer")
         self.wakeup = Wakeup()  # every arrival on the observer's bus wakes it
@@ -189,7 +189,7 @@ class RunningSupervisor:
             self.stop()
             raise
         self.bus.watch_alive(
-            lambda name, alive: self.alive_events.append((time.monotonic(), name, alive))
+            lambda name, pid, alive: self.alive_events.append((time.monotonic(), name, pid, alive))
         )
         self._status = self.bus.subscribe(SUPERVISOR_STATUS)
 
@@ -218,17 +218,11 @@ class RunningSupervisor:
         status = poll_until(complete, 10.0)
         return {p.name: p.pid for p in status.processes if p.pid is not None}
 
-    def back_after(self, name: str, since_s: float) -> float | None:
-        """When `name`'s liveliness token came back after vanishing, both after `since_s`
-        (monotonic); None before then. A token seen again without first vanishing (the
-        observer's links to the mesh changing as a peer dies) is not a comeback."""
-        gone = False
-        for t, n, alive in list(self.alive_events):
-            if n != name or t <= since_s:
-                continue
-            if not alive:
-                gone = True
-            elif gone:
+    def back_after(self, name: str, old_pid: int, since_s: float) -> float | None:
+        """When the liveliness token of a run of `name` other than `old_pid` appeared after
+        `since_s` (monotonic); None before then."""
+        for t, n, pid, alive in list(self.alive_events):
+            if n == name and pid != old_pid and alive and t > since_s:
                 return t
         return None
 

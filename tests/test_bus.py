@@ -4,6 +4,7 @@ and sessions that announce nothing and listen only where the rig says."""
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 from pathlib import Path
 
@@ -126,15 +127,32 @@ def test_frame_with_lying_header_is_dropped(rig) -> None:
 
 
 def test_liveliness_appears_and_vanishes(rig) -> None:
-    events: list[tuple[str, bool]] = []
+    events: list[tuple[str, int, bool]] = []
     with Bus(rig, "supervisor", router=True) as bus:
-        bus.watch_alive(lambda name, alive: events.append((name, alive)))
+        bus.watch_alive(lambda name, pid, alive: events.append((name, pid, alive)))
         with Bus(rig, "vision") as vision:
             vision.declare_alive()
-            poll_until(lambda: ("vision", True) in events, 5.0)
+            poll_until(lambda: ("vision", os.getpid(), True) in events, 5.0)
             assert bus.alive() == {"vision"}
-        poll_until(lambda: ("vision", False) in events, 5.0)
+        poll_until(lambda: ("vision", os.getpid(), False) in events, 5.0)
         assert bus.alive() == set()
+
+
+@pytest.mark.parametrize("suffix", ["alive/vision", "alive/vision/first", "alive/vision/7/8"])
+def test_a_token_without_a_pid_is_dropped_and_counted(rig, suffix: str) -> None:
+    events: list[tuple[str, int, bool]] = []
+    with Bus(rig, "supervisor", router=True) as bus:
+        bus.watch_alive(lambda name, pid, alive: events.append((name, pid, alive)))
+        with Bus(rig, "vision") as vision:
+            vision.session.liveliness().declare_token(f"gazed/{rig.name}/{suffix}")
+            vision.declare_alive()  # after the other: once it is seen, so was that
+            poll_until(lambda: events, 5.0)
+            counters, _ = bus.stats.snapshot()
+            assert bus.alive() == {"vision"}
+    # the mesh may deliver a token twice as its links settle: each delivery is counted
+    assert set(events) <= {("vision", os.getpid(), True), ("vision", os.getpid(), False)}
+    assert counters["malformed:alive"] >= 1
+    assert bus.stats.last_malformed == f"alive: not a liveliness key: gazed/{rig.name}/{suffix}"
 
 
 def test_an_arrival_wakes_the_owner(rig) -> None:

@@ -96,10 +96,10 @@ class Watch:
             and bool(np.all(gaze_errors_rad(last, self.pose) <= self.fovea_rad))
         )
 
-    def recovered(self, name: str, killed_s: float, killed_ns: int) -> int | None:
+    def recovered(self, name: str, old_pid: int, killed_s: float, killed_ns: int) -> int | None:
         """Once `name` is alive again: when tracking resumed after the kill (None: not yet)."""
         self.pump()
-        if self.supervisor.back_after(name, killed_s) is None:
+        if self.supervisor.back_after(name, old_pid, killed_s) is None:
             return None
         return self.tracking_since_ns(killed_ns)
 
@@ -137,9 +137,9 @@ def test_tracking_survives_each_process_being_killed(tmp_path: Path) -> None:
             os.kill(old_pid, signal.SIGKILL)
 
             back = poll_until(
-                partial(watch.recovered, name, killed_s, killed_ns), 20.0, interval_s=0.0
+                partial(watch.recovered, name, old_pid, killed_s, killed_ns), 20.0, interval_s=0.0
             )
-            alive_again_s = supervisor.back_after(name, killed_s)
+            alive_again_s = supervisor.back_after(name, old_pid, killed_s)
             assert alive_again_s is not None
             recovery_s = max((back - killed_ns) / 1e9, alive_again_s - killed_s)
             recoveries[name] = recovery_s

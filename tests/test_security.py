@@ -249,7 +249,7 @@ def test_a_stranger_cannot_steer_the_head(tmp_path: Path) -> None:
         markers = observer.subscribe(VISION_DETECTION, capacity=100)
         servo_health = observer.subscribe(health("servo"), capacity=100)
         alive: list[tuple[str, bool]] = []
-        observer.watch_alive(lambda name, up: alive.append((name, up)))
+        observer.watch_alive(lambda name, pid, up: alive.append((name, up)))
         first = poll_until(truth.latest, 20.0)
 
         # no CA, no credentials, a wrong password, an unknown user: none can join
@@ -271,7 +271,9 @@ def test_a_stranger_cannot_steer_the_head(tmp_path: Path) -> None:
             fake_odometry = stranger.publisher(SERVO_ODOMETRY)
             marker = stranger.publisher(VISION_DETECTION)
             poll_until(marker.matched, 10.0)
-            token = stranger.session.liveliness().declare_token(alive_key(rig.name, "gaze"))
+            token = stranger.session.liveliness().declare_token(
+                alive_key(rig.name, "gaze", os.getpid())
+            )
             for _ in range(20):
                 demands.put(demand(STRANGER_PAN_RAD))
                 fake_odometry.put(Odometry(t_capture_ns=1, pan_rad=1.234, tilt_rad=0.0))

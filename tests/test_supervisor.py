@@ -47,7 +47,7 @@ def test_restarts_a_sigkilled_child_within_2_s(running: RunningSupervisor) -> No
     import os
 
     os.kill(pids["vision"], signal.SIGKILL)
-    back_s = poll_until(lambda: running.back_after("vision", killed_at), 10.0)
+    back_s = poll_until(lambda: running.back_after("vision", pids["vision"], killed_at), 10.0)
     recovery_s = back_s - killed_at
     print(f"kill -> liveliness back: {recovery_s * 1000:.0f} ms")
     assert recovery_s < 2.0

@@ -5,6 +5,7 @@ the restart intensity, and the processes a reloaded rig restarts (from the secti
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -14,7 +15,7 @@ import pytest
 from gazed.config import SERVICE_NAMES, Rig, parse_rig
 from gazed.sdnotify import Notifier
 from gazed.supervisor.child import Child, State
-from gazed.supervisor.machine import GiveUp, Supervisor
+from gazed.supervisor.machine import EXIT_GRACE_S, GiveUp, Supervisor
 from gazed.supervisor.reload import processes_to_restart
 
 
@@ -47,13 +48,24 @@ class StandInBus:
 
     def __init__(self) -> None:
         self.status = Sent()
-        self.on_alive: Callable[[str, bool], None] | None = None
+        self.on_alive: Callable[[str, int, bool], None] | None = None
 
     def publisher(self, topic: Any) -> Sent:
         return self.status
 
-    def watch_alive(self, callback: Callable[[str, bool], None]) -> None:
+    def watch_alive(self, callback: Callable[[str, int, bool], None]) -> None:
         self.on_alive = callback
+
+
+def token(supervisor: Supervisor, name: str, pid: int, alive: bool) -> None:
+    """The liveliness token of `name`'s run `pid` appears (or vanishes)."""
+    supervisor.bus.on_alive(name, pid, alive)  # type: ignore[attr-defined]
+
+
+def pid_of(supervisor: Supervisor, name: str) -> int:
+    popen = supervisor.children[name].popen
+    assert popen is not None
+    return popen.pid
 
 
 def rig(services: str = "") -> Rig:
@@ -106,7 +118,7 @@ def test_restart_delays_double_up_to_the_maximum(supervisor: Supervisor) -> None
 
 def test_a_process_running_stably_restarts_quickly_again(supervisor: Supervisor) -> None:
     assert [crash(supervisor, "vision", t) for t in (1.0, 2.0)] == pytest.approx([0.5, 1.0])
-    supervisor.bus.on_alive("vision", True)  # type: ignore[attr-defined]
+    token(supervisor, "vision", pid_of(supervisor, "vision"), True)
     supervisor.step(5.0)
     assert supervisor.children["vision"].state == State.RUNNING
     supervisor.step(5.0 + 3.0 + 0.1)  # up for longer than backoff_max_s
@@ -117,16 +129,39 @@ def test_a_dead_processs_token_seen_late_does_not_make_its_restart_running(
     supervisor: Supervisor,
 ) -> None:
     vision = supervisor.children["vision"]
+    dead_pid = pid_of(supervisor, "vision")
     vision.popen.returncode = -9  # type: ignore[union-attr]
     supervisor.step(1.0)
     assert vision.state == State.BACKOFF
-    supervisor.bus.on_alive("vision", True)  # type: ignore[attr-defined]  # the old token, late
+    token(supervisor, "vision", dead_pid, True)  # late, during the back-off
     supervisor.step(vision.restart_at_s)
+    token(supervisor, "vision", dead_pid, True)  # late, after the restart
     supervisor.step(vision.restart_at_s + 0.01)
     assert vision.state == State.STARTING
-    supervisor.bus.on_alive("vision", True)  # type: ignore[attr-defined]  # the new process's
+    token(supervisor, "vision", pid_of(supervisor, "vision"), True)  # the new process's
     supervisor.step(vision.restart_at_s + 0.02)
     assert vision.state == State.RUNNING
+
+
+def test_a_dead_processs_token_vanishing_late_does_not_kill_its_restart(
+    supervisor: Supervisor,
+) -> None:
+    vision = supervisor.children["vision"]
+    dead_pid = pid_of(supervisor, "vision")
+    vision.popen.returncode = -9  # type: ignore[union-attr]
+    now_s = time.monotonic()
+    supervisor.step(now_s)
+    supervisor.step(vision.restart_at_s)
+    restarted_pid = pid_of(supervisor, "vision")
+    token(supervisor, "vision", restarted_pid, True)
+    supervisor.step(vision.restart_at_s + 0.01)
+    assert vision.state == State.RUNNING
+    token(supervisor, "vision", dead_pid, False)  # the dead run's token, gone late
+    supervisor.step(time.monotonic() + 2 * EXIT_GRACE_S)
+    assert vision.state == State.RUNNING and pid_of(supervisor, "vision") == restarted_pid
+    token(supervisor, "vision", restarted_pid, False)  # its own: frozen, killed, restarted
+    supervisor.step(time.monotonic() + 2 * EXIT_GRACE_S)
+    assert vision.state == State.BACKOFF and vision.message.startswith("liveliness lost")
 
 
 def test_it_gives_up_past_the_restart_intensity(supervisor: Supervisor) -> None:

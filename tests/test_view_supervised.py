@@ -35,7 +35,8 @@ def test_a_rig_with_a_view_starts_it_and_restarts_it(tmp_path: Path) -> None:
     running = supervisor(tmp_path / "rig.toml", BASE + "[view]\nport = 9000\n")
     view = running.children[VIEW]
     assert view.module == VIEW_MODULE and view.state == State.STARTING
-    running._on_alive(VIEW, True)
+    assert view.popen is not None
+    running._on_alive(VIEW, view.popen.pid, True)
     running.step(0.1)
     assert view.state == State.RUNNING
     assert running.up() == (1, 6)

@@ -15,7 +15,7 @@ import zenoh
 
 from gazed.bustools.listen import Seen, common_arguments, listen, target_of
 from gazed.messages import Health, SupervisorStatus
-from gazed.topics import PREFIX, alive_key, split_key
+from gazed.topics import PREFIX, alive_key, split_alive_key, split_key
 
 # health counters `gazed status` shows: the ones that say something went wrong
 TROUBLE_COUNTERS = (
@@ -75,12 +75,9 @@ def _alive(session: zenoh.Session, rig: str) -> dict[str, list[str]]:
     """rig -> names of its processes with a liveliness token."""
     found: dict[str, list[str]] = defaultdict(list)
     for reply in session.liveliness().get(alive_key(rig), timeout=1.0):
-        if reply.ok is not None:
-            parts = split_key(str(reply.ok.key_expr))
-            if parts:
-                name = parts[1].rsplit("/", 1)[-1]
-                if name not in found[parts[0]]:
-                    found[parts[0]].append(name)
+        parts = split_alive_key(str(reply.ok.key_expr)) if reply.ok is not None else None
+        if parts is not None and parts[1] not in found[parts[0]]:
+            found[parts[0]].append(parts[1])
     return found
 
 

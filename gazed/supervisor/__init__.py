@@ -4,8 +4,10 @@
   of an external router when `[bus] router = false`).
 - Starts every enabled process in `[services]` as `python -m <module> --rig RIG` in its own
   session (terminal signals reach only the supervisor; children die with it, see
-  services/runtime.py). A process is up when its liveliness token `gazed/<rig>/alive/<name>`
-  appears; a process whose module is not installed is reported as missing and skipped.
+  services/runtime.py). A process is up when its liveliness token
+  `gazed/<rig>/alive/<name>/<pid>` appears, with the pid of the run just started (a late token
+  of a run that has died is not its restart's); a process whose module is not installed is
+  reported as missing and skipped.
 - Restarts a process that exits, or whose token vanishes while it still runs (frozen: killed
   first), after a backoff that doubles from `[services] backoff_initial_s` to `backoff_max_s`.
   More than `restart_max` restarts of one process within `restart_window_s` -> stop

@@ -83,7 +83,7 @@ class Supervisor:
         child.spawn(self.rig_path)
         assert child.popen is not None
         child.state = State.STARTING
-        child.alive = False  # only a token declared after this spawn says it is up
+        child.alive = False  # only the token of the run just started says it is up
         child.started_s = now_s
         child.message = f"started (pid {child.popen.pid})"
         log.info("%s: %s", child.name, child.message)
@@ -189,9 +189,11 @@ class Supervisor:
         log.warning("%s: %s", child.name, child.message)
         self._changed = True
 
-    def _on_alive(self, name: str, alive: bool) -> None:
+    def _on_alive(self, name: str, pid: int, alive: bool) -> None:
+        """A token of `name`'s run `pid` appeared or vanished. Only the running child's own
+        token counts: one of a run that has died, arriving late, says nothing of its restart."""
         child = self.children.get(name)
-        if child is not None:
+        if child is not None and child.popen is not None and child.popen.pid == pid:
             child.alive = alive
             if not alive:
                 child.lost_s = time.monotonic()
