@@ -11,8 +11,10 @@ import pytest
 from conftest import FAKE, PYTHON, SUPPORT, RunningSupervisor, child_env, write_rig
 
 from gazed.bustools.latency import latency_report, latency_text
+from gazed.bustools.listen import Seen
+from gazed.bustools.tail import _tail_json, _tail_line
 from gazed.config import SERVICE_NAMES
-from gazed.messages import Detection, Health
+from gazed.messages import Detection, Health, Mover
 
 
 @pytest.fixture(scope="module")
@@ -80,6 +82,29 @@ def test_status_text_is_readable(running: RunningSupervisor) -> None:
     assert result.returncode == 0, result.stderr
     assert f"rig {running.rig.name}: supervisor running" in result.stdout
     assert "vision     running   alive     restarts=0" in result.stdout
+
+
+def test_a_tail_line_shows_a_histogram_as_its_length_and_json_shows_it_whole() -> None:
+    histogram = tuple(float(k) / 2016 for k in range(64))  # sums to 1
+    mover = Mover(u_px=10.0, v_px=20.0, box_width_px=5.0, box_height_px=9.0, appearance=histogram)
+    detection = Detection(
+        t_capture_ns=1_000_000,
+        seq=4,
+        detector="background",
+        found=True,
+        width_px=640,
+        height_px=480,
+        movers=[mover, mover.model_copy(update={"appearance": histogram[:3]})],
+    )
+    seen = Seen("gazed/r/vision/detection", detection.schema_id(), 3_000_000, detection,
+                detection.to_json(), None)  # fmt: skip
+    line = _tail_line(seen)
+    assert line.startswith("gazed/r/vision/detection gazed.Detection/5      2.0ms ")
+    assert '"appearance":"<64 numbers>"' in line
+    assert '"appearance":[0.0,0.0005,0.001]' in line  # a short list is shown
+    assert '"u_px":10.0' in line and len(line) < 800
+    whole = json.loads(_tail_json(seen))["payload"]
+    assert whole["movers"][0]["appearance"] == list(histogram)
 
 
 @pytest.mark.e2e

@@ -1,4 +1,8 @@
-"""`gazed tail [KEYEXPR]`: print the messages on a rig's bus, one line (or JSON object) each."""
+"""`gazed tail [KEYEXPR]`: print the messages on a rig's bus, one line (or JSON object) each.
+
+A line is meant to be read as it scrolls by: a list of more than `LONG_LIST` numbers (a mover's
+colour histogram, a track's appearance template) is shown as its length, `"<64 numbers>"`;
+`--json` prints every message whole."""
 
 from __future__ import annotations
 
@@ -11,6 +15,8 @@ from typing import Any
 from gazed.bustools.listen import Seen, common_arguments, listen, target_of
 from gazed.messages import FrameHeader
 from gazed.topics import PREFIX
+
+LONG_LIST = 8  # numbers a line shows in a list; a longer one is shown as its length
 
 
 def tail_arguments(parser: argparse.ArgumentParser) -> None:
@@ -102,5 +108,7 @@ def _rounded(value: Any) -> Any:
     if isinstance(value, dict):
         return {k: _rounded(v) for k, v in value.items()}
     if isinstance(value, list):
+        if len(value) > LONG_LIST and all(isinstance(v, int | float) for v in value):
+            return f"<{len(value)} numbers>"
         return [_rounded(v) for v in value]
     return value
