@@ -16,6 +16,7 @@ each process reports them in its health, and a test checks them against `gazed.t
 from __future__ import annotations
 
 import contextlib
+import logging
 import os
 import threading
 import time
@@ -32,6 +33,8 @@ from gazed.config import Rig
 from gazed.messages import FrameHeader, Message
 from gazed.session import BusError, identity_of, is_peer, open_session
 from gazed.topics import Topic, alive_key, split_alive_key
+
+log = logging.getLogger("gazed.bus")
 
 M = TypeVar("M", bound=Message)
 
@@ -279,8 +282,7 @@ class Bus:
             self.notify()
 
     def declare_alive(self) -> None:
-        """Declare `gazed/<rig>/alive/<process>/<pid>`; it vanishes when the session closes or
-        dies."""
+        """Declare `gazed/<rig>/alive/<process>/<pid>`, which vanishes as the session ends."""
         self._closables.append(
             self.session.liveliness().declare_token(
                 alive_key(self.rig.name, self.process, os.getpid())
@@ -299,11 +301,17 @@ class Bus:
 
     def watch_alive(self, callback: Callable[[str, int, bool], None]) -> None:
         """Call `callback(process, pid, alive)` as tokens appear and vanish (present ones
-        first). A token whose key is not `alive/<process>/<pid>` is dropped and counted."""
+        first). A token whose key is not `alive/<process>/<pid>` (a process of another
+        version, or not gazed's) is dropped and counted, and the first is logged."""
 
         def on_sample(sample: zenoh.Sample) -> None:
             parts = split_alive_key(str(sample.key_expr))
             if parts is None:
+                if "malformed:alive" not in self.stats.snapshot()[0]:
+                    log.warning(
+                        "ignoring liveliness tokens such as %s: not alive/<process>/<pid>",
+                        sample.key_expr,
+                    )
                 self.stats.malformed("alive", f"not a liveliness key: {sample.key_expr}")
                 return
             callback(parts[1], parts[2], sample.kind == zenoh.SampleKind.PUT)

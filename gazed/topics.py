@@ -7,6 +7,7 @@ Keys are `gazed/<rig>/<suffix>`; liveliness tokens are `gazed/<rig>/alive/<proce
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 
 from gazed.messages import (
@@ -31,6 +32,7 @@ from gazed.messages import (
 )
 
 PREFIX = "gazed"
+PID = re.compile(r"[1-9][0-9]*")
 
 
 @dataclass(frozen=True)
@@ -254,7 +256,8 @@ def health(process: str) -> Topic:
 
 
 def alive_key(rig: str, process: str = "*", pid: int | str = "*") -> str:
-    """Liveliness token of one run of a process, its pid (`*` for all of a rig's, or all runs).
+    """Liveliness token of the run `pid` of a process; `*` matches every process, or every
+    run, and `pid="**"` also the keys that are not a token's.
 
     The pid is in the key so that a token of a process that has died, arriving late (a
     peer's links change as it dies), is never taken for its restart's."""
@@ -262,9 +265,10 @@ def alive_key(rig: str, process: str = "*", pid: int | str = "*") -> str:
 
 
 def split_alive_key(key: str) -> tuple[str, str, int] | None:
-    """`gazed/<rig>/alive/<process>/<pid>` -> (rig, process, pid); None for any other key."""
+    """`gazed/<rig>/alive/<process>/<pid>` -> (rig, process, pid); None for any other key (a
+    pid is a positive decimal number, ASCII digits without a leading zero)."""
     parts = key.split("/")
-    if len(parts) != 5 or parts[0] != PREFIX or parts[2] != "alive" or not parts[4].isdigit():
+    if len(parts) != 5 or parts[0] != PREFIX or parts[2] != "alive" or not PID.fullmatch(parts[4]):
         return None
     return parts[1], parts[3], int(parts[4])
 

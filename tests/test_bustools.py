@@ -12,7 +12,7 @@ from conftest import FAKE, PYTHON, SUPPORT, RunningSupervisor, child_env, write_
 
 from gazed.bustools.latency import latency_report, latency_text
 from gazed.bustools.listen import Seen
-from gazed.bustools.tail import _tail_json, _tail_line
+from gazed.bustools.tail import LONG_LIST, _rounded, _tail_json, _tail_line
 from gazed.config import SERVICE_NAMES
 from gazed.messages import Detection, Health, Mover
 
@@ -105,6 +105,13 @@ def test_a_tail_line_shows_a_histogram_as_its_length_and_json_shows_it_whole() -
     assert '"u_px":10.0' in line and len(line) < 800
     whole = json.loads(_tail_json(seen))["payload"]
     assert whole["movers"][0]["appearance"] == list(histogram)
+
+
+def test_a_tail_line_shows_lists_up_to_the_long_ones_and_no_flags_as_numbers() -> None:
+    assert _rounded([0.5] * LONG_LIST) == [0.5] * LONG_LIST
+    assert _rounded([0.5] * (LONG_LIST + 1)) == f"<{LONG_LIST + 1} numbers>"
+    assert _rounded([True] * (LONG_LIST + 1)) == [True] * (LONG_LIST + 1)
+    assert _rounded([[1.0, 2.0]] * (LONG_LIST + 1)) == [[1.0, 2.0]] * (LONG_LIST + 1)
 
 
 @pytest.mark.e2e

@@ -11,7 +11,15 @@ from pydantic import ValidationError
 
 from gazed import messages as m
 from gazed.bus import Stats, decode_sample
-from gazed.topics import TOPICS, VISION_DETECTION, health, split_key, topic_for
+from gazed.topics import (
+    TOPICS,
+    VISION_DETECTION,
+    alive_key,
+    health,
+    split_alive_key,
+    split_key,
+    topic_for,
+)
 
 HEAD = m.HeadPose(pan_rad=0.1, tilt_rad=-0.2, pan_rate_rad_s=0.3, tilt_rate_rad_s=-0.4)
 
@@ -190,6 +198,26 @@ def test_keys_split_and_resolve() -> None:
     assert topic_for("vision/detection") is VISION_DETECTION
     assert topic_for("gaze/health") == health("gaze")
     assert topic_for("nothing/here") is None
+
+
+@pytest.mark.parametrize(
+    ("key", "parts"),
+    [
+        (alive_key("lab", "vision", 4242), ("lab", "vision", 4242)),
+        ("gazed/lab/alive/vision", None),  # an older gazed's, without a pid
+        ("gazed/lab/alive/vision/4242/1", None),
+        ("gazed/lab/alive/vision/abc", None),
+        ("gazed/lab/alive/vision/-1", None),
+        ("gazed/lab/alive/vision/0", None),
+        ("gazed/lab/alive/vision/007", None),  # another spelling of pid 7
+        ("gazed/lab/alive/vision/\u00b2", None),  # a digit to str.isdigit, not to int()
+        ("gazed/lab/alive/vision/\u0664\u0662", None),  # Arabic-Indic digits
+        ("gazed/lab/vision/detection/1", None),
+        ("other/lab/alive/vision/1", None),
+    ],
+)
+def test_a_liveliness_key_names_a_process_and_its_pid(key: str, parts: object) -> None:
+    assert split_alive_key(key) == parts
 
 
 class FakeSample:

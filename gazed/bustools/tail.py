@@ -108,7 +108,8 @@ def _rounded(value: Any) -> Any:
     if isinstance(value, dict):
         return {k: _rounded(v) for k, v in value.items()}
     if isinstance(value, list):
-        if len(value) > LONG_LIST and all(isinstance(v, int | float) for v in value):
+        numbers = all(isinstance(v, int | float) and not isinstance(v, bool) for v in value)
+        if len(value) > LONG_LIST and numbers:
             return f"<{len(value)} numbers>"
         return [_rounded(v) for v in value]
     return value

@@ -12,7 +12,8 @@ class ServiceSpec(Section):
     module: str | None = Field(
         None,
         pattern=r"^[A-Za-z_][A-Za-z0-9_.]*$",
-        description="Python module run as `python -m MODULE --rig RIG` (default services.<name>).",
+        description="Python module run as `python -m MODULE --rig RIG` (default services.<name>); "
+        "the process it starts holds the liveliness token (`gazed.bus.Bus.declare_alive`).",
     )
 
 

@@ -80,10 +80,10 @@ class Supervisor:
         self._spawn(child, now_s)
 
     def _spawn(self, child: Child, now_s: float) -> None:
+        child.alive = False  # only the token of the run about to start says it is up
         child.spawn(self.rig_path)
         assert child.popen is not None
         child.state = State.STARTING
-        child.alive = False  # only the token of the run just started says it is up
         child.started_s = now_s
         child.message = f"started (pid {child.popen.pid})"
         log.info("%s: %s", child.name, child.message)
