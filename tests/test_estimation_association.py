@@ -264,3 +264,28 @@ def test_movers_taken_in_the_same_frames_tell_two_people_apart() -> None:
     assert not seen_apart(a, near, PERSON_EXTENT_COV_M2, 0.999)
     assert seen_apart(a, far, PERSON_EXTENT_COV_M2, 0.999)
     assert not seen_apart(a, later, PERSON_EXTENT_COV_M2, 0.999)
+
+
+def test_frames_with_two_movers_tell_two_people_apart_where_a_detector_seldom_splits_one() -> None:
+    """Where the detector reports two movers near one person in a frame with probability q, n
+    frames in which two tracks each took one are q^n likely for one person, times the chance
+    of their movers lying as far apart: one frame of movers 0.25 m apart is still one person's
+    at q = 0.03 (0.03 > 0.001), three are not (and are at q = 1, the distance alone); two
+    frames at q = 0.05 (0.0025) are one person's 0.25 m apart and two people's 0.5 m apart,
+    which the distance alone (q = 1) does not tell; movers in no common frame say nothing."""
+    cov = np.eye(2) * 0.01
+
+    def takes(frames: int, y_m: float) -> Takes:
+        taken = Takes()
+        for k in range(frames):
+            taken.add(Measurement.ground(k / 7.0, (k / 7.0, y_m), cov), cov)
+        return taken
+
+    a = takes(3, 0.0)
+    assert not seen_apart(a, takes(1, 0.25), PERSON_EXTENT_COV_M2, 0.999, 0.03)
+    assert seen_apart(a, takes(3, 0.25), PERSON_EXTENT_COV_M2, 0.999, 0.03)
+    assert not seen_apart(a, takes(3, 0.25), PERSON_EXTENT_COV_M2, 0.999, 1.0)
+    assert not seen_apart(a, takes(2, 0.25), PERSON_EXTENT_COV_M2, 0.999, 0.05)
+    assert seen_apart(a, takes(2, 0.5), PERSON_EXTENT_COV_M2, 0.999, 0.05)
+    assert not seen_apart(a, takes(2, 0.5), PERSON_EXTENT_COV_M2, 0.999, 1.0)
+    assert not seen_apart(Takes(), takes(3, 0.25), PERSON_EXTENT_COV_M2, 0.999, 0.03)

@@ -146,6 +146,17 @@ class EstimatorSection(Section):
         description="The share of movers whose point is off by the tail's fraction (0: every "
         "mover by mover_extent_noise alone, a single Gaussian).",
     )
+    split_probability: float = Field(
+        1.0,
+        gt=0,
+        le=1,
+        description="The chance that the detector reports two movers near one person in a frame "
+        "(a part, a shadow or a ghost beside them), which two tracks of that person may each "
+        "take. Two tracks that took movers in the same n frames are one person only where the "
+        "chance of n such frames, with their movers as far apart, is above 1 - "
+        "gate_probability. 1: how often they did says nothing; a rig measures its own with "
+        "tests/bench/pets_movers.py (docs/estimation.md).",
+    )
     pixel_rate_noise_px_s: float = Field(
         10.0,
         gt=0,

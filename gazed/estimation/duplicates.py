@@ -12,6 +12,13 @@ the evidence of several frames is pooled, so one noisy frame neither makes nor b
 case, and people who walk side by side at one pace, whose states agree within their (possibly
 wide) covariances, are still told apart by where their detections are, frame after frame.
 
+How often both took a mover counts as well: one person gives two movers that two tracks may
+each take (a part, a shadow or a ghost beside them) in a frame with the detector's
+`split_probability` q (`[estimator]`, measured by tests/bench/pets_movers.py), so `n` such frames
+are q^n likely for one person. The two are one person only where q^n times the distances' upper
+tail (the χ² of `2 n` dimensions above their summed d²) is at least 1 - `gate_probability`;
+q = 1 leaves the count out, and the distances decide as a gate.
+
 Without such frames (one of the tracks is new, or they never saw movers at the same time) the
 detections say nothing, and the track-to-track test of the states (`association.same_target`)
 decides alone.
@@ -23,6 +30,7 @@ prediction, a position the track's own prediction made, not a detection of it.
 
 from __future__ import annotations
 
+import math
 from collections import Counter, deque
 from typing import TYPE_CHECKING
 
@@ -30,7 +38,7 @@ import numpy as np
 
 from gazed.config import EstimatorSection
 from gazed.estimation.association import same_target
-from gazed.estimation.chi_square import chi2_quantile
+from gazed.estimation.chi_square import log_upper_tail
 from gazed.estimation.measurement import Measurement
 from gazed.estimation.results import PredictedState
 
@@ -58,8 +66,16 @@ class Takes:
         self.latest.clear()
 
 
-def seen_apart(a: Takes, b: Takes, extent_cov: np.ndarray, probability: float) -> bool:
-    """Whether the movers two tracks took in the same frames are two people's (module doc)."""
+def seen_apart(
+    a: Takes,
+    b: Takes,
+    extent_cov: np.ndarray,
+    probability: float,
+    split_probability: float = 1.0,
+) -> bool:
+    """Whether the movers two tracks took in the same frames are two people's (module doc):
+    the chance of as many frames with two movers (`split_probability` each) lying as far apart,
+    were they one person's, below 1 - `probability`."""
     times_b = {t: (z, R) for t, z, R in b.latest}
     d2, n = 0.0, 0
     for t, z, R in a.latest:
@@ -70,7 +86,10 @@ def seen_apart(a: Takes, b: Takes, extent_cov: np.ndarray, probability: float) -
         C = R + other[1] + 2.0 * extent_cov
         d2 += float(delta @ np.linalg.solve(C, delta))
         n += 1
-    return n > 0 and d2 > chi2_quantile(probability, 2 * n)
+    if n == 0:
+        return False
+    log_same = n * math.log(split_probability) + log_upper_tail(d2, 2 * n)
+    return log_same < math.log1p(-probability)
 
 
 class Merging:
@@ -108,8 +127,8 @@ class Merging:
         b = found.estimator.predict(t_s)  # None: restarted, waiting for a velocity
         if b is None or not same_target(state, b, self.duplicate_d2, PERSON_EXTENT_COV_M2):
             return False
-        p = self.section.gate_probability
-        return not seen_apart(lost.takes, found.takes, PERSON_EXTENT_COV_M2, p)
+        p, split = self.section.gate_probability, self.section.split_probability
+        return not seen_apart(lost.takes, found.takes, PERSON_EXTENT_COV_M2, p, split)
 
     def _merge(self, lost: PersonTrack, found: PersonTrack) -> int:
         """`found` took a detection where `lost` coasts: the older id lives on with `found`'s

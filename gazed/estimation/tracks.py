@@ -42,7 +42,8 @@ Every frame (one detection message, with any number of movers):
    extent (`PERSON_WIDTH_M`: each track may follow another part of the person),
    `Δᵀ (P₁ + P₂ + 2E)⁻¹ Δ` inside the χ² gate of four dimensions, against a confirmed track only
    (a person, with a velocity of its own), and only where the movers the two took in the same
-   frames can be one person's (`duplicates.seen_apart`). The merged track keeps the older id
+   frames can be one person's, by where they lie and by how many frames there were
+   (`duplicates.seen_apart`). The merged track keeps the older id
    (the person's, and so the gaze's choice) and takes the filter that took the detection.
    People who cross or pass move apart in velocity, and people who walk side by side are seen
    apart, and so neither are merged where one hides the other.

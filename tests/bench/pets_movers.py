@@ -12,7 +12,12 @@ person and frame:
 - twins: two or more movers' points (centroids) in the person's box and in no other person's,
   each a detection the estimator may start a second track on;
 - merged: a mover covering at least half of the person's box covers half of another's too;
-- missed: no mover's box centre in the person's box, and no mover covering half of it.
+- missed: no mover's box centre in the person's box, and no mover covering half of it;
+- two near: two or more movers on the person or on nobody whose points lie within twice the
+  person's box (grown by half its width and height on each side): two movers that two tracks
+  of the one person may each take, a part, a shadow or a ghost beside them included. Their
+  share of the person-frames is the rig's `[estimator] split_probability`
+  (`gazed.estimation.duplicates`).
 
 A mover spanning two people is counted by how the two stand in the image: one in front of the
 other (their boxes share at least half the narrower one's columns, so no cut between columns
@@ -134,6 +139,8 @@ def main() -> None:
             counts["missed"] += int(not centre_in and not covers[:, p].any())
             counts["merged"] += int((covers[covers[:, p]].sum(axis=1) >= 2).any())
             counts["twins"] += int((inside[:, p] & (inside.sum(axis=1) == 1)).sum() >= 2)
+            near = (np.abs(points - centred[p, :2]) <= centred[p, 2:]).all(axis=1)
+            counts["two near"] += int(((owner == p) | (owner < 0))[near].sum() >= 2)
             if len(mine) >= 2:
                 counts["split"] += 1
                 kind = split_kind([boxes[m] for m in mine], [found[m][0] for m in mine])
@@ -160,11 +167,15 @@ def main() -> None:
                 f" (quantiles {', '.join(str(q) for q in QUANTILES)})"
             )
     print("  splits:", ", ".join(f"{kind} {n}" for kind, n in kinds.most_common()) or "none")
-    columns = ("frames", "split", "twins", "merged", "missed")
+    columns = ("frames", "split", "twins", "merged", "missed", "two near")
     print("  " + " ".join(f"{c:>6}" for c in ("person", *columns)))
     for pid in sorted(per_person):
         print("  " + " ".join(f"{v:>6}" for v in (pid, *(per_person[pid][c] for c in columns))))
     print("  " + " ".join(f"{v:>6}" for v in ("all", *(all_people[c] for c in columns))))
+    print(
+        "  two near per person-frame (the rig's [estimator] split_probability): "
+        f"{all_people['two near'] / all_people['frames']:.4f}"
+    )
 
 
 if __name__ == "__main__":
