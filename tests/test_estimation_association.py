@@ -267,12 +267,16 @@ def test_movers_taken_in_the_same_frames_tell_two_people_apart() -> None:
 
 
 def test_frames_with_two_movers_tell_two_people_apart_where_a_detector_seldom_splits_one() -> None:
-    """Where the detector reports two movers near one person in a frame with probability q, n
-    frames in which two tracks each took one are q^n likely for one person, times the chance
-    of their movers lying as far apart: one frame of movers 0.25 m apart is still one person's
-    at q = 0.03 (0.03 > 0.001), three are not (and are at q = 1, the distance alone); two
-    frames at q = 0.05 (0.0025) are one person's 0.25 m apart and two people's 0.5 m apart,
-    which the distance alone (q = 1) does not tell; movers in no common frame say nothing."""
+    """Where the detector reports two movers near one person in a frame with probability q, and
+    again in the next with r, n frames in which two tracks each took one are q r^(n-1) likely
+    for one person; times the chance of their movers lying as far apart (the χ² tail of their
+    summed d², C = 0.0617 I per frame here), against 0.001. Movers 0.25 m apart: one frame is
+    one person's at q = 0.03 (0.03 x 0.60); three are two people's where splits do not persist
+    (r = q: 2.7e-5 x 0.80) and one person's where they do (r = 0.37: 0.0041 x 0.80), and five
+    are two people's even then (5.6e-4 x 0.89); with q = r = 1 the distance alone decides.
+    Movers 0.5 m apart in two frames at q = r = 0.05 are two people's (0.0025 x 0.088), which
+    neither the distance (q = r = 1: 0.088) nor the count (0.25 m apart: 0.0025 x 0.73) tells
+    alone; movers in no common frame say nothing."""
     cov = np.eye(2) * 0.01
 
     def takes(frames: int, y_m: float) -> Takes:
@@ -281,11 +285,15 @@ def test_frames_with_two_movers_tell_two_people_apart_where_a_detector_seldom_sp
             taken.add(Measurement.ground(k / 7.0, (k / 7.0, y_m), cov), cov)
         return taken
 
-    a = takes(3, 0.0)
-    assert not seen_apart(a, takes(1, 0.25), PERSON_EXTENT_COV_M2, 0.999, 0.03)
-    assert seen_apart(a, takes(3, 0.25), PERSON_EXTENT_COV_M2, 0.999, 0.03)
-    assert not seen_apart(a, takes(3, 0.25), PERSON_EXTENT_COV_M2, 0.999, 1.0)
-    assert not seen_apart(a, takes(2, 0.25), PERSON_EXTENT_COV_M2, 0.999, 0.05)
-    assert seen_apart(a, takes(2, 0.5), PERSON_EXTENT_COV_M2, 0.999, 0.05)
-    assert not seen_apart(a, takes(2, 0.5), PERSON_EXTENT_COV_M2, 0.999, 1.0)
-    assert not seen_apart(Takes(), takes(3, 0.25), PERSON_EXTENT_COV_M2, 0.999, 0.03)
+    def apart(frames: int, y_m: float, q: float, r: float) -> bool:
+        return seen_apart(takes(5, 0.0), takes(frames, y_m), PERSON_EXTENT_COV_M2, 0.999, q, r)
+
+    assert not apart(1, 0.25, 0.03, 0.37)
+    assert apart(3, 0.25, 0.03, 0.03)
+    assert not apart(3, 0.25, 0.03, 0.37)
+    assert apart(5, 0.25, 0.03, 0.37)
+    assert not apart(5, 0.25, 1.0, 1.0)
+    assert apart(2, 0.5, 0.05, 0.05)
+    assert not apart(2, 0.5, 1.0, 1.0)
+    assert not apart(2, 0.25, 0.05, 0.05)
+    assert not seen_apart(Takes(), takes(3, 0.25), PERSON_EXTENT_COV_M2, 0.999, 0.03, 0.03)

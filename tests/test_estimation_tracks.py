@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from bench.crossing_people import SCENES, SIM_RIG, follow, walk
 
-from gazed.config import Rig, load_rig
+from gazed.config import EstimatorSection, Rig, load_rig
 from gazed.estimation import tracks as tracks_module
 from gazed.estimation.measurement import Measurement
 from gazed.estimation.target_tracker import TargetTracker
@@ -236,15 +236,20 @@ def test_a_mover_whose_velocity_is_off_still_gives_its_position() -> None:
     assert tracks.counts["tracks_merged"] == 0
 
 
-def walk_abreast(apart_m: float, hidden_frame: int, split_probability: float = 1.0) -> TrackSet:
+def split_rarely(q: float = 0.032, r: float = 0.37) -> EstimatorSection:
+    """The sim rig's estimator for a detector that reports two movers near one person in a
+    frame with probability q, and again in the next with r (the PETS rig's measured values)."""
+    update = {"split_probability": q, "split_continues_probability": r}
+    return load_rig(SIM_RIG).estimator.model_copy(update=update)
+
+
+def walk_abreast(
+    apart_m: float, hidden_frame: int, section: EstimatorSection | None = None
+) -> TrackSet:
     """Two people `apart_m` apart walking abreast at 1 m/s for 40 frames at 7 Hz, each seen
-    every frame but the first one in `hidden_frame` (the other hides them), by a detector
-    that reports two movers near one person with `split_probability`."""
+    every frame but the first one in `hidden_frame` (the other hides them)."""
     rng = np.random.default_rng(2)
-    section = load_rig(SIM_RIG).estimator.model_copy(
-        update={"split_probability": split_probability}
-    )
-    tracks = TrackSet(section)
+    tracks = TrackSet(section or load_rig(SIM_RIG).estimator)
     cov = np.eye(2) * 0.01
     for k in range(40):
         t = k / 7.0
@@ -275,15 +280,35 @@ def test_people_shoulder_to_shoulder_are_two_where_a_detector_rarely_splits_one(
 ) -> None:
     """Closer than their movers' noise and a person's width tell apart, two people's tracks
     merge when one is hidden a frame, where the detector may report any person as two movers
-    (split_probability 1, the default); where it seldom does, twenty frames in which both
-    tracks took a mover say they are two, and both keep their ids."""
+    (the defaults); where it seldom does, the latest frames in which both tracks took a mover
+    (7 of the at most 8 each keeps) say they are two, and both keep their ids."""
     merged = walk_abreast(apart_m, hidden_frame=20)
     assert merged.counts["tracks_merged"] == 1
-    tracks = walk_abreast(apart_m, hidden_frame=20, split_probability=0.03)
+    tracks = walk_abreast(apart_m, hidden_frame=20, section=split_rarely())
     assert [t.id for t in tracks.tracks] == [0, 1] and tracks.counts["tracks_merged"] == 0
     lanes = {t.id: t.estimator.predict(39 / 7.0).position[1] for t in tracks.tracks}
     assert lanes[0] == pytest.approx(10.0, abs=0.2)
     assert lanes[1] == pytest.approx(10.0 + apart_m, abs=0.2)
+
+
+@pytest.mark.parametrize(("split_frames", "merged"), [(3, True), (8, False)])
+def test_a_split_that_lasts_is_two_people_where_a_detector_rarely_splits_one(
+    split_frames: int, merged: bool
+) -> None:
+    """The price of the count's evidence: a person split into two movers 0.25 m apart for three
+    frames (the second track just confirmed) is one person, merged when a part is missing;
+    split for eight frames in a row, longer than the detector's splits run, they are taken
+    for two people, and the second track stays (a twin)."""
+    tracks = TrackSet(split_rarely())
+    for k in range(10):
+        tracks.step(k / 7.0, [walking(k / 7.0, (k / 7.0, 1.0))])
+    for k in range(10, 10 + split_frames):
+        t = k / 7.0
+        tracks.step(t, [walking(t, (t, 1.0)), walking(t, (t, 1.25))])
+    t = (10 + split_frames) / 7.0
+    tracks.step(t, [walking(t, (t, 1.25))])
+    assert tracks.counts["tracks_merged"] == int(merged)
+    assert [t.id for t in tracks.tracks] == ([0] if merged else [0, 1])
 
 
 def test_a_person_seen_as_two_movers_is_still_merged() -> None:

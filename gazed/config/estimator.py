@@ -153,9 +153,17 @@ class EstimatorSection(Section):
         description="The chance that the detector reports two movers near one person in a frame "
         "(a part, a shadow or a ghost beside them), which two tracks of that person may each "
         "take. Two tracks that took movers in the same n frames are one person only where the "
-        "chance of n such frames, with their movers as far apart, is above 1 - "
-        "gate_probability. 1: how often they did says nothing; a rig measures its own with "
-        "tests/bench/pets_movers.py (docs/estimation.md).",
+        "chance of such a run (this, then split_continues_probability for each further frame) "
+        "times the chance of their movers lying as far apart is at least 1 - gate_probability. "
+        "1 (with split_continues_probability 1): how often they did says nothing; a rig "
+        "measures its own with tests/bench/pets_movers.py (docs/estimation.md).",
+    )
+    split_continues_probability: float = Field(
+        1.0,
+        gt=0,
+        le=1,
+        description="The chance that two movers near one person in a frame are followed by two "
+        "again in the next (a split persists), measured with split_probability.",
     )
     pixel_rate_noise_px_s: float = Field(
         10.0,

@@ -12,12 +12,16 @@ the evidence of several frames is pooled, so one noisy frame neither makes nor b
 case, and people who walk side by side at one pace, whose states agree within their (possibly
 wide) covariances, are still told apart by where their detections are, frame after frame.
 
-How often both took a mover counts as well: one person gives two movers that two tracks may
+How often both took a mover counts as well. One person gives two movers that two tracks may
 each take (a part, a shadow or a ghost beside them) in a frame with the detector's
-`split_probability` q (`[estimator]`, measured by tests/bench/pets_movers.py), so `n` such frames
-are q^n likely for one person. The two are one person only where q^n times the distances' upper
-tail (the χ² of `2 n` dimensions above their summed d²) is at least 1 - `gate_probability`;
-q = 1 leaves the count out, and the distances decide as a gate.
+`split_probability` q, and once they have, again in the next with `split_continues_probability`
+r (a split persists: r is well above q), both `[estimator]`, measured by
+tests/bench/pets_movers.py. So `n` such frames are about q r^(n-1) likely for one person (a run
+of splits; frames further apart are taken as if they were one run, the likelier case). The two
+are one person only where that, times the distances' upper tail (the χ² of `2 n` dimensions
+above their summed d²), is at least 1 - `gate_probability`: a score, the product of the count's
+chance and the distances' tail, not the error rate of a test at that level. With q = r = 1 the
+count says nothing and the distances decide as a gate at `gate_probability`.
 
 Without such frames (one of the tracks is new, or they never saw movers at the same time) the
 detections say nothing, and the track-to-track test of the states (`association.same_target`)
@@ -72,10 +76,12 @@ def seen_apart(
     extent_cov: np.ndarray,
     probability: float,
     split_probability: float = 1.0,
+    split_continues_probability: float = 1.0,
 ) -> bool:
     """Whether the movers two tracks took in the same frames are two people's (module doc):
-    the chance of as many frames with two movers (`split_probability` each) lying as far apart,
-    were they one person's, below 1 - `probability`."""
+    the chance of a run of as many frames with two movers (the first `split_probability`
+    likely, each after it `split_continues_probability`), times their distances' upper tail,
+    below 1 - `probability`."""
     times_b = {t: (z, R) for t, z, R in b.latest}
     d2, n = 0.0, 0
     for t, z, R in a.latest:
@@ -88,7 +94,8 @@ def seen_apart(
         n += 1
     if n == 0:
         return False
-    log_same = n * math.log(split_probability) + log_upper_tail(d2, 2 * n)
+    log_run = math.log(split_probability) + (n - 1) * math.log(split_continues_probability)
+    log_same = log_run + log_upper_tail(d2, 2 * n)
     return log_same < math.log1p(-probability)
 
 
@@ -127,8 +134,15 @@ class Merging:
         b = found.estimator.predict(t_s)  # None: restarted, waiting for a velocity
         if b is None or not same_target(state, b, self.duplicate_d2, PERSON_EXTENT_COV_M2):
             return False
-        p, split = self.section.gate_probability, self.section.split_probability
-        return not seen_apart(lost.takes, found.takes, PERSON_EXTENT_COV_M2, p, split)
+        section = self.section
+        return not seen_apart(
+            lost.takes,
+            found.takes,
+            PERSON_EXTENT_COV_M2,
+            section.gate_probability,
+            section.split_probability,
+            section.split_continues_probability,
+        )
 
     def _merge(self, lost: PersonTrack, found: PersonTrack) -> int:
         """`found` took a detection where `lost` coasts: the older id lives on with `found`'s

@@ -14,9 +14,10 @@ person and frame:
 - merged: a mover covering at least half of the person's box covers half of another's too;
 - missed: no mover's box centre in the person's box, and no mover covering half of it;
 - two near: two or more movers on the person or on nobody whose points lie within twice the
-  person's box (grown by half its width and height on each side): two movers that two tracks
-  of the one person may each take, a part, a shadow or a ghost beside them included. Their
-  share of the person-frames is the rig's `[estimator] split_probability`
+  person's box (2w x 2h about its centre): two movers that two tracks of the one person may
+  each take, a part, a shadow or a ghost beside them included. Their share of the
+  person-frames is the rig's `[estimator] split_probability`, and the share of them followed by
+  two near again in the person's next frame its `split_continues_probability`
   (`gazed.estimation.duplicates`).
 
 A mover spanning two people is counted by how the two stand in the image: one in front of the
@@ -90,6 +91,7 @@ def main() -> None:
     capture.set(cv2.CAP_PROP_POS_FRAMES, first)
     total, kinds = Counter(), Counter()
     per_person: dict[int, Counter] = {}
+    two_near_frames: dict[int, dict[int, bool]] = {}  # person -> frame -> two movers near them
     relative: dict[str, list[tuple[float, float]]] = {"on a person": [], "on nobody": []}
     for frame in range(first, last + 1):
         ok, pixels = capture.read()
@@ -140,7 +142,12 @@ def main() -> None:
             counts["merged"] += int((covers[covers[:, p]].sum(axis=1) >= 2).any())
             counts["twins"] += int((inside[:, p] & (inside.sum(axis=1) == 1)).sum() >= 2)
             near = (np.abs(points - centred[p, :2]) <= centred[p, 2:]).all(axis=1)
-            counts["two near"] += int(((owner == p) | (owner < 0))[near].sum() >= 2)
+            two_near = bool(((owner == p) | (owner < 0))[near].sum() >= 2)
+            counts["two near"] += int(two_near)
+            if frame - 1 in two_near_frames.get(pid, {}):  # seen the frame before: a pair
+                counts["after two near"] += int(two_near_frames[pid][frame - 1])
+                counts["two near again"] += int(two_near_frames[pid][frame - 1] and two_near)
+            two_near_frames.setdefault(pid, {})[frame] = two_near
             if len(mine) >= 2:
                 counts["split"] += 1
                 kind = split_kind([boxes[m] for m in mine], [found[m][0] for m in mine])
@@ -174,7 +181,10 @@ def main() -> None:
     print("  " + " ".join(f"{v:>6}" for v in ("all", *(all_people[c] for c in columns))))
     print(
         "  two near per person-frame (the rig's [estimator] split_probability): "
-        f"{all_people['two near'] / all_people['frames']:.4f}"
+        f"{all_people['two near'] / all_people['frames']:.4f}; two near again in the next frame "
+        f"(split_continues_probability): {all_people['two near again']}"
+        f" of {all_people['after two near']}, "
+        f"{all_people['two near again'] / max(all_people['after two near'], 1):.4f}"
     )
 
 
