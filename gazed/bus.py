@@ -65,12 +65,14 @@ class Stats:
         with self._lock:
             self.counters[name] += n
 
-    def malformed(self, where: str, why: str) -> None:
-        """Count a dropped message at `where` (a key suffix) and keep why."""
+    def malformed(self, where: str, why: str) -> bool:
+        """Count a dropped message at `where` (a key suffix) and keep why; True for the first
+        at `where`."""
         with self._lock:
             self.counters["malformed"] += 1
             self.counters[f"malformed:{where}"] += 1
             self.last_malformed = f"{where}: {why}"
+            return self.counters[f"malformed:{where}"] == 1
 
     def receive(self, suffix: str) -> None:
         with self._lock:
@@ -307,12 +309,11 @@ class Bus:
         def on_sample(sample: zenoh.Sample) -> None:
             parts = split_alive_key(str(sample.key_expr))
             if parts is None:
-                if "malformed:alive" not in self.stats.snapshot()[0]:
+                if self.stats.malformed("alive", f"not a liveliness key: {sample.key_expr}"):
                     log.warning(
                         "ignoring liveliness tokens such as %s: not alive/<process>/<pid>",
                         sample.key_expr,
                     )
-                self.stats.malformed("alive", f"not a liveliness key: {sample.key_expr}")
                 return
             callback(parts[1], parts[2], sample.kind == zenoh.SampleKind.PUT)
             self.notify()

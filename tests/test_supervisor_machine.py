@@ -125,14 +125,20 @@ def test_a_process_running_stably_restarts_quickly_again(supervisor: Supervisor)
     assert crash(supervisor, "vision", 9.0) == pytest.approx(0.5)
 
 
+def sigkill(supervisor: Supervisor, name: str, now_s: float) -> int:
+    """`name` killed, seen at `now_s` and waiting to restart; the dead run's pid."""
+    dead_pid = pid_of(supervisor, name)
+    supervisor.children[name].popen.returncode = -9  # type: ignore[union-attr]
+    supervisor.step(now_s)
+    assert supervisor.children[name].state == State.BACKOFF
+    return dead_pid
+
+
 def test_a_dead_processs_token_seen_late_does_not_make_its_restart_running(
     supervisor: Supervisor,
 ) -> None:
     vision = supervisor.children["vision"]
-    dead_pid = pid_of(supervisor, "vision")
-    vision.popen.returncode = -9  # type: ignore[union-attr]
-    supervisor.step(1.0)
-    assert vision.state == State.BACKOFF
+    dead_pid = sigkill(supervisor, "vision", 1.0)
     token(supervisor, "vision", dead_pid, True)  # late, during the back-off
     supervisor.step(vision.restart_at_s)
     token(supervisor, "vision", dead_pid, True)  # late, after the restart
@@ -147,10 +153,7 @@ def test_a_dead_processs_token_vanishing_late_does_not_kill_its_restart(
     supervisor: Supervisor,
 ) -> None:
     vision = supervisor.children["vision"]
-    dead_pid = pid_of(supervisor, "vision")
-    vision.popen.returncode = -9  # type: ignore[union-attr]
-    now_s = time.monotonic()
-    supervisor.step(now_s)
+    dead_pid = sigkill(supervisor, "vision", time.monotonic())
     supervisor.step(vision.restart_at_s)
     restarted_pid = pid_of(supervisor, "vision")
     token(supervisor, "vision", restarted_pid, True)

@@ -91,7 +91,7 @@ def main() -> None:
     capture.set(cv2.CAP_PROP_POS_FRAMES, first)
     total, kinds = Counter(), Counter()
     per_person: dict[int, Counter] = {}
-    two_near_frames: dict[int, dict[int, bool]] = {}  # person -> frame -> two movers near them
+    two_near_before: dict[int, tuple[int, bool]] = {}  # person -> (their last frame, two near)
     relative: dict[str, list[tuple[float, float]]] = {"on a person": [], "on nobody": []}
     for frame in range(first, last + 1):
         ok, pixels = capture.read()
@@ -144,10 +144,10 @@ def main() -> None:
             near = (np.abs(points - centred[p, :2]) <= centred[p, 2:]).all(axis=1)
             two_near = bool(((owner == p) | (owner < 0))[near].sum() >= 2)
             counts["two near"] += int(two_near)
-            if frame - 1 in two_near_frames.get(pid, {}):  # seen the frame before: a pair
-                counts["after two near"] += int(two_near_frames[pid][frame - 1])
-                counts["two near again"] += int(two_near_frames[pid][frame - 1] and two_near)
-            two_near_frames.setdefault(pid, {})[frame] = two_near
+            if two_near_before.get(pid) == (frame - 1, True):  # two near in the frame before
+                counts["after two near"] += 1
+                counts["two near again"] += int(two_near)
+            two_near_before[pid] = (frame, two_near)
             if len(mine) >= 2:
                 counts["split"] += 1
                 kind = split_kind([boxes[m] for m in mine], [found[m][0] for m in mine])
